@@ -1,0 +1,3 @@
+from .model import Camera, Environment, Material, Mesh, Scene, Sphere
+
+__all__ = ["Camera", "Environment", "Material", "Mesh", "Scene", "Sphere"]

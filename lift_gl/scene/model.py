@@ -1,0 +1,144 @@
+"""The scene model every loader produces and every pass consumes.
+
+Units and spaces: all geometry is in world space (loaders apply transforms), lengths in
+scene units, colours are linear RGB, radiance in W/(sr m^2) per channel.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+MATERIAL_TYPES = ("diffuse", "conductor", "dielectric")
+
+
+@dataclass
+class Camera:
+    position: np.ndarray
+    target: np.ndarray
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+    fov_deg: float = 40.0  # vertical field of view
+    aperture_radius: float = 0.0  # thin lens; 0 is a pinhole
+    focus_distance: float | None = None  # None: distance to target
+
+    def __post_init__(self):
+        self.position = np.asarray(self.position, dtype=np.float64)
+        self.target = np.asarray(self.target, dtype=np.float64)
+        self.up = np.asarray(self.up, dtype=np.float64)
+
+    @property
+    def focus(self) -> float:
+        if self.focus_distance is not None:
+            return float(self.focus_distance)
+        return float(np.linalg.norm(self.target - self.position))
+
+    def basis(self):
+        """Right, up, forward unit vectors (right-handed, camera looks along forward)."""
+        forward = self.target - self.position
+        forward = forward / np.linalg.norm(forward)
+        right = np.cross(forward, self.up)
+        right = right / np.linalg.norm(right)
+        up = np.cross(right, forward)
+        return right, up, forward
+
+
+@dataclass
+class Material:
+    """One surface model. `type` picks the BSDF:
+
+    - diffuse: Lambertian with albedo `base_color`.
+    - conductor: GGX microfacet metal with GGX `alpha` (0 = smooth mirror); Fresnel from the
+      complex IOR (`eta`, `k`) where given, else Schlick with F0 = `base_color`.
+    - dielectric: glass with index `ior`; smooth when `alpha` is 0, else GGX rough glass;
+      `base_color` tints transmission.
+    Any type may emit: `emission` is the radiance leaving its front side.
+    """
+
+    name: str
+    type: str = "diffuse"
+    base_color: np.ndarray = field(default_factory=lambda: np.array([0.8, 0.8, 0.8]))
+    alpha: float = 0.0
+    eta: np.ndarray | None = None
+    k: np.ndarray | None = None
+    ior: float = 1.5
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    source: str = ""  # "file:line" where it was defined, for error messages
+
+    def __post_init__(self):
+        self.base_color = np.asarray(self.base_color, dtype=np.float64)
+        self.emission = np.asarray(self.emission, dtype=np.float64)
+        if self.eta is not None:
+            self.eta = np.asarray(self.eta, dtype=np.float64)
+        if self.k is not None:
+            self.k = np.asarray(self.k, dtype=np.float64)
+
+    @property
+    def is_emissive(self) -> bool:
+        return bool(np.any(self.emission > 0))
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh already transformed to world space."""
+
+    name: str
+    positions: np.ndarray  # float32 (V, 3)
+    indices: np.ndarray  # int32 (T, 3)
+    material: int  # index into Scene.materials
+    normals: np.ndarray | None = None  # float32 (V, 3), shading normals
+    uvs: np.ndarray | None = None  # float32 (V, 2)
+    source: str = ""
+
+    def __post_init__(self):
+        self.positions = np.ascontiguousarray(self.positions, dtype=np.float32).reshape(-1, 3)
+        self.indices = np.ascontiguousarray(self.indices, dtype=np.int32).reshape(-1, 3)
+        if self.normals is not None:
+            self.normals = np.ascontiguousarray(self.normals, dtype=np.float32).reshape(-1, 3)
+        if self.uvs is not None:
+            self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32).reshape(-1, 2)
+
+
+@dataclass
+class Sphere:
+    """An analytic sphere (exact silhouettes and normals, as furnace tests need)."""
+
+    center: np.ndarray
+    radius: float
+    material: int
+    source: str = ""
+
+    def __post_init__(self):
+        self.center = np.asarray(self.center, dtype=np.float64)
+
+
+@dataclass
+class Environment:
+    """Constant radiance arriving from every direction that escapes the scene."""
+
+    radiance: np.ndarray
+
+    def __post_init__(self):
+        self.radiance = np.asarray(self.radiance, dtype=np.float64)
+
+
+@dataclass
+class Scene:
+    camera: Camera
+    materials: list[Material] = field(default_factory=list)
+    meshes: list[Mesh] = field(default_factory=list)
+    spheres: list[Sphere] = field(default_factory=list)
+    environment: Environment | None = None
+    max_depth: int = 16  # path length limit the scene file asks for
+    film_size: tuple[int, int] = (256, 256)  # width, height the scene file asks for
+    path: Path | None = None
+
+    @property
+    def triangle_count(self) -> int:
+        return int(sum(len(m.indices) for m in self.meshes))
+
+    def material_index(self, name: str) -> int:
+        for i, m in enumerate(self.materials):
+            if m.name == name:
+                return i
+        raise KeyError(name)

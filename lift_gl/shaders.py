@@ -1,0 +1,138 @@
+"""GLSL source assembly: `#include` resolution, feature `#define`s, and compile errors mapped
+back to the file and line a person wrote.
+
+Every file gets its own block of line numbers through `#line`: line L of file number F is
+reported as F * LINE_BLOCK + L. (Source-string numbers would be the natural choice, but
+Mesa reports string 0 for some errors.) The driver's log ("0:12(5): error ..." from Mesa,
+"0(12) : error ..." from NVIDIA) is translated back to the file and line.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import moderngl
+
+from .errors import ShaderError
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+SHADER_DIR = REPO_ROOT / "shaders"
+GLSL_VERSION = "#version 430"
+LINE_BLOCK = 100000
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+[<"]([^">]+)[">]')
+# Mesa: "0:12(5): error: ..."; NVIDIA: "0(12) : error C1008: ..."
+_LOG_LINE = re.compile(r"^\s*(?:ERROR:\s*)?(\d+)(?::(\d+)\((\d+)\)|\((\d+)\))\s*:\s*(.*)$")
+
+
+@dataclass
+class ShaderSource:
+    """Assembled source plus the table that maps source-string numbers to files."""
+
+    text: str
+    files: list[Path] = field(default_factory=list)
+
+    def locate(self, reported_line: int) -> tuple[Path | None, int]:
+        number, line = divmod(reported_line, LINE_BLOCK)
+        if 0 < number <= len(self.files):
+            return self.files[number - 1], line
+        return None, reported_line
+
+
+def _defines_block(defines: dict | None) -> str:
+    lines = []
+    for name, value in sorted((defines or {}).items()):
+        if value is True or value is None:
+            lines.append(f"#define {name}")
+        elif value is False:
+            continue
+        else:
+            lines.append(f"#define {name} {value}")
+    return "\n".join(lines)
+
+
+def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
+             main_name: str = "<generated>") -> ShaderSource:
+    """Resolve includes of `main` (a path, or source text named `main_name`).
+
+    Each file is included once (include guards are not needed but are harmless).
+    """
+    search = [Path(d) for d in include_dirs] + [SHADER_DIR]
+    src = ShaderSource(text="")
+    seen: set[Path] = set()
+    out: list[str] = [GLSL_VERSION, _defines_block(defines)]
+
+    def add_file(text: str, path: Path, from_path: Path | None, from_line: int | None):
+        src.files.append(path)
+        number = len(src.files)
+        out.append(f"#line {number * LINE_BLOCK + 1}")
+        for lineno, line in enumerate(text.splitlines(), start=1):
+            if line.lstrip().startswith("#version"):
+                out.append("")  # the assembler writes the one #version line
+                continue
+            m = _INCLUDE.match(line)
+            if not m:
+                out.append(line)
+                continue
+            target = _find(m.group(1), path.parent if path.is_absolute() else None, search)
+            if target is None:
+                raise ShaderError(f'#include "{m.group(1)}" not found (searched {", ".join(map(str, search))})',
+                                  path, lineno)
+            if target not in seen:
+                seen.add(target)
+                add_file(target.read_text(), target, path, lineno)
+            out.append(f"#line {number * LINE_BLOCK + lineno + 1}")
+
+    if isinstance(main, Path):
+        seen.add(main.resolve())
+        add_file(main.read_text(), main.resolve(), None, None)
+    else:
+        add_file(main, Path(main_name), None, None)
+    src.text = "\n".join(out) + "\n"
+    return src
+
+
+def _find(name: str, here: Path | None, search: list[Path]) -> Path | None:
+    candidates = ([here / name] if here is not None else []) + [d / name for d in search]
+    for c in candidates:
+        if c.is_file():
+            return c.resolve()
+    return None
+
+
+def parse_log(log: str, source: ShaderSource) -> list[tuple[Path | None, int | None, str]]:
+    """(file, line, message) for each error line of a driver's compile log."""
+    found = []
+    for raw in log.splitlines():
+        m = _LOG_LINE.match(raw)
+        if not m:
+            continue
+        path, line = source.locate(int(m.group(2) or m.group(4)))
+        found.append((path, line, m.group(5).strip()))
+    return found
+
+
+def compile_compute(ctx: moderngl.Context, source: ShaderSource) -> moderngl.ComputeShader:
+    try:
+        return ctx.compute_shader(source.text)
+    except moderngl.Error as exc:
+        raise _shader_error(str(exc), source) from None
+
+
+def compile_program(ctx: moderngl.Context, vertex: ShaderSource, fragment: ShaderSource) -> moderngl.Program:
+    try:
+        return ctx.program(vertex_shader=vertex.text, fragment_shader=fragment.text)
+    except moderngl.Error as exc:
+        text = str(exc)
+        stage = fragment if "fragment_shader" in text else vertex
+        raise _shader_error(text, stage) from None
+
+
+def _shader_error(log: str, source: ShaderSource) -> ShaderError:
+    errors = [e for e in parse_log(log, source) if "error" in e[2].lower()] or parse_log(log, source)
+    if not errors:
+        return ShaderError("shader failed to compile:\n" + log)
+    path, line, message = errors[0]
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return ShaderError(message + more, path, line)
