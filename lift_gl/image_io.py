@@ -1,0 +1,191 @@
+"""Reading and writing images, chosen by file extension.
+
+Images in lift-gl are numpy float32 arrays of shape H x W x 3, linear RGB, row 0 at the top.
+
+| extension | write                                       | read                          |
+| --------- | ------------------------------------------- | ----------------------------- |
+| ``.png``  | tone-mapped (``tonemap.py``), 8-bit sRGB    | sRGB decoded to linear        |
+| ``.exr``  | linear float32 (or half with ``half=True``) | half or float, to float32     |
+| ``.pfm``  | linear float32, little-endian               | either endianness, RGB or grey |
+| ``.npy``  | linear float32                              | any float array, to float32   |
+
+EXR goes through the ``OpenEXR`` package (v3 numpy API, PyPI wheels). PFM is written here:
+header ``PF\\n<width> <height>\\n<scale>\\n``, a negative scale meaning little-endian, then
+the rows from the bottom of the image to the top.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LiftError
+from .tonemap import srgb_decode, to_srgb8
+
+FORMATS = (".png", ".exr", ".pfm", ".npy")
+
+
+class ImageError(LiftError, ValueError):
+    """An image file that cannot be read or written (unknown format, bad contents)."""
+
+
+# ---- helpers -------------------------------------------------------------------------------
+
+def _extension(path: Path) -> str:
+    ext = path.suffix.lower()
+    if ext not in FORMATS:
+        raise ImageError(
+            f"unknown image format {path.suffix or '(no extension)'!r}; "
+            f"use one of {', '.join(FORMATS)}",
+            path,
+        )
+    return ext
+
+
+def _as_rgb(image, path) -> np.ndarray:
+    """H x W, H x W x 1, H x W x 3 or H x W x 4 (alpha dropped) -> contiguous float32 H x W x 3."""
+    arr = np.asarray(image)
+    if arr.ndim == 2:
+        arr = arr[:, :, None]
+    if arr.ndim != 3 or arr.shape[2] not in (1, 3, 4) or arr.shape[0] == 0 or arr.shape[1] == 0:
+        raise ImageError(f"expected an H x W x 3 image, got an array of shape {arr.shape}", path)
+    if arr.shape[2] == 1:
+        arr = np.repeat(arr, 3, axis=2)
+    elif arr.shape[2] == 4:
+        arr = arr[:, :, :3]
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
+# ---- write ---------------------------------------------------------------------------------
+
+def write_image(path, image, *, exposure: float = 0.0, tonemap: str = "aces",
+                half: bool = False) -> Path:
+    """Write a linear float RGB image (H x W x 3, row 0 at the top); format by extension.
+
+    ``exposure`` (stops) and ``tonemap`` (``aces``, ``reinhard``, ``clamp``) apply to ``.png``
+    only; float formats store the linear values unchanged. ``half=True`` stores ``.exr`` as
+    half float. Missing parent folders are created. Returns the path.
+    """
+    path = Path(path)
+    ext = _extension(path)
+    rgb = _as_rgb(image, path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if ext == ".png":
+        _write_png(path, rgb, exposure, tonemap)
+    elif ext == ".exr":
+        _write_exr(path, rgb, half)
+    elif ext == ".pfm":
+        _write_pfm(path, rgb)
+    else:
+        np.save(path, rgb)
+    return path
+
+
+def _write_png(path: Path, rgb: np.ndarray, exposure: float, operator: str) -> None:
+    from PIL import Image
+
+    Image.fromarray(to_srgb8(rgb, exposure=exposure, operator=operator), mode="RGB").save(path)
+
+
+def _write_exr(path: Path, rgb: np.ndarray, half: bool) -> None:
+    import OpenEXR
+
+    pixels = np.ascontiguousarray(rgb, dtype=np.float16 if half else np.float32)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": pixels}) as exr:
+        exr.write(str(path))
+
+
+def _write_pfm(path: Path, rgb: np.ndarray) -> None:
+    height, width, _ = rgb.shape
+    bottom_to_top = np.ascontiguousarray(rgb[::-1], dtype="<f4")
+    with open(path, "wb") as f:
+        f.write(f"PF\n{width} {height}\n-1.0\n".encode("ascii"))
+        f.write(bottom_to_top.tobytes())
+
+
+# ---- read ----------------------------------------------------------------------------------
+
+def read_image(path) -> np.ndarray:
+    """Read an image as linear float32 RGB, H x W x 3, row 0 at the top; format by extension.
+
+    PNG is decoded from sRGB to linear (no inverse tone mapping). Grey images become three
+    equal channels; alpha is dropped.
+    """
+    path = Path(path)
+    ext = _extension(path)
+    if not path.is_file():
+        raise ImageError("no such image file", path)
+    try:
+        if ext == ".png":
+            return _read_png(path)
+        if ext == ".exr":
+            return _read_exr(path)
+        if ext == ".pfm":
+            return _read_pfm(path)
+        return _as_rgb(np.load(path, allow_pickle=False), path)
+    except ImageError:
+        raise
+    except Exception as exc:  # a library's own error about a corrupt file
+        raise ImageError(f"cannot read image: {exc}", path) from exc
+
+
+def _read_png(path: Path) -> np.ndarray:
+    from PIL import Image
+
+    with Image.open(path) as img:
+        if img.mode in ("I;16", "I;16B", "I;16L", "I"):
+            encoded = np.asarray(img, dtype=np.float32) / 65535.0
+        else:
+            encoded = np.asarray(img.convert("RGB"), dtype=np.float32) / 255.0
+    return srgb_decode(_as_rgb(encoded, path))
+
+
+def _read_exr(path: Path) -> np.ndarray:
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as exr:
+        channels = exr.channels()
+        for name in ("RGB", "RGBA", "Y"):
+            if name in channels:
+                return _as_rgb(channels[name].pixels, path)
+        raise ImageError(
+            f"EXR has no RGB, RGBA or Y channels (it has: {', '.join(sorted(channels))})", path
+        )
+
+
+def _read_pfm(path: Path) -> np.ndarray:
+    data = path.read_bytes()
+    # Header: three whitespace-separated tokens after the magic, then exactly one whitespace.
+    tokens, pos = [], 0
+    while len(tokens) < 4:
+        while pos < len(data) and data[pos:pos + 1].isspace():
+            pos += 1
+        start = pos
+        while pos < len(data) and not data[pos:pos + 1].isspace():
+            pos += 1
+        if start == pos:
+            raise ImageError("truncated PFM header", path)
+        tokens.append(data[start:pos].decode("ascii", errors="replace"))
+    pos += 1  # the single whitespace character that ends the header
+    magic, width_s, height_s, scale_s = tokens
+    if magic not in ("PF", "Pf"):
+        raise ImageError(f"not a PFM file (magic {magic!r}, expected 'PF' or 'Pf')", path)
+    try:
+        width, height, scale = int(width_s), int(height_s), float(scale_s)
+    except ValueError:
+        raise ImageError(f"bad PFM header: {width_s!r} {height_s!r} {scale_s!r}", path) from None
+    if width <= 0 or height <= 0 or scale == 0.0:
+        raise ImageError(f"bad PFM header: size {width}x{height}, scale {scale}", path)
+    channels = 3 if magic == "PF" else 1
+    dtype = np.dtype("<f4" if scale < 0 else ">f4")
+    count = width * height * channels
+    if len(data) - pos < count * 4:
+        raise ImageError(
+            f"PFM data too short: {width}x{height}x{channels} needs {count * 4} bytes, "
+            f"file has {len(data) - pos}",
+            path,
+        )
+    pixels = np.frombuffer(data, dtype=dtype, count=count, offset=pos)
+    pixels = pixels.reshape(height, width, channels)[::-1]  # stored bottom row first
+    return _as_rgb(pixels.astype(np.float32), path)
