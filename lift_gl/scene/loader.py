@@ -1,0 +1,90 @@
+"""load_scene(path): pick the loader by file extension, and the helpers loaders share.
+
+- .toml: the native format (toml_loader, documented in scenes/README.md)
+- .pbrt: a pbrt-v3 subset (pbrt_loader)
+- .obj .ply .glb .gltf: one mesh, wrapped in a scene with a camera framing it, a grey
+  diffuse material and a constant white environment (radiance 1) to light it
+- .xml (Mitsuba): not yet
+"""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SceneError
+from .model import Camera, Environment, Material, Scene
+
+
+class SceneWarning(UserWarning):
+    """Something in a scene file was ignored or approximated; the message names file:line."""
+
+
+def warn_at(path, line: int | None, message: str) -> None:
+    where = f"{path}:{line}: " if line is not None else f"{path}: "
+    warnings.warn(where + message, SceneWarning, stacklevel=3)
+
+
+def load_scene(path) -> Scene:
+    path = Path(path)
+    ext = path.suffix.lower()
+    if not path.is_file():
+        raise SceneError("scene file not found", path)
+    if ext == ".toml":
+        from .toml_loader import load_toml
+        scene = load_toml(path)
+    elif ext == ".pbrt":
+        from .pbrt_loader import load_pbrt
+        scene = load_pbrt(path)
+    elif ext in (".obj", ".ply", ".glb", ".gltf"):
+        scene = _load_single_mesh(path)
+    elif ext == ".xml":
+        raise SceneError("Mitsuba XML import is not implemented yet", path)
+    else:
+        raise SceneError(f"unknown scene format '{ext}' (use .toml, .pbrt, .obj, .ply, "
+                         ".glb or .gltf)", path)
+    scene.path = path
+    return scene
+
+
+def _load_single_mesh(path: Path) -> Scene:
+    from .mesh_io import load_mesh_file
+    mesh = load_mesh_file(path, material=0)
+    scene = Scene(camera=Camera(position=[0, 0, 1], target=[0, 0, 0]),
+                  materials=[Material("default", "diffuse", source=str(path))],
+                  meshes=[mesh],
+                  # Mesh files carry no lights we read, so light them from everywhere.
+                  environment=Environment([1.0, 1.0, 1.0]))
+    scene.camera = framing_camera(scene)
+    return scene
+
+
+def scene_bounds(scene: Scene):
+    """(min, max) corners of all geometry, or None for an empty scene."""
+    lo, hi = [], []
+    for m in scene.meshes:
+        if len(m.positions):
+            lo.append(m.positions.min(axis=0))
+            hi.append(m.positions.max(axis=0))
+    for s in scene.spheres:
+        lo.append(s.center - s.radius)
+        hi.append(s.center + s.radius)
+    if not lo:
+        return None
+    return np.min(lo, axis=0).astype(np.float64), np.max(hi, axis=0).astype(np.float64)
+
+
+def framing_camera(scene: Scene, fov_deg: float = 40.0) -> Camera:
+    """Look at the bounding box from the front (+z), a little above, so that its bounding
+    sphere fills most of the vertical field of view."""
+    bounds = scene_bounds(scene)
+    if bounds is None:
+        return Camera(position=[0, 0, 5], target=[0, 0, 0], fov_deg=fov_deg)
+    lo, hi = bounds
+    center = 0.5 * (lo + hi)
+    radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-6)
+    distance = 1.1 * radius / np.sin(np.radians(fov_deg) / 2)
+    direction = np.array([0.0, 0.25, 1.0])
+    direction /= np.linalg.norm(direction)
+    return Camera(position=center + distance * direction, target=center, fov_deg=fov_deg)
