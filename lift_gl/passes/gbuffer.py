@@ -1,0 +1,65 @@
+"""G-buffer pass: rasterizes the scene with the frame's jittered projection.
+
+inputs:  scene buffers, camera, jitter
+outputs: visibility (RGBA32UI: primitive id + 1 (0 = background), barycentrics as float
+         bits, material id), normal_depth (RGBA32F: camera-facing shading normal, view
+         depth), albedo (RGBA16F), depth buffer
+"""
+from __future__ import annotations
+
+import moderngl
+
+from .. import shaders
+from .camera import view_projection
+from .common import set_uniforms
+
+SHADER_DIR = shaders.SHADER_DIR / "passes"
+
+
+class GBufferPass:
+    name = "gbuffer"
+    inputs = ("scene", "camera", "jitter")
+    outputs = ("visibility", "normal_depth", "albedo")
+
+    def __init__(self, ctx: moderngl.Context, size, defines: dict, num_triangles: int, num_spheres: int):
+        self.ctx = ctx
+        self.size = size
+        self.num_triangles = num_triangles
+        self.num_spheres = num_spheres
+        self.visibility = ctx.texture(size, 4, dtype="u4")
+        self.normal_depth = ctx.texture(size, 4, dtype="f4")
+        self.albedo = ctx.texture(size, 4, dtype="f2")
+        for t in (self.visibility, self.normal_depth, self.albedo):
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.depth = ctx.depth_renderbuffer(size)
+        self.fbo = ctx.framebuffer([self.visibility, self.normal_depth, self.albedo], self.depth)
+        self.vao = ctx.vertex_array(self._program("gbuffer", defines), [])
+        self.sphere_vao = None
+        if num_spheres:
+            self.sphere_vao = ctx.vertex_array(self._program("gbuffer_sphere", defines), [])
+
+    def _program(self, stem: str, defines: dict) -> moderngl.Program:
+        vert = shaders.assemble(SHADER_DIR / f"{stem}.vert", defines)
+        frag = shaders.assemble(SHADER_DIR / f"{stem}.frag", defines)
+        return shaders.compile_program(self.ctx, vert, frag)
+
+    def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict) -> None:
+        uniforms = dict(scene_uniforms, **camera_uniforms)
+        uniforms["u_view_proj"] = view_projection(camera, self.size, bounds, jitter).ravel()
+        self.fbo.use()
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.CULL_FACE)
+        if self.num_triangles:
+            set_uniforms(self.vao.program, uniforms)
+            self.vao.render(moderngl.TRIANGLES, vertices=3 * self.num_triangles)
+        if self.sphere_vao is not None:
+            set_uniforms(self.sphere_vao.program, uniforms)
+            self.sphere_vao.render(moderngl.TRIANGLES, vertices=36, instances=self.num_spheres)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+
+    def release(self) -> None:
+        for obj in (self.visibility, self.normal_depth, self.albedo, self.depth, self.fbo, self.vao):
+            obj.release()
+        if self.sphere_vao is not None:
+            self.sphere_vao.release()

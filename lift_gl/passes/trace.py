@@ -1,0 +1,140 @@
+"""Trace pass: runs a plugin's radiance estimate for every pixel.
+
+inputs:  scene buffers, camera, G-buffer visibility (plugins with primary = "gbuffer")
+outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count in a);
+         stats[0] counts samples dropped because they were NaN or infinite
+
+The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
+from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
+The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`.
+"""
+from __future__ import annotations
+
+import moderngl
+
+from .. import shaders
+from ..plugins import GLSL_TYPES, Plugin
+from .common import LOCAL_SIZE, groups, set_uniforms
+
+MAIN_TEMPLATE = """
+layout(local_size_x = {local}, local_size_y = {local}) in;
+#include "lift/host.glsl"
+layout(rgba32f, binding = 0) uniform writeonly image2D u_frame_out;
+#ifdef PRIMARY_GBUFFER
+uniform usampler2D u_visibility;
+#endif
+uniform uint u_frame;
+uniform uint u_seed;
+uniform uint u_samples;
+uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
+
+// ---- plugin parameters ----
+{params}
+// ---- plugin ----
+#include "{entry}"
+// ---- host ----
+#ifdef PRIMARY_GBUFFER
+// The primary hit the raster found, rebuilt exactly along the camera ray; where ray and
+// raster disagree (a sample exactly on an edge) the ray is traced instead.
+Hit gbuffer_hit(ivec2 pixel, Ray ray) {{
+    uvec4 v = texelFetch(u_visibility, pixel, 0);
+    Hit hit;
+    hit.prim = NO_HIT;
+    hit.t = ray.tmax;
+    hit.bary = vec2(0.0);
+    if (v.x == 0u) return hit;
+    uint prim = v.x - 1u;
+    float t = ray.tmax;
+    vec2 bary;
+    if (prim < u_num_triangles && intersect_triangle(ray, prim, t, bary)) {{
+        hit.prim = prim; hit.t = t; hit.bary = bary;
+        return hit;
+    }}
+#ifdef HAS_SPHERES
+    if (prim >= u_num_triangles && intersect_sphere(ray, prim - u_num_triangles, t)) {{
+        hit.prim = prim; hit.t = t;
+        return hit;
+    }}
+#endif
+    trace_closest(ray, hit);
+    return hit;
+}}
+#endif
+
+bool is_finite(vec3 v) {{
+    // Exponent bits all ones: NaN or infinity (robust even under fast-math compilers).
+    uvec3 bits = floatBitsToUint(v) & 0x7f800000u;
+    return all(notEqual(bits, uvec3(0x7f800000u)));
+}}
+
+void main() {{
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
+    vec3 sum = vec3(0.0);
+    float valid = 0.0;
+    for (uint s = 0u; s < u_samples; ++s) {{
+        Rng rng = rng_init(uvec2(pixel), u_frame, s, u_seed);
+        Ray ray;
+        Hit hit;
+#ifdef PRIMARY_GBUFFER
+        ray = camera_ray(vec2(pixel) + u_jitter);
+        hit = gbuffer_hit(pixel, ray);
+#else
+        vec2 subpixel = rng_next2(rng);
+        ray = camera_ray_lens(vec2(pixel) + subpixel, rng_next2(rng));
+        trace_closest(ray, hit);
+#endif
+        vec3 L = radiance(ray, hit, rng);
+        if (!is_finite(L)) {{
+            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
+            continue;
+        }}
+        sum += L;
+        valid += 1.0;
+    }}
+    imageStore(u_frame_out, pixel, vec4(sum, valid));
+}}
+"""
+
+
+def generate_main(plugin: Plugin) -> str:
+    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {p.help}" for p in plugin.params.values())
+    return MAIN_TEMPLATE.format(local=LOCAL_SIZE, params=params, entry=plugin.entry_path.as_posix())
+
+
+def param_uniforms(plugin: Plugin, values: dict) -> dict:
+    out = {}
+    for name, p in plugin.params.items():
+        value = values.get(name, p.default)
+        out[name] = tuple(value) if p.type == "color" else value
+    return out
+
+
+class TracePass:
+    name = "trace"
+    inputs = ("scene", "camera", "visibility?")
+    outputs = ("frame",)
+
+    def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict):
+        self.ctx = ctx
+        self.size = size
+        self.plugin = plugin
+        defines = dict(defines)
+        if plugin.primary == "gbuffer":
+            defines["PRIMARY_GBUFFER"] = True
+        self.source = shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
+                                       main_name=f"<{plugin.name} host main>")
+        self.program = shaders.compile_compute(ctx, self.source)
+        self.frame = ctx.texture(size, 4, dtype="f4")
+
+    def run(self, uniforms: dict, visibility=None) -> None:
+        set_uniforms(self.program, uniforms)
+        if visibility is not None and "u_visibility" in self.program:
+            visibility.use(location=0)
+            self.program["u_visibility"].value = 0
+        self.frame.bind_to_image(0, read=False, write=True)
+        self.program.run(*groups(*self.size))
+
+    def release(self) -> None:
+        self.program.release()
+        self.frame.release()

@@ -1,0 +1,197 @@
+"""Integrator plugins: discovery, manifest validation and parameters.
+
+A plugin is a folder with `plugin.toml` and its shader files. The manifest is the plugin's
+documentation and parameter table (`lift-gl plugins` prints it):
+
+    name = "pt"
+    description = "Path tracer with next event estimation and MIS"
+    language = "glsl"          # or "opencl" (later)
+    entry = "pt.glsl"          # defines: vec3 radiance(Ray ray, Hit hit, inout Rng rng)
+    primary = "gbuffer"        # first hit from the raster G-buffer, or "camera": traced rays
+    [params.max_depth]
+    type = "int"  default = 16  min = 0  max = 1000  help = "longest path, in bounces"
+
+Plugins are found in the built-in `plugins/` folder, in folders named by `--plugins`, and in
+the folders of the `LIFT_GL_PLUGIN_PATH` environment variable (separated by `os.pathsep`).
+"""
+from __future__ import annotations
+
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import PluginError
+
+BUILTIN_DIR = Path(__file__).resolve().parent.parent / "plugins"
+PARAM_TYPES = {"int": int, "float": float, "bool": bool, "color": list}
+GLSL_TYPES = {"int": "int", "float": "float", "bool": "bool", "color": "vec3"}
+LANGUAGES = ("glsl", "opencl")
+PRIMARY_MODES = ("gbuffer", "camera")
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "params"}
+_PARAM_KEYS = {"type", "default", "min", "max", "help"}
+
+
+@dataclass
+class Param:
+    name: str
+    type: str
+    default: object
+    min: float | None = None
+    max: float | None = None
+    help: str = ""
+
+    def parse(self, text_or_value):
+        """A value for this parameter from a string (`--set`) or a Python value, checked."""
+        value = text_or_value
+        try:
+            if isinstance(value, str):
+                if self.type == "bool":
+                    if value.lower() not in ("1", "0", "true", "false", "on", "off", "yes", "no"):
+                        raise ValueError(value)
+                    value = value.lower() in ("1", "true", "on", "yes")
+                elif self.type == "color":
+                    value = [float(x) for x in value.replace(",", " ").split()]
+                else:
+                    value = PARAM_TYPES[self.type](float(value) if self.type == "float" else int(value))
+            elif self.type == "float":
+                value = float(value)
+            elif self.type == "int":
+                if isinstance(value, bool) or int(value) != value:
+                    raise ValueError(value)
+                value = int(value)
+            elif self.type == "bool":
+                value = bool(value)
+            elif self.type == "color":
+                value = [float(x) for x in value]
+        except (TypeError, ValueError):
+            raise PluginError(f"parameter {self.name} ({self.type}): bad value {text_or_value!r}") from None
+        if self.type == "color" and len(value) != 3:
+            raise PluginError(f"parameter {self.name}: a colour needs 3 numbers, got {text_or_value!r}")
+        if self.type in ("int", "float"):
+            if self.min is not None and value < self.min or self.max is not None and value > self.max:
+                raise PluginError(f"parameter {self.name}={value} is outside [{self.min}, {self.max}]")
+        return value
+
+
+@dataclass
+class Plugin:
+    name: str
+    description: str
+    language: str
+    entry: str
+    primary: str
+    folder: Path
+    params: dict[str, Param] = field(default_factory=dict)
+
+    @property
+    def manifest(self) -> Path:
+        return self.folder / "plugin.toml"
+
+    @property
+    def entry_path(self) -> Path:
+        return self.folder / self.entry
+
+    def source_files(self) -> list[Path]:
+        """The files whose change should trigger a reload."""
+        return sorted(p for p in self.folder.iterdir() if p.suffix in (".glsl", ".cl", ".toml"))
+
+    def defaults(self) -> dict:
+        return {name: p.default for name, p in self.params.items()}
+
+
+def _line_of(text: str, pattern: str) -> int | None:
+    for number, line in enumerate(text.splitlines(), start=1):
+        if re.search(pattern, line):
+            return number
+    return None
+
+
+def load_manifest(folder: Path) -> Plugin:
+    path = Path(folder) / "plugin.toml"
+    if not path.is_file():
+        raise PluginError("plugin.toml not found", path)
+    text = path.read_text()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        m = re.search(r"line (\d+)", str(exc))
+        raise PluginError(f"malformed TOML: {exc}", path, int(m.group(1)) if m else None) from None
+
+    def fail(message, key_pattern=None):
+        raise PluginError(message, path, _line_of(text, key_pattern) if key_pattern else None)
+
+    for key in data:
+        if key not in _MANIFEST_KEYS:
+            fail(f"unknown key {key!r} (known: {', '.join(sorted(_MANIFEST_KEYS))})", rf"^\s*{re.escape(key)}\s*=")
+    for key in ("name", "entry"):
+        if not isinstance(data.get(key), str) or not data[key]:
+            fail(f"missing or empty string key {key!r}", rf"^\s*{key}\s*=")
+    name = data["name"]
+    if not _IDENT.match(name):
+        fail(f"plugin name {name!r} must be an identifier (letters, digits, _)", r"^\s*name\s*=")
+    language = data.get("language", "glsl")
+    if language not in LANGUAGES:
+        fail(f"language {language!r} is not one of {', '.join(LANGUAGES)}", r"^\s*language\s*=")
+    primary = data.get("primary", "gbuffer")
+    if primary not in PRIMARY_MODES:
+        fail(f"primary {primary!r} is not one of {', '.join(PRIMARY_MODES)}", r"^\s*primary\s*=")
+    if not (Path(folder) / data["entry"]).is_file():
+        fail(f"entry file {data['entry']!r} not found in {folder}", r"^\s*entry\s*=")
+
+    params = {}
+    for pname, spec in (data.get("params") or {}).items():
+        header = rf"^\s*\[params\.{re.escape(pname)}\]"
+        if not _IDENT.match(pname):
+            fail(f"parameter name {pname!r} must be an identifier", header)
+        if not isinstance(spec, dict):
+            fail(f"parameter {pname!r} must be a table", header)
+        unknown = set(spec) - _PARAM_KEYS
+        if unknown:
+            fail(f"parameter {pname!r}: unknown keys {sorted(unknown)}", header)
+        ptype = spec.get("type")
+        if ptype not in PARAM_TYPES:
+            fail(f"parameter {pname!r}: type must be one of {', '.join(PARAM_TYPES)}", header)
+        if "default" not in spec:
+            fail(f"parameter {pname!r} has no default", header)
+        param = Param(pname, ptype, None, spec.get("min"), spec.get("max"), spec.get("help", ""))
+        try:
+            param.default = param.parse(spec["default"])
+        except PluginError as exc:
+            fail(exc.message, header)
+        params[pname] = param
+    return Plugin(name=name, description=data.get("description", ""), language=language,
+                  entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params)
+
+
+def search_path(extra_dirs=()) -> list[Path]:
+    dirs = [Path(d) for d in extra_dirs]
+    env = os.environ.get("LIFT_GL_PLUGIN_PATH", "")
+    dirs += [Path(d) for d in env.split(os.pathsep) if d]
+    dirs.append(BUILTIN_DIR)
+    return dirs
+
+
+def discover(extra_dirs=()) -> dict[str, Plugin]:
+    """All plugins by name; an earlier folder in the search path wins over a later one."""
+    found: dict[str, Plugin] = {}
+    for d in reversed(search_path(extra_dirs)):
+        if not d.is_dir():
+            continue
+        for folder in sorted(d.iterdir()):
+            if (folder / "plugin.toml").is_file():
+                plugin = load_manifest(folder)
+                found[plugin.name] = plugin
+    return found
+
+
+def find_plugin(name: str, extra_dirs=()) -> Plugin:
+    path = Path(name)
+    if (path / "plugin.toml").is_file():
+        return load_manifest(path)
+    plugins = discover(extra_dirs)
+    if name not in plugins:
+        raise PluginError(f"no plugin named {name!r}; found: {', '.join(sorted(plugins)) or 'none'}")
+    return plugins[name]

@@ -1,0 +1,45 @@
+"""SceneFeatures: what a scene uses, so that shaders compile only the code it needs.
+
+Each feature becomes a `#define` in every shader of the frame; code for absent features is
+not compiled (a diffuse-only scene compiles no conductor or glass code).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+from .model import Scene
+
+
+@dataclass(frozen=True)
+class SceneFeatures:
+    conductor: bool = False
+    rough_conductor: bool = False
+    dielectric: bool = False
+    rough_dielectric: bool = False
+    spheres: bool = False
+    environment: bool = False
+    emissive: bool = False  # emissive triangles or spheres (light sampling code)
+
+    @classmethod
+    def of(cls, scene: Scene) -> "SceneFeatures":
+        used = [scene.materials[m.material] for m in scene.meshes if len(m.indices)]
+        used += [scene.materials[s.material] for s in scene.spheres]
+        return cls(
+            conductor=any(m.type == "conductor" for m in used),
+            rough_conductor=any(m.type == "conductor" and m.alpha > 0 for m in used),
+            dielectric=any(m.type == "dielectric" for m in used),
+            rough_dielectric=any(m.type == "dielectric" and m.alpha > 0 for m in used),
+            spheres=bool(scene.spheres),
+            environment=scene.environment is not None and bool((scene.environment.radiance > 0).any()),
+            emissive=any(m.is_emissive for m in used),
+        )
+
+    @classmethod
+    def everything(cls) -> "SceneFeatures":
+        return cls(**{f.name: True for f in fields(cls)})
+
+    def defines(self) -> dict:
+        return {f"HAS_{f.name.upper()}": True for f in fields(self) if getattr(self, f.name)}
+
+    def explain(self) -> list[str]:
+        return [f"{'+' if getattr(self, f.name) else '-'} {f.name}" for f in fields(self)]

@@ -1,0 +1,155 @@
+"""Flatten a Scene into the arrays that shaders/lift/scene_data.glsl declares.
+
+Triangles of all meshes are concatenated in world space and reordered into BVH leaf order.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..accel.cache import build_bvh_cached
+from .model import Scene
+
+MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "dielectric": 2}
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+@dataclass
+class PackedScene:
+    bvh_nodes: np.ndarray  # float32 (N, 8)
+    tri_pos: np.ndarray  # float32 (T, 3, 4)
+    tri_normal: np.ndarray  # float32 (T, 3, 4)
+    tri_uv: np.ndarray  # float32 (T, 3, 4)
+    tri_info: np.ndarray  # uint32 (T, 2)
+    materials: np.ndarray  # float32 (M, 4, 4)
+    lights: np.ndarray  # float32 (L, 4)
+    spheres: np.ndarray  # float32 (S, 2, 4)
+    bvh_depth: int
+    bounds: np.ndarray  # (2, 3) world bounds of everything
+    # Real counts: the arrays above hold one dummy row when empty (GL needs non-empty buffers).
+    num_triangles: int
+    num_spheres: int
+    num_lights: int
+
+
+def _as_float_bits(values) -> np.ndarray:
+    return np.asarray(values, dtype=np.uint32).view(np.float32)
+
+
+def pack_materials(scene: Scene) -> np.ndarray:
+    out = np.zeros((max(len(scene.materials), 1), 4, 4), np.float32)
+    for i, m in enumerate(scene.materials):
+        out[i, 0, :3] = m.base_color
+        out[i, 0, 3] = MATERIAL_CODES[m.type]
+        out[i, 1, :3] = m.emission
+        out[i, 1, 3] = m.alpha
+        if m.eta is not None and m.k is not None:
+            out[i, 2, :3] = m.eta
+            out[i, 3, :3] = m.k
+        else:
+            out[i, 2, :3] = -1.0  # Schlick with F0 = base_color
+        out[i, 2, 3] = m.ior
+    return out
+
+
+def _triangles(scene: Scene):
+    if not scene.meshes:
+        return (np.zeros((0, 3, 3), np.float32), np.zeros((0, 3, 3), np.float32),
+                np.zeros((0, 3, 2), np.float32), np.zeros(0, np.uint32))
+    pos, nrm, uvs, mat = [], [], [], []
+    for mesh in scene.meshes:
+        corners = mesh.positions[mesh.indices]
+        pos.append(corners)
+        if mesh.normals is not None:
+            nrm.append(mesh.normals[mesh.indices])
+        else:  # flat shading: the geometric normal at each corner
+            n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+            length = np.linalg.norm(n, axis=1, keepdims=True)
+            n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+            nrm.append(np.repeat(n[:, None, :], 3, axis=1))
+        uvs.append(mesh.uvs[mesh.indices] if mesh.uvs is not None else np.zeros((len(mesh.indices), 3, 2), np.float32))
+        mat.append(np.full(len(mesh.indices), mesh.material, np.uint32))
+    return (np.concatenate(pos).astype(np.float32), np.concatenate(nrm).astype(np.float32),
+            np.concatenate(uvs).astype(np.float32), np.concatenate(mat))
+
+
+def _pad4(a: np.ndarray) -> np.ndarray:
+    out = np.zeros(a.shape[:-1] + (4,), np.float32)
+    out[..., : a.shape[-1]] = a
+    return out
+
+
+def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
+    positions, normals, uvs, material_ids = _triangles(scene)
+    bvh = build_bvh_cached(positions, cache_dir=cache_dir)
+    order = bvh.order
+    positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
+    T, S = len(positions), len(scene.spheres)
+
+    # Light selection proportional to emitted power (luminance x area); pi is common to all.
+    emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
+    light_prims, light_power, light_area = [], [], []
+    if T:
+        tri_area = 0.5 * np.linalg.norm(np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0]), axis=1)
+        tri_power = (emission[material_ids] @ LUMINANCE) * tri_area
+        emissive = np.nonzero(tri_power > 0)[0]
+        light_prims += list(emissive)
+        light_power += list(tri_power[emissive])
+        light_area += list(tri_area[emissive])
+    for i, s in enumerate(scene.spheres):
+        area = 4.0 * np.pi * s.radius ** 2
+        power = float(emission[s.material] @ LUMINANCE) * area
+        if power > 0:
+            light_prims.append(T + i)
+            light_power.append(power)
+            light_area.append(area)
+    light_power = np.asarray(light_power, np.float64)
+    select_pdf = light_power / light_power.sum() if len(light_power) else light_power
+    cdf = np.cumsum(select_pdf)
+    if len(cdf):
+        cdf[-1] = 1.0
+    lights = np.zeros((max(len(light_prims), 1), 4), np.float32)
+    lights[: len(light_prims), 0] = _as_float_bits(light_prims)
+    lights[: len(light_prims), 1] = cdf
+    lights[: len(light_prims), 2] = select_pdf
+    lights[: len(light_prims), 3] = light_area
+    prim_select_pdf = np.zeros(T + S, np.float32)
+    prim_select_pdf[np.asarray(light_prims, dtype=np.int64)] = select_pdf
+
+    tri_info = np.zeros((max(T, 1), 2), np.uint32)
+    tri_info[:T, 0] = material_ids
+    tri_info[:T, 1] = prim_select_pdf[:T].view(np.uint32)
+
+    spheres = np.zeros((max(S, 1), 2, 4), np.float32)
+    for i, s in enumerate(scene.spheres):
+        spheres[i, 0, :3] = s.center
+        spheres[i, 0, 3] = s.radius
+        spheres[i, 1, 0] = _as_float_bits([s.material])[0]
+        spheres[i, 1, 1] = prim_select_pdf[T + i:T + i + 1].view(np.uint32).view(np.float32)[0]
+
+    lo = [positions.reshape(-1, 3).min(0)] if T else []
+    hi = [positions.reshape(-1, 3).max(0)] if T else []
+    for s in scene.spheres:
+        lo.append(s.center - s.radius)
+        hi.append(s.center + s.radius)
+    bounds = np.array([np.min(lo, axis=0), np.max(hi, axis=0)]) if lo else np.array([[-1.0] * 3, [1.0] * 3])
+
+    def nonempty(a, shape):
+        return a if len(a) else np.zeros(shape, np.float32)
+
+    return PackedScene(
+        bvh_nodes=bvh.nodes,
+        tri_pos=nonempty(_pad4(positions), (1, 3, 4)),
+        tri_normal=nonempty(_pad4(normals), (1, 3, 4)),
+        tri_uv=nonempty(_pad4(uvs), (1, 3, 4)),
+        tri_info=tri_info,
+        materials=pack_materials(scene),
+        lights=lights,
+        spheres=spheres,
+        bvh_depth=bvh.depth,
+        bounds=bounds,
+        num_triangles=T,
+        num_spheres=S,
+        num_lights=len(light_prims),
+    )

@@ -1,0 +1,90 @@
+// lift/surface.glsl: from a ray hit to the surface it hit (position, normals, material),
+// and robust ray offsets for rays that leave that surface.
+#ifndef LIFT_SURFACE_GLSL
+#define LIFT_SURFACE_GLSL
+#include "lift/bvh.glsl"
+#include "lift/frame.glsl"
+
+struct Surface {
+    vec3 p;                  // world position
+    vec3 ng;                 // geometric normal, unit; for triangles from the winding, for spheres outward
+    vec3 ns;                 // shading normal, unit, in the same hemisphere as ng
+    vec2 uv;
+    uint material;
+    uint prim;
+    float light_select_pdf;  // probability that light sampling picks this primitive (0: not a light)
+    float area;              // primitive area, for light pdfs
+};
+
+Surface surface_at(Ray ray, Hit hit) {
+    Surface s;
+    s.prim = hit.prim;
+    if (hit.prim < u_num_triangles) {
+        uint i = 3u * hit.prim;
+        vec3 p0 = tri_pos[i].xyz, p1 = tri_pos[i + 1u].xyz, p2 = tri_pos[i + 2u].xyz;
+        float b0 = 1.0 - hit.bary.x - hit.bary.y;
+        // The barycentric point is more accurate than origin + t * dir far from the camera.
+        s.p = b0 * p0 + hit.bary.x * p1 + hit.bary.y * p2;
+        vec3 n = cross(p1 - p0, p2 - p0);
+        float len = length(n);
+        s.ng = len > 0.0 ? n / len : -ray.dir;
+        s.area = 0.5 * len;
+        vec3 ns = b0 * tri_normal[i].xyz + hit.bary.x * tri_normal[i + 1u].xyz + hit.bary.y * tri_normal[i + 2u].xyz;
+        float ns_len = length(ns);
+        s.ns = ns_len > 0.0 ? ns / ns_len : s.ng;
+        if (dot(s.ns, s.ng) < 0.0) s.ns = -s.ns;  // authored normals may disagree with the winding
+        s.uv = b0 * tri_uv[i].xy + hit.bary.x * tri_uv[i + 1u].xy + hit.bary.y * tri_uv[i + 2u].xy;
+        uvec2 info = tri_info[hit.prim];
+        s.material = info.x;
+        s.light_select_pdf = uintBitsToFloat(info.y);
+    }
+#ifdef HAS_SPHERES
+    else {
+        uint k = hit.prim - u_num_triangles;
+        vec4 cr = spheres[2u * k];
+        vec3 p = ray.origin + hit.t * ray.dir;
+        s.ng = normalize(p - cr.xyz);
+        s.p = cr.xyz + cr.w * s.ng;  // re-project onto the sphere
+        s.ns = s.ng;
+        s.uv = vec2(atan(s.ng.z, s.ng.x) * 0.15915494 + 0.5, acos(clamp(s.ng.y, -1.0, 1.0)) * 0.31830989);
+        s.material = floatBitsToUint(spheres[2u * k + 1u].x);
+        s.light_select_pdf = uintBitsToFloat(floatBitsToUint(spheres[2u * k + 1u].y));
+        s.area = 4.0 * 3.14159265 * cr.w * cr.w;
+    }
+#endif
+    return s;
+}
+
+// Move p off the surface along n by a few ulps of its own magnitude, so that rays leaving
+// the surface do not hit it again, at any scene scale (after Waechter and Binder 2019).
+vec3 offset_ray_origin(vec3 p, vec3 n) {
+    const float near_origin = 1.0 / 32.0;
+    const float float_step = 1.0 / 65536.0;
+    const float int_step = 256.0;
+    ivec3 of = ivec3(int_step * n);
+    vec3 p_int = intBitsToFloat(floatBitsToInt(p) + ivec3(p.x < 0.0 ? -of.x : of.x,
+                                                          p.y < 0.0 ? -of.y : of.y,
+                                                          p.z < 0.0 ? -of.z : of.z));
+    return vec3(abs(p.x) < near_origin ? p.x + float_step * n.x : p_int.x,
+                abs(p.y) < near_origin ? p.y + float_step * n.y : p_int.y,
+                abs(p.z) < near_origin ? p.z + float_step * n.z : p_int.z);
+}
+
+// A ray leaving surface s in direction dir (world space), started on the side dir goes to.
+Ray spawn_ray(Surface s, vec3 dir) {
+    vec3 n = dot(dir, s.ng) >= 0.0 ? s.ng : -s.ng;
+    return Ray(offset_ray_origin(s.p, n), dir, 0.0, 1e30);
+}
+
+// A shadow ray from s towards a point at distance dist along dir; stops just short of it.
+Ray spawn_shadow_ray(Surface s, vec3 dir, float dist) {
+    Ray r = spawn_ray(s, dir);
+    r.tmax = dist * (1.0 - 1e-4);
+    return r;
+}
+
+// Radiance emitted by s towards direction w (world space); emitters emit from the front.
+vec3 surface_emission(Surface s, vec3 w) {
+    return dot(w, s.ng) > 0.0 ? materials[s.material].emission_alpha.rgb : vec3(0.0);
+}
+#endif

@@ -1,0 +1,23 @@
+// Accumulate, still camera: the exact running sum of every frame's (radiance sum, sample
+// count), kept in float32 with Neumaier's compensated summation, so that the mean stays
+// exact to float precision over millions of frames (a plain float sum stops growing once
+// a frame's contribution falls below half an ulp of the total).
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f, binding = 0) uniform readonly image2D u_frame;
+layout(rgba32f, binding = 1) uniform image2D u_sum;
+layout(rgba32f, binding = 2) uniform image2D u_compensation;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(p, imageSize(u_sum)))) return;
+    precise vec4 x = imageLoad(u_frame, p);
+    precise vec4 sum = imageLoad(u_sum, p);
+    precise vec4 c = imageLoad(u_compensation, p);
+    precise vec4 t = sum + x;
+    // The low-order bits lost in t: of x when the sum is larger, of the sum otherwise.
+    precise vec4 lost_x = (sum - t) + x;
+    precise vec4 lost_sum = (x - t) + sum;
+    c += mix(lost_sum, lost_x, greaterThanEqual(abs(sum), abs(x)));
+    imageStore(u_sum, p, t);
+    imageStore(u_compensation, p, c);
+}

@@ -1,0 +1,21 @@
+// G-buffer, triangles: visibility (primitive id + 1, barycentrics, material), shading
+// normal facing the camera with view depth, and albedo (the denoiser's guide).
+#include "lift/scene_data.glsl"
+#include "lift/bsdf.glsl"
+uniform vec3 u_cam_pos;
+uniform vec3 u_cam_forward;
+flat in uint v_prim;
+in vec2 v_bary;
+in vec3 v_normal;
+in vec3 v_world;
+layout(location = 0) out uvec4 o_visibility;
+layout(location = 1) out vec4 o_normal_depth;
+layout(location = 2) out vec4 o_albedo;
+void main() {
+    uint material = tri_info[v_prim].x;
+    o_visibility = uvec4(v_prim + 1u, floatBitsToUint(v_bary.x), floatBitsToUint(v_bary.y), material);
+    vec3 n = length(v_normal) > 0.0 ? normalize(v_normal) : vec3(0.0, 0.0, 1.0);
+    if (dot(n, u_cam_pos - v_world) < 0.0) n = -n;
+    o_normal_depth = vec4(n, dot(v_world - u_cam_pos, u_cam_forward));
+    o_albedo = vec4(bsdf_albedo(materials[material]), 1.0);
+}

@@ -1,0 +1,32 @@
+#include "lift/scene_data.glsl"
+#include "lift/bsdf.glsl"
+uniform mat4 u_view_proj;
+uniform vec3 u_cam_pos;
+uniform vec3 u_cam_forward;
+flat in uint v_sphere;
+in vec3 v_world;
+layout(location = 0) out uvec4 o_visibility;
+layout(location = 1) out vec4 o_normal_depth;
+layout(location = 2) out vec4 o_albedo;
+void main() {
+    vec4 cr = spheres[2u * v_sphere];
+    vec3 d = normalize(v_world - u_cam_pos);
+    vec3 oc = u_cam_pos - cr.xyz;
+    float b = dot(oc, d);
+    float c = dot(oc, oc) - cr.w * cr.w;
+    float disc = b * b - c;
+    if (disc < 0.0) discard;
+    float s = sqrt(disc);
+    float t = -b - s;
+    if (t <= 0.0) t = -b + s;  // the camera is inside the sphere
+    if (t <= 0.0) discard;
+    vec3 p = u_cam_pos + t * d;
+    vec4 clip = u_view_proj * vec4(p, 1.0);
+    gl_FragDepth = clip.z / clip.w * 0.5 + 0.5;
+    uint material = floatBitsToUint(spheres[2u * v_sphere + 1u].x);
+    o_visibility = uvec4(u_num_triangles + v_sphere + 1u, 0u, 0u, material);
+    vec3 n = normalize(p - cr.xyz);
+    if (dot(n, -d) < 0.0) n = -n;
+    o_normal_depth = vec4(n, dot(p - u_cam_pos, u_cam_forward));
+    o_albedo = vec4(bsdf_albedo(materials[material]), 1.0);
+}
