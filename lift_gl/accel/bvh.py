@@ -1,0 +1,370 @@
+"""Bounding volume hierarchy over triangles: a binned-SAH build in vectorised numpy, the flat
+node layout the GPU traverses (shaders/lift/bvh.glsl), and a numpy traversal for tests.
+
+Why level by level: a recursive build costs one Python call per node (about 2T of them),
+which is minutes for a million triangles. Here every node of one tree level is handled by
+the same handful of array operations (gather, segment reductions, one sort), so Python
+work is proportional to the tree depth, not the node count.
+
+Node layout, one float32 row of 8 per node (two vec4 on the GPU):
+    [bmin.x, bmin.y, bmin.z, first, bmax.x, bmax.y, bmax.z, count]
+`first` and `count` are uint32 bit patterns stored in the float32 array. count == 0 marks an
+interior node whose children are nodes `first` and `first + 1`; count > 0 a leaf holding
+triangles first .. first + count - 1 of the array reordered by `BVH.order`. Node 0 is the
+root. Nodes are numbered breadth first.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Bump when the node layout or the build's meaning changes: the on-disk cache keys on it.
+LAYOUT_VERSION = "lift-bvh-1:f32x8(bmin,first,bmax,count);bfs;sah"
+
+MAX_DEPTH = 48      # the GLSL traversal stack holds 48 entries; deeper trees would overflow it
+MAX_LEAF = 4        # a leaf may hold at most this many triangles unless depth forces it
+MIN_SPLIT = 3       # nodes of 1 or 2 triangles are always leaves
+SAH_BINS = 32
+SMALL_NODE = 8      # nodes of at most this many triangles are binned with this many bins
+# Cost of one box test relative to one triangle test; both are a few dozen flops on a GPU.
+TRAVERSAL_COST = 1.0
+
+_INV_GUARD = 1e-30  # |dir| below this is treated as this, so 1/dir stays finite (no 0 * inf)
+
+
+@dataclass
+class BVH:
+    nodes: np.ndarray   # float32 (N, 8), layout above
+    order: np.ndarray   # uint32 (T,): reordered triangle i is input triangle order[i]
+    depth: int          # number of node levels (root alone = 1)
+
+    @property
+    def num_nodes(self) -> int:
+        return int(self.nodes.shape[0])
+
+    @property
+    def first(self) -> np.ndarray:
+        return self.nodes.view(np.uint32)[:, 3]
+
+    @property
+    def count(self) -> np.ndarray:
+        return self.nodes.view(np.uint32)[:, 7]
+
+    @property
+    def bmin(self) -> np.ndarray:
+        return self.nodes[:, 0:3]
+
+    @property
+    def bmax(self) -> np.ndarray:
+        return self.nodes[:, 4:7]
+
+    @property
+    def num_leaves(self) -> int:
+        return int(np.count_nonzero(self.count))
+
+
+def empty_bvh() -> BVH:
+    """One empty leaf-like root with an inverted box. Because count is 0 it reads as an
+    interior node, so traversals must skip the BVH entirely when there are no triangles
+    (bvh.glsl checks u_num_triangles == 0, intersect_numpy checks T == 0)."""
+    nodes = np.zeros((1, 8), np.float32)
+    nodes[0, 0:3] = 1.0
+    nodes[0, 4:7] = -1.0
+    return BVH(nodes=nodes, order=np.zeros(0, np.uint32), depth=1)
+
+
+def _box_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Half surface area (the factor 2 cancels in SAH ratios); empty boxes (lo > hi) give 0."""
+    e = np.maximum(hi - lo, 0.0)      # empty: (-inf) - (+inf) = -inf -> 0
+    return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0]
+
+
+def _sah_sweep(n_rows: int, width: int, flat: np.ndarray, count: np.ndarray, lo: np.ndarray,
+               hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Best plane split of each row of a (n_rows, width) bin grid whose non-empty cells
+    `flat` hold `count` triangles with bounds lo..hi. Returns (SAH cost numerator
+    NL*AL + NR*AR, NL) per row; cost is inf where no split leaves both sides non-empty.
+    Split k puts bins 0..k left and k+1..width-1 right."""
+    cnt = np.zeros(n_rows * width, np.int64)
+    cnt[flat] = count
+    blo = np.full((n_rows * width, 3), np.inf)
+    bhi = np.full((n_rows * width, 3), -np.inf)
+    blo[flat] = lo
+    bhi[flat] = hi
+    cnt = cnt.reshape(n_rows, width)
+    blo = blo.reshape(n_rows, width, 3)
+    bhi = bhi.reshape(n_rows, width, 3)
+    l_cnt = np.cumsum(cnt, axis=1)[:, :-1]
+    l_area = _box_area(np.minimum.accumulate(blo, axis=1), np.maximum.accumulate(bhi, axis=1))[:, :-1]
+    r_cnt = cnt.sum(axis=1, keepdims=True) - l_cnt
+    r_area = _box_area(np.minimum.accumulate(blo[:, ::-1], axis=1)[:, ::-1],
+                       np.maximum.accumulate(bhi[:, ::-1], axis=1)[:, ::-1])[:, 1:]
+    cost = l_cnt * l_area + r_cnt * r_area
+    cost[(l_cnt == 0) | (r_cnt == 0)] = np.inf
+    best = np.argmin(cost, axis=1)
+    rows = np.arange(n_rows)
+    return cost[rows, best], l_cnt[rows, best]
+
+
+def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int = MAX_LEAF,
+              max_depth: int = MAX_DEPTH) -> BVH:
+    """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
+
+    Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
+    axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits. A node
+    becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
+    does not pay, or at depth max_depth (the traversal stack size). When all centroids
+    coincide (duplicated or degenerate triangles) no plane separates them and the node is cut
+    in half by count, so the build always terminates.
+    Non-finite coordinates are treated as 0 for the build (callers should drop such triangles).
+    """
+    pos = np.asarray(tri_positions, dtype=np.float32)
+    if pos.ndim != 3 or pos.shape[1:] != (3, 3):
+        raise ValueError(f"tri_positions must have shape (T, 3, 3), got {pos.shape}")
+    n_tris = pos.shape[0]
+    if n_tris == 0:
+        return empty_bvh()
+    if n_tris >= 2**32 - 1:
+        raise ValueError("too many triangles for 32-bit indices")
+    if not np.isfinite(pos).all():
+        pos = np.where(np.isfinite(pos), pos, np.float32(0.0))
+
+    # Per-triangle build data [lo.xyz, hi.xyz, centroid.xyz], kept in the same (tree) order
+    # as `order`: each level then reads nearly contiguous memory instead of gathering at
+    # random, which is what dominates the build time for large inputs otherwise.
+    # float64 centroids: binning divides by centroid extents that may be tiny.
+    data = np.empty((n_tris, 9), np.float64)
+    data[:, 0:3] = pos.min(axis=1)
+    data[:, 3:6] = pos.max(axis=1)
+    data[:, 6:9] = (data[:, 0:3] + data[:, 3:6]) * 0.5
+
+    order = np.arange(n_tris, dtype=np.int64)
+    nodes = np.zeros((max(2 * n_tris - 1, 1), 8), np.float32)
+    nodes_u = nodes.view(np.uint32)
+
+    # the nodes of the current level: id, start in `order`, triangle count
+    act_node = np.zeros(1, np.int64)
+    act_start = np.zeros(1, np.int64)
+    act_count = np.full(1, n_tris, np.int64)
+    n_nodes = 1
+    level = 0
+    while act_node.size:
+        level += 1
+        n_act = act_node.size
+        seg_off = np.zeros(n_act, np.int64)
+        np.cumsum(act_count[:-1], out=seg_off[1:])
+        total = int(act_count.sum())
+        seg = np.repeat(np.arange(n_act), act_count)
+        where = np.arange(total, dtype=np.int64) + np.repeat(act_start - seg_off, act_count)
+        d = data[where]
+        t_lo = d[:, 0:3]
+        t_hi = d[:, 3:6]
+        c = d[:, 6:9]
+        node_lo = np.minimum.reduceat(t_lo, seg_off, axis=0)
+        node_hi = np.maximum.reduceat(t_hi, seg_off, axis=0)
+        nodes[act_node, 0:3] = node_lo
+        nodes[act_node, 4:7] = node_hi
+
+        # --- bin centroids along each node's longest centroid axis -------------------------
+        # Small nodes get few bins: with <= SMALL_NODE triangles, SMALL_NODE bins are nearly an
+        # exact sweep, and the dense per-node bin grids below are then 4x smaller. Deep levels
+        # hold mostly small nodes, so this roughly halves the build time.
+        forced = (act_count < MIN_SPLIT) | (level >= max_depth)
+        n_bins = np.where(act_count <= SMALL_NODE, min(SMALL_NODE, bins), bins)
+        c_lo = np.minimum.reduceat(c, seg_off, axis=0)
+        c_hi = np.maximum.reduceat(c, seg_off, axis=0)
+        axis = np.argmax(c_hi - c_lo, axis=1)
+        ax_lo = c_lo[np.arange(n_act), axis]
+        extent = c_hi[np.arange(n_act), axis] - ax_lo
+        scale = np.where(extent > 0, n_bins / np.where(extent > 0, extent, 1.0), 0.0)
+        b = ((c[np.arange(total), axis[seg]] - ax_lo[seg]) * scale[seg]).astype(np.int64)
+        np.clip(b, 0, (n_bins - 1)[seg], out=b)
+        key = seg * bins + b
+        # Sorting by (node, bin) groups each bin's triangles contiguously inside its node's
+        # range, so a split after bin k is simply "the first NL triangles of the range".
+        perm = np.argsort(key, kind="stable")
+        key = key[perm]
+        d = d[perm]
+        data[where] = d
+        order[where] = order[where][perm]
+
+        # per (node, bin) group: count and triangle bounds
+        gstart = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
+        gkey = key[gstart]
+        gcount = np.diff(np.append(gstart, total))
+        glo = np.minimum.reduceat(d[:, 0:3], gstart, axis=0)
+        ghi = np.maximum.reduceat(d[:, 3:6], gstart, axis=0)
+        gseg, gbin = np.divmod(gkey, bins)
+
+        best_cost = np.full(n_act, np.inf)
+        n_left = act_count // 2   # no separating plane (all centroids equal): cut by count
+        for width in sorted({int(w) for w in np.unique(n_bins)}):
+            sel = np.flatnonzero(~forced & (n_bins == width))
+            if sel.size:
+                row = np.full(n_act, -1, np.int64)
+                row[sel] = np.arange(sel.size)
+                g = np.flatnonzero(row[gseg] >= 0)
+                cost, nl = _sah_sweep(sel.size, width, row[gseg[g]] * width + gbin[g],
+                                      gcount[g], glo[g], ghi[g])
+                best_cost[sel] = cost
+                n_left[sel] = np.where(np.isfinite(cost), nl, n_left[sel])
+
+        area = _box_area(node_lo.astype(np.float64), node_hi.astype(np.float64))
+        # a flat-as-a-line node has area 0: every split then costs just the traversal
+        split_cost = TRAVERSAL_COST + np.divide(best_cost, area, out=np.zeros(n_act), where=area > 0)
+        split_cost[~np.isfinite(best_cost)] = np.inf
+        leaf_cost = act_count.astype(np.float64)
+
+        make_leaf = forced | ((act_count <= max_leaf) & (leaf_cost <= split_cost))
+
+        leaf = np.flatnonzero(make_leaf)
+        nodes_u[act_node[leaf], 3] = act_start[leaf]
+        nodes_u[act_node[leaf], 7] = act_count[leaf]
+
+        split = np.flatnonzero(~make_leaf)
+        k = split.size
+        child = n_nodes + 2 * np.arange(k, dtype=np.int64)
+        n_nodes += 2 * k
+        nodes_u[act_node[split], 3] = child
+        nodes_u[act_node[split], 7] = 0
+        nl = n_left[split]
+        act_node = np.stack([child, child + 1], axis=1).ravel()
+        act_start = np.stack([act_start[split], act_start[split] + nl], axis=1).ravel()
+        act_count = np.stack([nl, act_count[split] - nl], axis=1).ravel()
+
+    return BVH(nodes=nodes[:n_nodes].copy(), order=order.astype(np.uint32), depth=level)
+
+
+# --- reference traversal (tests) -----------------------------------------------------------
+
+def _safe_inv(d: np.ndarray) -> np.ndarray:
+    d = np.where(np.abs(d) < _INV_GUARD, np.where(np.signbit(d), -_INV_GUARD, _INV_GUARD), d)
+    return 1.0 / d
+
+
+def moller_trumbore(p0, p1, p2, o, d):
+    """Vectorised Möller–Trumbore: (t, b1, b2, ok) for matching rows of triangles and rays.
+    Triangles seen edge-on (det ~ 0, which includes zero-area ones) never hit."""
+    e1 = p1 - p0
+    e2 = p2 - p0
+    pv = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, pv)
+    scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)
+    ok = np.abs(det) > 1e-9 * scale
+    inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
+    tv = o - p0
+    b1 = np.einsum("ij,ij->i", tv, pv) * inv
+    qv = np.cross(tv, e1)
+    b2 = np.einsum("ij,ij->i", d, qv) * inv
+    t = np.einsum("ij,ij->i", e2, qv) * inv
+    ok &= (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
+    return t, b1, b2, ok
+
+
+def intersect_numpy(bvh: BVH, tri_positions_reordered: np.ndarray, origins: np.ndarray,
+                    dirs: np.ndarray, tmin: float = 0.0, tmax: float = np.inf):
+    """Closest hit of each ray through `bvh`: (t float64 (R,), tri int64 (R,)), with
+    t = inf and tri = -1 for a miss; tri indexes the reordered triangle array.
+
+    Wavefront traversal: all (ray, node) pairs of one tree level are tested at once, pruned
+    by each ray's closest hit so far. Slower than a stack per ray in C but has no Python loop
+    over rays, and exercises exactly the node layout the GPU reads.
+    """
+    tris = np.asarray(tri_positions_reordered, np.float64)
+    o_all = np.asarray(origins, np.float64).reshape(-1, 3)
+    d_all = np.asarray(dirs, np.float64).reshape(-1, 3)
+    n_rays = o_all.shape[0]
+    best_t = np.full(n_rays, np.inf if tmax is None else float(tmax))
+    best_tri = np.full(n_rays, -1, np.int64)
+    if tris.shape[0] == 0 or n_rays == 0:
+        return np.where(best_tri < 0, np.inf, best_t), best_tri
+    inv_all = _safe_inv(d_all)
+    bmin = bvh.bmin.astype(np.float64)
+    bmax = bvh.bmax.astype(np.float64)
+    first = bvh.first.astype(np.int64)
+    count = bvh.count.astype(np.int64)
+
+    pr = np.arange(n_rays)
+    pn = np.zeros(n_rays, np.int64)
+    while pr.size:
+        o = o_all[pr]
+        inv = inv_all[pr]
+        t0 = (bmin[pn] - o) * inv
+        t1 = (bmax[pn] - o) * inv
+        tn = np.maximum(np.minimum(t0, t1).max(axis=1), tmin)
+        tf = np.minimum(np.maximum(t0, t1).min(axis=1), best_t[pr])
+        keep = tn <= tf
+        pr, pn = pr[keep], pn[keep]
+        is_leaf = count[pn] > 0
+
+        lr, ln = pr[is_leaf], pn[is_leaf]
+        if lr.size:
+            c = count[ln]
+            rr = np.repeat(lr, c)
+            off = np.cumsum(c) - c
+            tt = np.repeat(first[ln] - off, c) + np.arange(int(c.sum()))
+            t, _, _, ok = moller_trumbore(tris[tt, 0], tris[tt, 1], tris[tt, 2], o_all[rr], d_all[rr])
+            ok &= (t > tmin) & (t < best_t[rr])
+            rr, tt, t = rr[ok], tt[ok], t[ok]
+            if rr.size:
+                s = np.lexsort((t, rr))           # by ray, then nearest first
+                rr, tt, t = rr[s], tt[s], t[s]
+                head = np.concatenate(([True], rr[1:] != rr[:-1]))
+                best_t[rr[head]] = t[head]
+                best_tri[rr[head]] = tt[head]
+
+        ir, inode = pr[~is_leaf], pn[~is_leaf]
+        pr = np.concatenate((ir, ir))
+        pn = np.concatenate((first[inode], first[inode] + 1))
+    return np.where(best_tri < 0, np.inf, best_t), best_tri
+
+
+def check_invariants(bvh: BVH, tri_positions_reordered: np.ndarray) -> None:
+    """Raise AssertionError if the tree breaks a layout rule (used by tests and debugging):
+    every triangle in exactly one leaf, every node reached once, children inside parents,
+    leaf boxes contain their triangles, depth within bounds."""
+    tris = np.asarray(tri_positions_reordered, np.float32)
+    n_tris = tris.shape[0]
+    nodes = bvh.nodes
+    assert nodes.dtype == np.float32 and nodes.ndim == 2 and nodes.shape[1] == 8
+    assert bvh.order.dtype == np.uint32 and bvh.order.shape == (n_tris,)
+    if n_tris == 0:
+        assert nodes.shape[0] == 1 and (nodes[0, 0:3] > nodes[0, 4:7]).all()
+        return
+    assert np.array_equal(np.sort(bvh.order), np.arange(n_tris, dtype=np.uint32))
+    first = bvh.first.astype(np.int64)
+    count = bvh.count.astype(np.int64)
+    n = nodes.shape[0]
+    interior = np.flatnonzero(count == 0)
+    leaves = np.flatnonzero(count > 0)
+    assert (first[interior] + 1 < n).all() and (first[interior] > interior).all()
+    # each node except the root is the child of exactly one interior node
+    parents = np.full(n, -1, np.int64)
+    kids = np.concatenate((first[interior], first[interior] + 1))
+    assert np.unique(kids).size == kids.size == n - 1 and 0 not in kids
+    parents[kids] = np.concatenate((interior, interior))
+    # children inside parents
+    kid = np.arange(1, n)
+    assert (nodes[kid, 0:3] >= nodes[parents[kid], 0:3]).all()
+    assert (nodes[kid, 4:7] <= nodes[parents[kid], 4:7]).all()
+    # leaves partition 0..T-1
+    cover = np.zeros(n_tris, np.int64)
+    np.add.at(cover, np.repeat(first[leaves], count[leaves])
+              + np.arange(count[leaves].sum()) - np.repeat(np.cumsum(count[leaves]) - count[leaves], count[leaves]), 1)
+    assert (cover == 1).all(), "every triangle must be in exactly one leaf"
+    # leaf boxes contain their triangles (where the coordinates are finite)
+    owner = np.repeat(leaves, count[leaves])
+    tri_idx = np.repeat(first[leaves], count[leaves]) + np.arange(count[leaves].sum()) \
+        - np.repeat(np.cumsum(count[leaves]) - count[leaves], count[leaves])
+    t = tris[tri_idx]
+    fin = np.isfinite(t).all(axis=(1, 2))
+    assert (t[fin].min(axis=1) >= nodes[owner[fin], 0:3]).all()
+    assert (t[fin].max(axis=1) <= nodes[owner[fin], 4:7]).all()
+    # depth: walk the levels (children of the frontier form the next frontier)
+    levels, frontier = 0, np.zeros(1, np.int64)
+    while frontier.size:
+        levels += 1
+        inner = frontier[count[frontier] == 0]
+        frontier = np.concatenate((first[inner], first[inner] + 1))
+    assert levels == bvh.depth <= MAX_DEPTH
