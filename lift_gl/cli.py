@@ -1,0 +1,147 @@
+"""The `lift-gl` command (also `python -m lift_gl`)."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .errors import LiftError
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must be WxH, e.g. 256x256, not {text!r}") from None
+    if w <= 0 or h <= 0:
+        raise argparse.ArgumentTypeError(f"size must be positive, not {text!r}")
+    return w, h
+
+
+def _settings(pairs: list[str], integrator: str) -> dict:
+    """--set NAME=VALUE (or PLUGIN.NAME=VALUE): plugin parameters as strings."""
+    values = {}
+    for pair in pairs or []:
+        if "=" not in pair:
+            raise LiftError(f"--set expects NAME=VALUE, got {pair!r}")
+        name, value = pair.split("=", 1)
+        if "." in name:
+            plugin, name = name.split(".", 1)
+            if plugin != integrator:
+                continue  # a setting for another integrator (as in compare runs)
+        values[name.strip()] = value.strip()
+    return values
+
+
+def _add_render(sub):
+    p = sub.add_parser("render", help="render a scene headless to an image file")
+    p.add_argument("scene")
+    p.add_argument("--integrator", default="pt")
+    budget = p.add_mutually_exclusive_group()
+    budget.add_argument("--spp", type=int, help="samples per pixel (default 64)")
+    budget.add_argument("--time", type=float, dest="seconds", help="render for this many seconds instead")
+    p.add_argument("--size", type=_size, help="WxH (default: the scene's film size)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--denoise", choices=("off", "final", "every"), default="off")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
+    p.add_argument("--aov", choices=("albedo", "normal", "depth"), help="write this G-buffer channel instead")
+    p.add_argument("--exposure", type=float, default=0.0, help="stops, for PNG output")
+    p.add_argument("--tonemap", default="aces", choices=("aces", "reinhard", "clamp"), help="for PNG output")
+    p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
+    p.add_argument("--all-features", action="store_true",
+                   help="compile every shader feature, not only those the scene uses (for comparisons)")
+    p.add_argument("--explain", action="store_true", help="print the passes and compiled features, and why")
+    p.add_argument("--out", help="output file: .png (sRGB), .exr .pfm .npy (linear float32)")
+    p.set_defaults(func=cmd_render)
+
+
+def cmd_render(args) -> int:
+    from .image_io import write_image
+    from .renderer import Renderer
+    from .scene.features import SceneFeatures
+    from .scene.loader import load_scene
+
+    if args.out is None and not args.explain:
+        raise LiftError("render needs --out FILE (or --explain)")
+    if args.denoise != "off":
+        raise LiftError("the denoiser is not available yet: use --denoise off")
+    scene = load_scene(args.scene)
+    renderer = Renderer(scene, size=args.size, integrator=args.integrator, backend=args.backend, seed=args.seed,
+                        params=_settings(args.set, args.integrator), plugin_dirs=args.plugins,
+                        features=SceneFeatures.everything() if args.all_features else None)
+    if args.explain:
+        print(renderer.explain())
+        if args.out is None:
+            return 0
+    if args.aov:
+        image = renderer.aov(args.aov)
+        write_image(args.out, image, exposure=args.exposure, tonemap="clamp")
+        print(f"wrote {args.out} ({args.aov})")
+        return 0
+    progress = _progress_bar(args.spp, args.seconds)
+    image = renderer.render(spp=args.spp if args.seconds is None else None, seconds=args.seconds,
+                            progress=progress)
+    if progress is not None:
+        progress.close()
+    write_image(args.out, image, exposure=args.exposure, tonemap=args.tonemap)
+    print(f"{args.out}: {renderer.size[0]}x{renderer.size[1]}, {args.integrator}, {renderer.stats.summary()}")
+    return 0
+
+
+def _progress_bar(spp, seconds):
+    """A progress bar on a terminal only; None elsewhere (no per-frame sync in batch runs)."""
+    if not sys.stderr.isatty():
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None
+    bar = tqdm(total=spp if seconds is None else None, unit="spp", leave=False)
+
+    def update(renderer, done):
+        bar.n = done
+        bar.refresh()
+
+    update.close = bar.close
+    return update
+
+
+def _add_plugins(sub):
+    p = sub.add_parser("plugins", help="list the integrator plugins and their parameters")
+    p.add_argument("--plugins", action="append", default=[], metavar="DIR")
+    p.set_defaults(func=cmd_plugins)
+
+
+def cmd_plugins(args) -> int:
+    from .plugins import discover
+
+    for name, plugin in sorted(discover(args.plugins).items()):
+        print(f"{name}  [{plugin.language}, primary={plugin.primary}]  {plugin.folder}")
+        if plugin.description:
+            print(f"    {plugin.description}")
+        for p in plugin.params.values():
+            bounds = "" if p.min is None and p.max is None else f" in [{p.min}, {p.max}]"
+            print(f"    --set {name}.{p.name}=...  ({p.type}, default {p.default}{bounds}) {p.help}")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="lift-gl", description="lift-gl: a hybrid raster + ray-tracing "
+                                     "renderer for teaching and studying light transport")
+    sub = parser.add_subparsers(dest="command", required=True)
+    _add_render(sub)
+    _add_plugins(sub)
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except LiftError as exc:
+        print(f"lift-gl: error: {exc}", file=sys.stderr)
+        return 2
+    except FileNotFoundError as exc:
+        print(f"lift-gl: error: {exc.filename}: file not found", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
