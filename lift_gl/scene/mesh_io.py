@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
+from .loader import SceneWarning
 from .model import Mesh
 
 MESH_EXTENSIONS = (".obj", ".ply", ".glb", ".gltf")
@@ -66,7 +67,8 @@ def clean_triangles(positions, indices, normals, uvs, label):
     if bad_vertex.any():
         bad_tri = bad_vertex[indices].any(axis=1)
         warnings.warn(f"{label}: {int(bad_vertex.sum())} vertices are NaN/Inf; dropped the "
-                      f"{int(bad_tri.sum())} triangles that use them", stacklevel=3)
+                      f"{int(bad_tri.sum())} triangles that use them", SceneWarning,
+                      stacklevel=3)
         indices = indices[~bad_tri]
         # Compact so no NaN vertex survives to upset bounding boxes downstream.
         keep = ~bad_vertex
@@ -79,10 +81,11 @@ def clean_triangles(positions, indices, normals, uvs, label):
                 | (indices[:, 0] == indices[:, 2]))
     if repeated.any():
         warnings.warn(f"{label}: dropped {int(repeated.sum())} degenerate triangles "
-                      "(repeated vertex index)", stacklevel=3)
+                      "(repeated vertex index)", SceneWarning, stacklevel=3)
         indices = indices[~repeated]
     if normals is not None and not np.isfinite(normals).all():
-        warnings.warn(f"{label}: non-finite vertex normals; using flat shading", stacklevel=3)
+        warnings.warn(f"{label}: non-finite vertex normals; using flat shading", SceneWarning,
+                      stacklevel=3)
         normals = None
     return positions, indices, normals, uvs
 
