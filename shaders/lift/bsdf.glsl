@@ -1,0 +1,352 @@
+// lift/bsdf.glsl: the BSDFs of lift-gl materials, in the local shading frame.
+//
+// Conventions
+//   - z is the shading normal; wo (towards the viewer) and wi (towards the light) both point
+//     AWAY from the surface. For a dielectric, wo.z < 0 means the viewer is inside the medium.
+//   - Diffuse and conductor are one-sided: zero when wo.z <= 0 or wi.z <= 0. The caller flips
+//     the frame to face wo for opaque surfaces.
+//   - Radiance transport (camera paths): a transmitted sample's weight and the transmission
+//     part of bsdf_eval carry the factor (n_wo / n_wi)^2 = 1 / etap^2, with
+//     etap = n(side of wi) / n(side of wo). Radiance is compressed by eta^2 when it enters a
+//     denser medium; the camera path follows it backwards.
+//   - Delta lobes (smooth conductor, smooth dielectric) are never returned by bsdf_eval or
+//     bsdf_pdf (both give 0). For a delta sample, BsdfSample.pdf is the discrete probability
+//     of the chosen lobe (1 for a mirror, F or 1 - F for glass), not a density; callers must
+//     not use it for MIS (is_delta tells them so).
+//
+// Feature defines (code for absent materials is not compiled; diffuse always is):
+//   HAS_CONDUCTOR          smooth conductors (mirror with exact or Schlick Fresnel)
+//   HAS_ROUGH_CONDUCTOR    GGX rough conductors; implies HAS_CONDUCTOR
+//   HAS_DIELECTRIC         smooth glass
+//   HAS_ROUGH_DIELECTRIC   GGX rough glass (Walter et al. 2007); implies HAS_DIELECTRIC
+// A material whose code is not compiled reflects nothing (bsdf_sample returns false).
+//
+// Material fields used (lift/scene_data.glsl): color_type.rgb = diffuse albedo / Schlick F0 /
+// transmission tint, color_type.w = MAT_*; emission_alpha.w = GGX alpha (0 = smooth; a
+// rough lobe uses max(alpha, BSDF_MIN_ALPHA)); eta_ior.rgb, k_pad.rgb = conductor complex
+// index (eta.r < 0: Schlick with F0 = colour); eta_ior.w = dielectric index of refraction
+// (inside over outside; the normal points outside).
+#ifndef LIFT_BSDF_GLSL
+#define LIFT_BSDF_GLSL
+
+#if defined(HAS_ROUGH_CONDUCTOR) && !defined(HAS_CONDUCTOR)
+#define HAS_CONDUCTOR
+#endif
+#if defined(HAS_ROUGH_DIELECTRIC) && !defined(HAS_DIELECTRIC)
+#define HAS_DIELECTRIC
+#endif
+
+#include "lift/scene_data.glsl"
+#include "lift/sampling.glsl"
+#if defined(HAS_CONDUCTOR) || defined(HAS_DIELECTRIC)
+#include "lift/fresnel.glsl"
+#endif
+#if defined(HAS_ROUGH_CONDUCTOR) || defined(HAS_ROUGH_DIELECTRIC)
+#include "lift/microfacet.glsl"
+#endif
+
+#define BSDF_MIN_ALPHA 1e-4
+
+struct BsdfSample {
+    vec3 wi;        // sampled direction (shading frame, away from the surface)
+    vec3 weight;    // f(wo, wi) |wi.z| / pdf, delta lobes included
+    float pdf;      // solid-angle density; for a delta lobe, the discrete lobe probability
+    bool is_delta;  // true for specular samples: no MIS, no light sampling
+};
+
+int bsdf_type(Material m) { return int(m.color_type.w + 0.5); }
+float bsdf_alpha(Material m) { return m.emission_alpha.w; }
+
+bool bsdf_is_delta(Material m) {
+    int type = bsdf_type(m);
+    return (type == MAT_CONDUCTOR || type == MAT_DIELECTRIC) && bsdf_alpha(m) <= 0.0;
+}
+
+// Mirror direction about the normal of the shading frame.
+vec3 bsdf_reflect_z(vec3 wo) { return vec3(-wo.x, -wo.y, wo.z); }
+
+// ================================ Diffuse (Lambert) ==================================
+vec3 diffuse_eval(Material m, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    return m.color_type.rgb * (LIFT_INV_PI * wi.z);
+}
+
+float diffuse_pdf(vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
+    return pdf_cosine_hemisphere(wi);
+}
+
+bool diffuse_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    if (wo.z <= 0.0) return false;
+    vec3 wi = sample_cosine_hemisphere(u);
+    if (wi.z <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = pdf_cosine_hemisphere(wi);
+    s.weight = m.color_type.rgb;  // (albedo / pi) cos / (cos / pi)
+    return true;
+}
+
+// ================================ Conductor ==========================================
+#ifdef HAS_CONDUCTOR
+vec3 conductor_fresnel(Material m, float cos_theta) {
+    if (m.eta_ior.r < 0.0) return fresnel_schlick(cos_theta, m.color_type.rgb);
+    return fresnel_conductor(cos_theta, m.eta_ior.rgb, m.k_pad.rgb);
+}
+
+// ---- Smooth conductor: a mirror ----
+bool conductor_smooth_sample(Material m, vec3 wo, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, true);
+    if (wo.z <= 0.0) return false;
+    s.wi = bsdf_reflect_z(wo);
+    s.weight = conductor_fresnel(m, wo.z);
+    s.pdf = 1.0;
+    return true;
+}
+
+#ifdef HAS_ROUGH_CONDUCTOR
+// ---- Rough conductor: GGX microfacet BRDF, f = D G2 F / (4 cos_o cos_i) ----
+vec3 conductor_rough_eval(Material m, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 h = normalize(wo + wi);
+    float D = ggx_D(h, alpha);
+    float G = ggx_G2(wo, wi, alpha);
+    // f cos_i: the cos_i of the BRDF's denominator cancels.
+    return conductor_fresnel(m, dot(wo, h)) * (D * G / (4.0 * wo.z));
+}
+
+float conductor_rough_pdf(Material m, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 h = normalize(wo + wi);
+    // Visible-normal density times the reflection Jacobian 1 / (4 wo.h); wo.h cancels.
+    return ggx_G1(wo, alpha) * ggx_D(h, alpha) / (4.0 * wo.z);
+}
+
+bool conductor_rough_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    if (wo.z <= 0.0) return false;
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 h = ggx_sample_visible(wo, alpha, u);
+    float wo_h = dot(wo, h);
+    if (wo_h <= 0.0) return false;
+    vec3 wi = 2.0 * wo_h * h - wo;
+    if (wi.z <= 0.0) return false;  // reflected below the horizon: masked, no sample
+    float pdf = ggx_G1(wo, alpha) * ggx_D(h, alpha) / (4.0 * wo.z);
+    if (!(pdf > 0.0) || isinf(pdf)) return false;
+    float g1 = ggx_G1(wo, alpha);
+    if (!(g1 > 0.0)) return false;
+    s.wi = wi;
+    s.pdf = pdf;
+    // f cos / pdf = F G2 / G1(wo): D and the Jacobians cancel.
+    s.weight = conductor_fresnel(m, wo_h) * (ggx_G2(wo, wi, alpha) / g1);
+    return true;
+}
+#endif  // HAS_ROUGH_CONDUCTOR
+#endif  // HAS_CONDUCTOR
+
+// ================================ Dielectric =========================================
+#ifdef HAS_DIELECTRIC
+// etap = n(side of wi) / n(side of wo) for a transmitted direction: ior from outside.
+float dielectric_etap(Material m, vec3 wo) { return wo.z > 0.0 ? m.eta_ior.w : 1.0 / m.eta_ior.w; }
+
+// ---- Smooth dielectric: Fresnel-weighted choice between mirror and refraction ----
+bool dielectric_smooth_sample(Material m, vec3 wo, float u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, true);
+    if (wo.z == 0.0) return false;
+    float ior = m.eta_ior.w;
+    float F = fresnel_dielectric(wo.z, ior);
+    if (u < F) {
+        s.wi = bsdf_reflect_z(wo);
+        s.weight = vec3(1.0);  // F / F
+        s.pdf = F;
+        return true;
+    }
+    float etap = dielectric_etap(m, wo);
+    float cos_o = abs(wo.z);
+    float sin2_t = max(0.0, 1.0 - cos_o * cos_o) / (etap * etap);
+    if (sin2_t >= 1.0) return false;  // unreachable: F = 1 under total internal reflection
+    float cos_t = sqrt(1.0 - sin2_t);
+    s.wi = normalize(vec3(-wo.xy / etap, wo.z > 0.0 ? -cos_t : cos_t));
+    s.weight = m.color_type.rgb / (etap * etap);  // (1 - F) / (1 - F), radiance scaling
+    s.pdf = 1.0 - F;
+    return true;
+}
+
+#ifdef HAS_ROUGH_DIELECTRIC
+// ---- Rough dielectric: GGX BRDF + BTDF (Walter et al. 2007), VNDF sampling from wo's side ----
+// Shared by eval and pdf: the microfacet normal (upper hemisphere) that maps wo to wi, or
+// false if none does (a back-facing microfacet, a grazing direction).
+bool dielectric_rough_half(Material m, vec3 wo, vec3 wi, out vec3 h, out bool is_reflection, out float etap) {
+    h = vec3(0.0, 0.0, 1.0);
+    is_reflection = wo.z * wi.z > 0.0;
+    etap = 1.0;
+    if (wo.z == 0.0 || wi.z == 0.0) return false;
+    if (!is_reflection) etap = dielectric_etap(m, wo);
+    // Generalised half vector: n_wi wi + n_wo wo (wo + wi for reflection).
+    vec3 hv = wi * etap + wo;
+    float len2 = dot(hv, hv);
+    if (!(len2 > 0.0)) return false;
+    h = hv * inversesqrt(len2);
+    if (h.z < 0.0) h = -h;
+    // Both directions must see the microfacet from the side their macro hemisphere sees.
+    if (dot(h, wi) * wi.z <= 0.0 || dot(h, wo) * wo.z <= 0.0) return false;
+    return true;
+}
+
+vec3 dielectric_rough_eval(Material m, vec3 wo, vec3 wi) {
+    vec3 h;
+    bool is_reflection;
+    float etap;
+    if (!dielectric_rough_half(m, wo, wi, h, is_reflection, etap)) return vec3(0.0);
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    float D = ggx_D(h, alpha);
+    float G = ggx_G2(wo, wi, alpha);
+    float wo_h = dot(wo, h);
+    float F = fresnel_dielectric(wo_h, m.eta_ior.w);
+    if (is_reflection) {
+        // D G F / (4 |cos_o| |cos_i|) * |cos_i|
+        return vec3(D * G * F / (4.0 * abs(wo.z)));
+    }
+    float wi_h = dot(wi, h);
+    float denom = wi_h + wo_h / etap;
+    denom = denom * denom * abs(wo.z);
+    if (!(denom > 0.0)) return vec3(0.0);
+    // D G (1 - F) |wi.h| |wo.h| / ((wi.h + wo.h / etap)^2 |cos_o| |cos_i|) * |cos_i| / etap^2
+    float ft = D * G * (1.0 - F) * abs(wi_h * wo_h) / denom / (etap * etap);
+    return m.color_type.rgb * ft;
+}
+
+float dielectric_rough_pdf(Material m, vec3 wo, vec3 wi) {
+    vec3 h;
+    bool is_reflection;
+    float etap;
+    if (!dielectric_rough_half(m, wo, wi, h, is_reflection, etap)) return 0.0;
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 wo_up = wo.z > 0.0 ? wo : -wo;  // VNDF is sampled from wo's side
+    float pdf_h = ggx_pdf_visible(wo_up, h, alpha);
+    float wo_h = dot(wo, h);
+    float F = fresnel_dielectric(wo_h, m.eta_ior.w);
+    if (is_reflection) {
+        return pdf_h * F / (4.0 * abs(wo_h));
+    }
+    float wi_h = dot(wi, h);
+    float denom = wi_h + wo_h / etap;
+    denom = denom * denom;
+    if (!(denom > 0.0)) return 0.0;
+    return pdf_h * (1.0 - F) * abs(wi_h) / denom;  // times the refraction Jacobian dh/dwi
+}
+
+bool dielectric_rough_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    if (wo.z == 0.0) return false;
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    float ior = m.eta_ior.w;
+    vec3 wo_up = wo.z > 0.0 ? wo : -wo;
+    vec3 h = ggx_sample_visible(wo_up, alpha, u.xy);
+    float wo_h = dot(wo, h);  // same sign as wo.z for a visible normal
+    if (wo_h * wo.z <= 0.0) return false;
+    float F = fresnel_dielectric(wo_h, ior);
+    float g1 = ggx_G1(wo, alpha);
+    float pdf_h = ggx_pdf_visible(wo_up, h, alpha);
+    if (!(g1 > 0.0) || !(pdf_h > 0.0) || isinf(pdf_h)) return false;
+    if (u.z < F) {
+        // ---- Reflection off the microfacet ----
+        vec3 wi = 2.0 * wo_h * h - wo;
+        if (wi.z * wo.z <= 0.0) return false;
+        s.wi = wi;
+        s.pdf = pdf_h * F / (4.0 * abs(wo_h));
+        s.weight = vec3(ggx_G2(wo, wi, alpha) / g1);  // F G2 / (F G1)
+        return true;
+    }
+    // ---- Refraction through the microfacet ----
+    float etap = dielectric_etap(m, wo);
+    float c = abs(wo_h);
+    float sin2_t = max(0.0, 1.0 - c * c) / (etap * etap);
+    if (sin2_t >= 1.0) return false;  // unreachable: F = 1 under total internal reflection
+    float cos_t = sqrt(1.0 - sin2_t);
+    vec3 hs = wo_h > 0.0 ? h : -h;  // microfacet normal on wo's side
+    vec3 wi = normalize(-wo / etap + (c / etap - cos_t) * hs);
+    if (wi.z * wo.z >= 0.0) return false;  // refracted into wo's hemisphere: masked
+    float wi_h = dot(wi, h);
+    float denom = wi_h + wo_h / etap;
+    denom = denom * denom;
+    if (!(denom > 0.0)) return false;
+    s.wi = wi;
+    s.pdf = pdf_h * (1.0 - F) * abs(wi_h) / denom;
+    if (!(s.pdf > 0.0) || isinf(s.pdf)) return false;
+    s.weight = m.color_type.rgb * (ggx_G2(wo, wi, alpha) / g1 / (etap * etap));
+    return true;
+}
+#endif  // HAS_ROUGH_DIELECTRIC
+#endif  // HAS_DIELECTRIC
+
+// ================================ Dispatch ===========================================
+vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
+    int type = bsdf_type(m);
+    if (type == MAT_DIFFUSE) return diffuse_eval(m, wo, wi);
+#ifdef HAS_ROUGH_CONDUCTOR
+    if (type == MAT_CONDUCTOR && bsdf_alpha(m) > 0.0) return conductor_rough_eval(m, wo, wi);
+#endif
+#ifdef HAS_ROUGH_DIELECTRIC
+    if (type == MAT_DIELECTRIC && bsdf_alpha(m) > 0.0) return dielectric_rough_eval(m, wo, wi);
+#endif
+    return vec3(0.0);  // delta lobes, or a material not compiled in
+}
+
+float bsdf_pdf(Material m, vec3 wo, vec3 wi) {
+    int type = bsdf_type(m);
+    if (type == MAT_DIFFUSE) return diffuse_pdf(wo, wi);
+#ifdef HAS_ROUGH_CONDUCTOR
+    if (type == MAT_CONDUCTOR && bsdf_alpha(m) > 0.0) return conductor_rough_pdf(m, wo, wi);
+#endif
+#ifdef HAS_ROUGH_DIELECTRIC
+    if (type == MAT_DIELECTRIC && bsdf_alpha(m) > 0.0) return dielectric_rough_pdf(m, wo, wi);
+#endif
+    return 0.0;
+}
+
+bool bsdf_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    int type = bsdf_type(m);
+    bool ok = false;
+    if (type == MAT_DIFFUSE) {
+        ok = diffuse_sample(m, wo, u.xy, s);
+    }
+#ifdef HAS_CONDUCTOR
+    else if (type == MAT_CONDUCTOR) {
+#ifdef HAS_ROUGH_CONDUCTOR
+        if (bsdf_alpha(m) > 0.0) ok = conductor_rough_sample(m, wo, u.xy, s);
+        else
+#endif
+        ok = conductor_smooth_sample(m, wo, s);
+    }
+#endif
+#ifdef HAS_DIELECTRIC
+    else if (type == MAT_DIELECTRIC) {
+#ifdef HAS_ROUGH_DIELECTRIC
+        if (bsdf_alpha(m) > 0.0) ok = dielectric_rough_sample(m, wo, u, s);
+        else
+#endif
+        ok = dielectric_smooth_sample(m, wo, u.z, s);
+    }
+#endif
+    // The last guard: a sample with a non-finite or negative weight is dropped, not returned.
+    if (ok && (any(isnan(s.weight)) || any(isinf(s.weight)) || any(lessThan(s.weight, vec3(0.0)))
+               || isnan(s.pdf) || isinf(s.pdf) || !(s.pdf > 0.0))) ok = false;
+    if (!ok) s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    return ok;
+}
+
+// A colour for the G-buffer's albedo channel (the denoiser's guide): what the surface
+// reflects at normal incidence.
+vec3 bsdf_albedo(Material m) {
+    int type = bsdf_type(m);
+#ifdef HAS_CONDUCTOR
+    if (type == MAT_CONDUCTOR) return conductor_fresnel(m, 1.0);
+#endif
+    return m.color_type.rgb;  // diffuse albedo; glass: its transmission tint
+}
+
+#endif

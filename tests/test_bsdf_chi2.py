@@ -1,0 +1,335 @@
+"""Statistical tests of shaders/lift/bsdf.glsl: does bsdf_sample draw directions with the
+density bsdf_pdf claims?
+
+Chi-square goodness of fit, as Mitsuba 3's `chi2` test does it: N directions are sampled in a
+shader and histogrammed on a (cos theta, phi) grid over the whole sphere; the expected count
+of each cell is N times the integral of bsdf_pdf over the cell (Gauss-Legendre on each cell,
+evaluated in a shader); cells expecting fewer than 5 samples are pooled; samples that
+bsdf_sample rejects form one more cell (expected: N (1 - integral of the pdf)). The p-value of
+Pearson's statistic is compared with a significance level corrected for the number of cases
+(Sidak), so the whole file fails by chance with probability SIGNIFICANCE.
+
+Besides the fit: each sample's weight must equal bsdf_eval / bsdf_pdf, and the pdf a sample
+reports must equal bsdf_pdf; the delta lobes (smooth conductor, smooth glass) are checked
+against the analytic directions and Fresnel reflectances.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from glsl_harness import (ALL_MATERIALS, MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, Kernel, material,
+                          source)
+from lift_gl.errors import ShaderError
+
+SAMPLES = 1 << 20
+N_COS, N_PHI = 48, 96          # histogram cells: cos theta in [-1, 1], phi in [0, 2 pi)
+GAUSS_ORDER = 8                # Gauss-Legendre nodes per cell and dimension
+MIN_EXPECTED = 5.0
+SIGNIFICANCE = 0.01
+# Float32 evaluation of the same expressions along two paths (sample vs eval/pdf).
+REL_TOL = 2e-3
+
+COS_O = (0.05, 0.3, 0.7, 1.0)
+CONDUCTOR_ALPHAS = (0.05, 0.2, 0.5, 1.0)
+DIELECTRIC_ALPHAS = (0.1, 0.3, 0.7)
+IOR = 1.5
+GOLD_ETA, GOLD_K = (0.143, 0.374, 1.442), (3.983, 2.385, 1.603)  # at ~ 650, 550, 450 nm
+
+
+def wo_from_cos(cos_o: float, inside: bool = False) -> tuple:
+    sin_o = np.sqrt(max(0.0, 1.0 - cos_o * cos_o))
+    return (float(sin_o), 0.0, float(-cos_o if inside else cos_o))
+
+
+# (id, material, wo): every case of the goodness-of-fit test.
+CASES = (
+    [(f"diffuse-cos{c}", material(MAT_DIFFUSE, color=(0.8, 0.6, 0.4)), wo_from_cos(c)) for c in COS_O]
+    + [(f"conductor-a{a}-cos{c}", material(MAT_CONDUCTOR, alpha=a, eta=GOLD_ETA, k=GOLD_K), wo_from_cos(c))
+       for a, c in itertools.product(CONDUCTOR_ALPHAS, COS_O)]
+    + [(f"dielectric-a{a}-{side}-cos{c}", material(MAT_DIELECTRIC, color=(0.9, 0.8, 1.0), alpha=a, ior=IOR),
+        wo_from_cos(c, side == "inside"))
+       for a, side, c in itertools.product(DIELECTRIC_ALPHAS, ("outside", "inside"), COS_O)]
+)
+CASE_SIGNIFICANCE = 1.0 - (1.0 - SIGNIFICANCE) ** (1.0 / len(CASES))
+
+SAMPLE_KERNEL = """
+layout(std430, binding = 10) writeonly buffer SampleDir { vec4 sample_dir[]; };  // wi, pdf (-1: none)
+layout(std430, binding = 11) writeonly buffer SampleWeight { vec4 sample_weight[]; };  // weight, is_delta
+layout(std430, binding = 12) writeonly buffer SampleEval { vec4 sample_eval[]; };  // eval(wi), pdf(wi)
+uniform vec3 u_wo;
+uniform uint u_seed;
+void main() {
+    uint i = invocation_index();
+    if (i >= u_count) return;
+    Material m = test_material();
+    Rng rng = rng_init(uvec2(i, 0u), 0u, 0u, u_seed);
+    BsdfSample s;
+    bool ok = bsdf_sample(m, u_wo, rng_next3(rng), s);
+    sample_dir[i] = vec4(s.wi, ok ? s.pdf : -1.0);
+    sample_weight[i] = vec4(s.weight, s.is_delta ? 1.0 : 0.0);
+    sample_eval[i] = vec4(bsdf_eval(m, u_wo, s.wi), bsdf_pdf(m, u_wo, s.wi));
+}
+"""
+
+# One invocation per rectangle of (cos theta, phi): the Gauss-Legendre integral of bsdf_pdf
+# over it, where the solid angle is d(cos theta) d(phi).
+PDF_KERNEL = """
+layout(std430, binding = 10) readonly buffer Rects { vec4 rects[]; };  // cos0, cos1, phi0, phi1
+layout(std430, binding = 11) writeonly buffer RectIntegral { float rect_integral[]; };
+uniform vec3 u_wo;
+uniform int u_order;
+uniform float u_nodes[16];    // on [-1, 1]
+uniform float u_weights[16];
+void main() {
+    uint r = invocation_index();
+    if (r >= u_count) return;
+    Material m = test_material();
+    vec4 rect = rects[r];
+    float cos_mid = 0.5 * (rect.x + rect.y), cos_half = 0.5 * (rect.y - rect.x);
+    float phi_mid = 0.5 * (rect.z + rect.w), phi_half = 0.5 * (rect.w - rect.z);
+    float total = 0.0;
+    for (int a = 0; a < u_order; ++a) {
+        float c = clamp(cos_mid + cos_half * u_nodes[a], -1.0, 1.0);
+        float s = sqrt(max(0.0, 1.0 - c * c));
+        float row = 0.0;
+        for (int b = 0; b < u_order; ++b) {
+            float phi = phi_mid + phi_half * u_nodes[b];
+            row += u_weights[b] * bsdf_pdf(m, u_wo, vec3(s * cos(phi), s * sin(phi), c));
+        }
+        total += u_weights[a] * row;
+    }
+    rect_integral[r] = total * cos_half * phi_half;
+}
+"""
+MAX_DEPTH = 10
+
+
+def sample(mat, wo, count=SAMPLES, seed=7, defines=ALL_MATERIALS):
+    out = Kernel(SAMPLE_KERNEL, defines).run(
+        count, outputs={10: (count, 4), 11: (count, 4), 12: (count, 4)},
+        uniforms={"u_material": mat, "u_wo": wo, "u_seed": seed})
+    return out[10], out[11], out[12]
+
+
+def integrate_rects(mat, wo, rects: np.ndarray, defines) -> np.ndarray:
+    nodes, weights = np.polynomial.legendre.leggauss(GAUSS_ORDER)
+    pad = np.zeros(16 - GAUSS_ORDER)
+    out = Kernel(PDF_KERNEL, defines).run(
+        len(rects), inputs={10: rects.astype(np.float32)}, outputs={11: (len(rects),)},
+        uniforms={"u_material": mat, "u_wo": wo, "u_order": GAUSS_ORDER,
+                  "u_nodes": np.concatenate([nodes, pad]).astype(np.float32),
+                  "u_weights": np.concatenate([weights, pad]).astype(np.float32)})
+    return out[11].astype(np.float64)
+
+
+def split4(rects: np.ndarray) -> np.ndarray:
+    """Each rectangle (cos0, cos1, phi0, phi1) -> its four quarters, consecutive."""
+    c0, c1, p0, p1 = rects.T
+    cm, pm = 0.5 * (c0 + c1), 0.5 * (p0 + p1)
+    quarters = [(c0, cm, p0, pm), (c0, cm, pm, p1), (cm, c1, p0, pm), (cm, c1, pm, p1)]
+    return np.stack([np.stack(q, axis=1) for q in quarters], axis=1).reshape(-1, 4)
+
+
+def pdf_cell_integrals(mat, wo, count=SAMPLES, defines=ALL_MATERIALS) -> np.ndarray:
+    """Integral of bsdf_pdf over each histogram cell, by adaptive cubature: a rectangle is
+    split in four until the quarters' sum agrees with the whole to well within the Poisson
+    noise of the cell's count (a tenth of a standard deviation), like Mitsuba's adaptive
+    Simpson. The pdf of a glossy lobe can be far narrower than a cell near the poles."""
+    i, j = np.meshgrid(np.arange(N_COS), np.arange(N_PHI), indexing="ij")
+    cell = (i * N_PHI + j).ravel()
+    dcos, dphi = 2.0 / N_COS, 2.0 * np.pi / N_PHI
+    rects = np.stack([-1.0 + i.ravel() * dcos, -1.0 + (i.ravel() + 1) * dcos,
+                      j.ravel() * dphi, (j.ravel() + 1) * dphi], axis=1)
+    whole = integrate_rects(mat, wo, rects, defines)
+    total = np.zeros(N_COS * N_PHI)
+    for depth in range(MAX_DEPTH):
+        quarters = split4(rects)
+        parts = integrate_rects(mat, wo, quarters, defines).reshape(-1, 4)
+        refined = parts.sum(axis=1)
+        tolerance = 0.1 * np.sqrt(np.maximum(refined * count, 1.0)) / count / 4.0 ** depth
+        done = (np.abs(refined - whole) <= tolerance) | (depth == MAX_DEPTH - 1)
+        np.add.at(total, cell[done], refined[done])
+        rects = quarters.reshape(-1, 4, 4)[~done].reshape(-1, 4)
+        whole = parts[~done].ravel()
+        cell = np.repeat(cell[~done], 4)
+        if len(rects) == 0:
+            break
+    return total.reshape(N_COS, N_PHI)
+
+
+def histogram(wi: np.ndarray) -> np.ndarray:
+    cos_t = np.clip(wi[:, 2], -1.0, 1.0)
+    phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), 2.0 * np.pi)
+    i = np.clip(((cos_t + 1.0) * 0.5 * N_COS).astype(np.int64), 0, N_COS - 1)
+    j = np.clip((phi / (2.0 * np.pi) * N_PHI).astype(np.int64), 0, N_PHI - 1)
+    return np.bincount(i * N_PHI + j, minlength=N_COS * N_PHI).reshape(N_COS, N_PHI).astype(np.float64)
+
+
+def pearson_chi2(observed: np.ndarray, expected: np.ndarray) -> tuple[float, int, float]:
+    """(statistic, degrees of freedom, p-value) after pooling cells expecting < MIN_EXPECTED."""
+    observed, expected = observed.ravel(), expected.ravel()
+    low = expected < MIN_EXPECTED
+    obs = list(observed[~low])
+    exp = list(expected[~low])
+    pooled_obs, pooled_exp = observed[low].sum(), expected[low].sum()
+    if pooled_exp >= MIN_EXPECTED:
+        obs.append(pooled_obs)
+        exp.append(pooled_exp)
+    elif exp:  # too little to stand alone: merge into the smallest cell
+        k = int(np.argmin(exp))
+        obs[k] += pooled_obs
+        exp[k] += pooled_exp
+    obs, exp = np.array(obs), np.array(exp)
+    statistic = float(np.sum((obs - exp) ** 2 / exp))
+    dof = len(obs) - 1
+    if dof < 1:
+        return statistic, dof, 1.0
+    return statistic, dof, float(stats.chi2.sf(statistic, dof))
+
+
+@pytest.mark.parametrize("name,mat,wo", CASES, ids=[c[0] for c in CASES])
+def test_sample_matches_pdf(name, mat, wo):
+    dirs, weights, evals = sample(mat, wo)
+    ok = dirs[:, 3] > 0.0
+    assert ok.any(), "bsdf_sample produced no samples"
+    integrals = pdf_cell_integrals(mat, wo)
+    total = integrals.sum()
+    assert total <= 1.0 + 1e-3, f"bsdf_pdf integrates to {total} > 1"
+    observed = histogram(dirs[ok, :3])
+    expected = integrals * SAMPLES
+    # Samples in cells where the pdf is zero everywhere are an error in their own right.
+    impossible = observed[integrals == 0.0].sum()
+    assert impossible == 0, f"{impossible:.0f} samples where bsdf_pdf is 0"
+    # The rejected samples: one more cell.
+    observed = np.append(observed.ravel(), SAMPLES - ok.sum())
+    expected = np.append(expected.ravel(), max(0.0, SAMPLES * (1.0 - total)))
+    statistic, dof, p = pearson_chi2(observed, expected)
+    assert p > CASE_SIGNIFICANCE, (f"chi2 = {statistic:.1f} with {dof} dof, p = {p:.3g} < {CASE_SIGNIFICANCE:.3g}; "
+                                   f"pdf integral {total:.5f}, accepted {ok.mean():.5f}")
+
+    # ---- each sample: weight = eval / pdf, sample pdf = bsdf_pdf ----
+    assert not weights[ok, 3].any(), "a rough lobe returned is_delta"
+    assert np.isfinite(weights[ok, :3]).all() and (weights[ok, :3] >= 0.0).all()
+    pdf_sample, pdf_eval = dirs[ok, 3].astype(np.float64), evals[ok, 3].astype(np.float64)
+    np.testing.assert_allclose(pdf_eval, pdf_sample, rtol=REL_TOL, err_msg="bsdf_pdf != BsdfSample.pdf")
+    expected_weight = evals[ok, :3] / pdf_sample[:, None]
+    np.testing.assert_allclose(weights[ok, :3], expected_weight, rtol=REL_TOL, atol=1e-6,
+                               err_msg="weight != bsdf_eval / bsdf_pdf")
+
+
+# ---- delta lobes: compared with analytic Fresnel (numpy, independent of the shader) --------
+def fresnel_dielectric_np(cos_i: float, eta: float) -> float:
+    if cos_i < 0.0:
+        cos_i, eta = -cos_i, 1.0 / eta
+    sin2_t = (1.0 - cos_i ** 2) / eta ** 2
+    if sin2_t >= 1.0:
+        return 1.0
+    cos_t = np.sqrt(1.0 - sin2_t)
+    r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    return 0.5 * (r_s ** 2 + r_p ** 2)
+
+
+def fresnel_conductor_np(cos_i: float, eta, k) -> np.ndarray:
+    """Complex Snell's law and the Fresnel amplitudes, in complex arithmetic."""
+    n = np.asarray(eta) + 1j * np.asarray(k)
+    sin2_i = 1.0 - cos_i ** 2
+    cos_t = np.sqrt(1.0 - sin2_i / n ** 2)
+    r_s = (cos_i - n * cos_t) / (cos_i + n * cos_t)
+    r_p = (n * cos_i - cos_t) / (n * cos_i + cos_t)
+    return 0.5 * (np.abs(r_s) ** 2 + np.abs(r_p) ** 2)
+
+
+DELTA_COUNT = 1 << 16
+
+
+@pytest.mark.parametrize("cos_o", COS_O)
+@pytest.mark.parametrize("schlick", [False, True], ids=["exact", "schlick"])
+def test_smooth_conductor_is_fresnel_mirror(cos_o, schlick):
+    f0 = (0.9, 0.6, 0.3)
+    mat = (material(MAT_CONDUCTOR, color=f0, alpha=0.0) if schlick
+           else material(MAT_CONDUCTOR, alpha=0.0, eta=GOLD_ETA, k=GOLD_K))
+    wo = wo_from_cos(cos_o)
+    dirs, weights, evals = sample(mat, wo, DELTA_COUNT)
+    assert (dirs[:, 3] > 0).all()
+    np.testing.assert_allclose(dirs[:, :3], np.tile([-wo[0], -wo[1], wo[2]], (DELTA_COUNT, 1)), atol=1e-6)
+    assert (weights[:, 3] == 1.0).all(), "a mirror sample must be marked delta"
+    if schlick:
+        expected = np.array(f0) + (1.0 - np.array(f0)) * (1.0 - cos_o) ** 5
+    else:
+        expected = fresnel_conductor_np(cos_o, GOLD_ETA, GOLD_K)
+    np.testing.assert_allclose(weights[:, :3], np.tile(expected, (DELTA_COUNT, 1)), rtol=1e-4, atol=1e-6)
+    assert (evals == 0.0).all(), "bsdf_eval and bsdf_pdf must be 0 for a delta lobe"
+
+
+SMOOTH_GLASS_CASES = [(c, side) for c in COS_O + (0.5,) for side in ("outside", "inside")]
+SMOOTH_GLASS_SIGNIFICANCE = 1.0 - (1.0 - SIGNIFICANCE) ** (1.0 / len(SMOOTH_GLASS_CASES))
+
+
+@pytest.mark.parametrize("cos_o,side", SMOOTH_GLASS_CASES)
+def test_smooth_dielectric_directions_and_fresnel(cos_o, side):
+    tint = np.array([0.9, 0.8, 1.0])
+    mat = material(MAT_DIELECTRIC, color=tint, alpha=0.0, ior=IOR)
+    wo = np.array(wo_from_cos(cos_o, side == "inside"))
+    dirs, weights, evals = sample(mat, tuple(wo), DELTA_COUNT)
+    assert (dirs[:, 3] > 0).all() and (weights[:, 3] == 1.0).all()
+    assert (evals == 0.0).all(), "bsdf_eval and bsdf_pdf must be 0 for a delta lobe"
+    wi = dirs[:, :3].astype(np.float64)
+    reflected = wi[:, 2] * wo[2] > 0
+    F = fresnel_dielectric_np(wo[2], IOR)
+    etap = IOR if wo[2] > 0 else 1.0 / IOR
+
+    # ---- the discrete choice: binomial with probability F ----
+    k = int(reflected.sum())
+    p = stats.binomtest(k, DELTA_COUNT, F).pvalue if 0.0 < F < 1.0 else float(k == DELTA_COUNT * (F == 1.0))
+    assert p > SMOOTH_GLASS_SIGNIFICANCE, f"{k} reflections of {DELTA_COUNT}, Fresnel {F:.5f}"
+    np.testing.assert_allclose(dirs[reflected, 3], F, rtol=1e-4)
+    np.testing.assert_allclose(dirs[~reflected, 3], 1.0 - F, rtol=1e-4, atol=1e-6)
+
+    # ---- directions: mirror; Snell's law with the azimuth turned by pi ----
+    np.testing.assert_allclose(wi[reflected], np.tile([-wo[0], -wo[1], wo[2]], (k, 1)), atol=1e-6)
+    np.testing.assert_allclose(weights[reflected, :3], 1.0, rtol=1e-6)
+    if k < DELTA_COUNT:
+        refracted = wi[~reflected]
+        sin_o = np.hypot(wo[0], wo[1])
+        sin_t = np.hypot(refracted[:, 0], refracted[:, 1])
+        np.testing.assert_allclose(sin_t * etap, sin_o, atol=1e-5)
+        assert (np.sign(refracted[:, 2]) == -np.sign(wo[2])).all()
+        if sin_o > 0:
+            np.testing.assert_allclose(refracted[:, 0] / sin_t, -wo[0] / sin_o, atol=1e-5)
+        # Radiance transport: the transmitted weight is tint / etap^2.
+        np.testing.assert_allclose(weights[~reflected, :3], np.tile(tint / etap ** 2, (DELTA_COUNT - k, 1)),
+                                   rtol=1e-5)
+
+
+# ---- compile-time features ---------------------------------------------------------------
+FLAGS = ("HAS_CONDUCTOR", "HAS_ROUGH_CONDUCTOR", "HAS_DIELECTRIC", "HAS_ROUGH_DIELECTRIC")
+
+
+@pytest.mark.parametrize("flags", [c for r in range(len(FLAGS) + 1) for c in itertools.combinations(FLAGS, r)],
+                         ids=lambda c: "+".join(f.removeprefix("HAS_") for f in c) or "diffuse-only")
+def test_every_variant_compiles_and_runs(flags):
+    dirs, weights, _ = sample(material(MAT_DIFFUSE), (0.0, 0.0, 1.0), 256, defines={f: True for f in flags})
+    assert (dirs[:, 3] > 0).all() and np.allclose(weights[:, :3], 1.0)
+
+
+def test_diffuse_only_compiles_no_conductor_or_glass_code():
+    text = source(SAMPLE_KERNEL, {}).text
+    for needle in ("fresnel_conductor", "fresnel_dielectric", "ggx_D", "conductor_", "dielectric_"):
+        assert needle not in text, f"{needle} is in a diffuse-only shader"
+    calls_conductor = SAMPLE_KERNEL.replace(
+        "sample_dir[i] = vec4(s.wi, ok ? s.pdf : -1.0);",
+        "sample_dir[i] = vec4(conductor_fresnel(m, 1.0), 0.0);")
+    with pytest.raises(ShaderError):
+        Kernel(calls_conductor, {})
+    Kernel(calls_conductor, {"HAS_CONDUCTOR": True})
+
+
+def test_uncompiled_material_reflects_nothing():
+    """A conductor in a shader built without HAS_CONDUCTOR gives no sample, not garbage."""
+    dirs, weights, evals = sample(material(MAT_CONDUCTOR, alpha=0.3), (0.0, 0.0, 1.0), 256, defines={})
+    assert (dirs[:, 3] < 0).all() and (weights[:, :3] == 0).all() and (evals == 0).all()
