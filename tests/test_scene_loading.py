@@ -74,6 +74,9 @@ def test_pbrt_fov_is_for_the_shorter_axis_and_unknown_directive_warns():
     np.testing.assert_allclose(s.spheres[0].radius, 0.25)
     gold = s.materials[s.spheres[0].material]
     assert gold.type == "conductor" and 0.8 < gold.alpha < 0.9  # pbrt-v3 remapped 0.3
+    # pbrt's LookAt puts camera +x = cross(up, dir) on the image's right: here world -x, so
+    # the wall at x = -1 appears on the RIGHT in pbrt, and must here too.
+    assert _project_x(s, s.meshes[0].positions.mean(axis=0)) > 0
 
 
 @pytest.mark.parametrize("name, line, text", [
