@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..accel.bvh import build_bvh
 from ..accel.cache import build_bvh_cached
 from .model import Scene
 
@@ -82,7 +83,7 @@ def _pad4(a: np.ndarray) -> np.ndarray:
 
 def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
     positions, normals, uvs, material_ids = _triangles(scene)
-    bvh = build_bvh_cached(positions, cache_dir=cache_dir)
+    bvh = build_bvh_cached(positions, cache_dir=cache_dir) if len(positions) else build_bvh(positions)
     order = bvh.order
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
     T, S = len(positions), len(scene.spheres)

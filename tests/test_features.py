@@ -1,0 +1,62 @@
+"""Leave out what the scene doesn't need: the trace shader of a diffuse-only scene holds no
+conductor or glass code, and `--explain` says which passes and features were chosen."""
+from __future__ import annotations
+
+import moderngl
+import pytest
+
+from conftest import furnace_scene
+from lift_gl.renderer import Renderer
+from lift_gl.scene import Material
+from lift_gl.scene.features import SceneFeatures
+
+# One function that only exists with each feature (shaders/lift/bsdf.glsl).
+PROBES = {
+    "conductor": "vec3 probe(Material m) { return conductor_fresnel(m, 1.0); }",
+    "rough conductor": "vec3 probe(Material m, vec3 w) { return conductor_rough_eval(m, w, w); }",
+    "dielectric": "float probe(Material m) { return dielectric_etap(m, vec3(0.0, 0.0, 1.0)); }",
+    "rough dielectric": "vec3 probe(Material m, vec3 w) { return dielectric_rough_eval(m, w, w); }",
+}
+
+
+def compiles(ctx, text):
+    try:
+        ctx.compute_shader(text).release()
+        return True
+    except moderngl.Error:
+        return False
+
+
+def test_diffuse_scene_compiles_no_conductor_or_glass_code():
+    renderer = Renderer(furnace_scene(Material("d", "diffuse")), size=(8, 8))
+    assert renderer.features == SceneFeatures(spheres=True, environment=True)
+    source = renderer.trace.source.text
+    for name, probe in PROBES.items():
+        assert not compiles(renderer.ctx, source + probe + "\n"), f"{name} code was compiled in"
+    assert "HAS_TEXTURES" not in source
+
+
+@pytest.mark.parametrize("material, present", [
+    (Material("c", "conductor", alpha=0.3), ["conductor", "rough conductor"]),
+    (Material("g", "dielectric", alpha=0.0), ["dielectric"]),
+])
+def test_features_follow_the_materials(material, present):
+    renderer = Renderer(furnace_scene(material), size=(8, 8))
+    source = renderer.trace.source.text
+    for name, probe in PROBES.items():
+        assert compiles(renderer.ctx, source + probe + "\n") == (name in present), name
+
+
+def test_everything_compiles_every_feature():
+    renderer = Renderer(furnace_scene(Material("d")), size=(8, 8), features=SceneFeatures.everything())
+    for name, probe in PROBES.items():
+        assert compiles(renderer.ctx, renderer.trace.source.text + probe + "\n"), name
+
+
+def test_explain_lists_passes_and_features():
+    text = Renderer(furnace_scene(Material("d")), size=(8, 8)).explain()
+    assert "gbuffer" in text and "trace" in text and "accumulate" in text
+    assert "+ spheres" in text and "- conductor" in text and "- dielectric" in text
+    camera_text = Renderer(furnace_scene(Material("d")), size=(8, 8), integrator="pt",
+                           samples_per_frame=1).explain()
+    assert "primary hit from gbuffer" in camera_text
