@@ -53,7 +53,8 @@ def test_plugin_path_env_and_dirs(tmp_path, monkeypatch):
     (GOOD.replace('primary = "camera"', 'primary = "raster"'), 5, "primary"),
     (GOOD.replace('type = "float"', 'type = "quaternion"'), 7, "type"),
     (GOOD.replace('entry = "mine.glsl"', 'entry = "missing.glsl"'), 4, "missing.glsl"),
-    (GOOD + "colour = 3\n", 14, "unknown key"),
+    ("colour = 3\n" + GOOD, 1, "unknown key"),
+    (GOOD + "extra = 3\n", 7, "unknown keys"),
     (GOOD.replace("default = 1.0", "default = 1.0.0"), 9, "malformed"),
     (GOOD.replace("default = 1.0", "default = 20.0"), 7, "outside"),
 ])
