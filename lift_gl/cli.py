@@ -116,13 +116,16 @@ def _add_plugins(sub):
 def cmd_plugins(args) -> int:
     from .plugins import discover
 
-    for name, plugin in sorted(discover(args.plugins).items()):
+    broken = {}
+    for name, plugin in sorted(discover(args.plugins, broken).items()):
         print(f"{name}  [{plugin.language}, primary={plugin.primary}]  {plugin.folder}")
         if plugin.description:
             print(f"    {plugin.description}")
         for p in plugin.params.values():
             bounds = "" if p.min is None and p.max is None else f" in [{p.min}, {p.max}]"
             print(f"    --set {name}.{p.name}=...  ({p.type}, default {p.default}{bounds}) {p.help}")
+    for folder, error in sorted(broken.items()):
+        print(f"{folder}  [broken] {error}")
     return 0
 
 

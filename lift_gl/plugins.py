@@ -174,24 +174,37 @@ def search_path(extra_dirs=()) -> list[Path]:
     return dirs
 
 
-def discover(extra_dirs=()) -> dict[str, Plugin]:
-    """All plugins by name; an earlier folder in the search path wins over a later one."""
+def discover(extra_dirs=(), broken: dict | None = None) -> dict[str, Plugin]:
+    """All plugins by name; an earlier folder in the search path wins over a later one.
+
+    A plugin with a bad manifest does not hide the others: its error goes into `broken`
+    (keyed by folder name) when a dict is given.
+    """
     found: dict[str, Plugin] = {}
     for d in reversed(search_path(extra_dirs)):
         if not d.is_dir():
             continue
         for folder in sorted(d.iterdir()):
             if (folder / "plugin.toml").is_file():
-                plugin = load_manifest(folder)
+                try:
+                    plugin = load_manifest(folder)
+                except PluginError as exc:
+                    if broken is not None:
+                        broken[folder.name] = exc
+                    continue
                 found[plugin.name] = plugin
     return found
 
 
 def find_plugin(name: str, extra_dirs=()) -> Plugin:
+    """A plugin by name, or by the path of its folder."""
     path = Path(name)
     if (path / "plugin.toml").is_file():
         return load_manifest(path)
-    plugins = discover(extra_dirs)
-    if name not in plugins:
-        raise PluginError(f"no plugin named {name!r}; found: {', '.join(sorted(plugins)) or 'none'}")
-    return plugins[name]
+    broken: dict[str, PluginError] = {}
+    plugins = discover(extra_dirs, broken)
+    if name in plugins:
+        return plugins[name]
+    if name in broken:
+        raise broken[name]
+    raise PluginError(f"no plugin named {name!r}; found: {', '.join(sorted(plugins)) or 'none'}")

@@ -103,3 +103,13 @@ def test_parameters_become_uniforms(tmp_path):
     assert abs(renderer.render(spp=1) - 0.5).max() == 0.0
     with pytest.raises(PluginError):
         renderer.set_params(nonexistent=1)
+
+
+def test_a_broken_manifest_hides_no_other_plugin(tmp_path):
+    make_plugin(tmp_path, manifest=GOOD.replace('language = "glsl"', 'language = "cuda"'))
+    broken = {}
+    plugins = discover([tmp_path], broken)
+    assert "pt" in plugins and "mine" in broken
+    with pytest.raises(PluginError) as err:
+        find_plugin("mine", [tmp_path])
+    assert err.value.line == 3
