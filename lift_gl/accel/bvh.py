@@ -75,9 +75,15 @@ def empty_bvh() -> BVH:
 
 
 def _box_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Half surface area (the factor 2 cancels in SAH ratios); empty boxes (lo > hi) give 0."""
+    """Half surface area (the factor 2 cancels in SAH ratios); empty boxes (lo > hi) give 0.
+
+    A tiny multiple of the squared half perimeter is added so that boxes flat in two axes
+    (triangles all on one line) still have a measure that favours even splits; with pure
+    area every split of such a node costs 0, SAH peels off one bin per level and the tree
+    hits the depth limit."""
     e = np.maximum(hi - lo, 0.0)      # empty: (-inf) - (+inf) = -inf -> 0
-    return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0]
+    p = e[..., 0] + e[..., 1] + e[..., 2]
+    return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0] + 1e-6 * p * p
 
 
 def _sah_sweep(n_rows: int, width: int, flat: np.ndarray, count: np.ndarray, lo: np.ndarray,
@@ -211,7 +217,7 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
                 n_left[sel] = np.where(np.isfinite(cost), nl, n_left[sel])
 
         area = _box_area(node_lo.astype(np.float64), node_hi.astype(np.float64))
-        # a flat-as-a-line node has area 0: every split then costs just the traversal
+        # only a node whose triangles are all one point has area 0; it has no plane split
         split_cost = TRAVERSAL_COST + np.divide(best_cost, area, out=np.zeros(n_act), where=area > 0)
         split_cost[~np.isfinite(best_cost)] = np.inf
         leaf_cost = act_count.astype(np.float64)

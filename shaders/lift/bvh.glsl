@@ -1,0 +1,184 @@
+#include "lift/scene_data.glsl"
+// lift/bvh.glsl: ray queries against the scene: the triangle BVH (built by
+// lift_gl/accel/bvh.py, layout in scene_data.glsl) and, with HAS_SPHERES, analytic spheres.
+#ifndef LIFT_BVH_GLSL
+#define LIFT_BVH_GLSL
+
+struct Ray { vec3 origin; vec3 dir; float tmin; float tmax; };   // dir normalized
+// prim: triangle id (index into the reordered triangle arrays), or u_num_triangles + sphere
+// index; NO_HIT when nothing was hit. bary = (b1, b2): p = (1-b1-b2)*p0 + b1*p1 + b2*p2.
+struct Hit { float t; uint prim; vec2 bary; };
+const uint NO_HIT = 0xffffffffu;
+
+// The build limits the tree to 48 levels, so a stack of 48 never overflows: it holds at most
+// one postponed sibling per level of the current path.
+#define LIFT_BVH_STACK 48
+
+// Möller–Trumbore. Updates t and returns true when the hit is in (ray.tmin, t).
+// Triangles seen exactly edge-on, and zero-area ones, have det == 0 and never hit.
+bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+    bary = vec2(0.0);
+    uint i = 3u * tri;
+    vec3 p0 = tri_pos[i].xyz;
+    vec3 e1 = tri_pos[i + 1u].xyz - p0;
+    vec3 e2 = tri_pos[i + 2u].xyz - p0;
+    vec3 pv = cross(ray.dir, e2);
+    float det = dot(e1, pv);
+    if (det == 0.0) return false;
+    float inv_det = 1.0 / det;
+    vec3 tv = ray.origin - p0;
+    float b1 = dot(tv, pv) * inv_det;
+    if (b1 < 0.0 || b1 > 1.0) return false;
+    vec3 qv = cross(tv, e1);
+    float b2 = dot(ray.dir, qv) * inv_det;
+    if (b2 < 0.0 || b1 + b2 > 1.0) return false;
+    float th = dot(e2, qv) * inv_det;
+    // written so that a NaN th (from a near-zero det) fails the test
+    if (!(th > ray.tmin && th < t)) return false;
+    t = th;
+    bary = vec2(b1, b2);
+    return true;
+}
+
+// Both roots of |o + t d - c|^2 = r^2 (inside a sphere the far root is the hit).
+// The discriminant is formed from the distance of the centre to the ray's line, which loses
+// far less precision than b*b - c when the sphere is small and far away.
+bool intersect_sphere(Ray ray, uint s, inout float t) {
+    vec4 cr = spheres[2u * s];
+    vec3 oc = ray.origin - cr.xyz;
+    float b = dot(oc, ray.dir);
+    vec3 q = oc - b * ray.dir;
+    float h = cr.w * cr.w - dot(q, q);
+    if (h < 0.0) return false;
+    h = sqrt(h);
+    float t0 = -b - h;
+    float t1 = -b + h;
+    if (t0 > ray.tmin && t0 < t) { t = t0; return true; }
+    if (t1 > ray.tmin && t1 < t) { t = t1; return true; }
+    return false;
+}
+
+// 1/dir with zero components replaced by a tiny value of the same sign: the slab distances
+// stay finite, so an origin lying on a slab plane gives 0 * big = 0 rather than 0 * inf = NaN.
+vec3 lift_bvh_inv_dir(vec3 d) {
+    vec3 s = mix(vec3(-1.0), vec3(1.0), greaterThanEqual(d, vec3(0.0)));
+    return 1.0 / (s * max(abs(d), vec3(1e-30)));
+}
+
+// Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
+bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
+    vec3 t0 = (bvh_nodes[2u * n].xyz - org) * inv;
+    vec3 t1 = (bvh_nodes[2u * n + 1u].xyz - org) * inv;
+    vec3 lo = min(t0, t1);
+    vec3 hi = max(t0, t1);
+    tn = max(max(lo.x, lo.y), max(lo.z, tmin));
+    float tf = min(min(hi.x, hi.y), min(hi.z, tmax));
+    return tn <= tf;
+}
+
+// Closest hit among triangles (BVH, nearer child first) and, with HAS_SPHERES, spheres.
+bool trace_closest(Ray ray, out Hit hit) {
+    hit.t = ray.tmax;
+    hit.prim = NO_HIT;
+    hit.bary = vec2(0.0);
+    float t = ray.tmax;
+#ifdef HAS_SPHERES
+    for (uint s = 0u; s < u_num_spheres; ++s) {
+        if (intersect_sphere(ray, s, t)) hit.prim = u_num_triangles + s;
+    }
+#endif
+    if (u_num_triangles > 0u) {
+        vec3 inv = lift_bvh_inv_dir(ray.dir);
+        uint stack_node[LIFT_BVH_STACK];
+        float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit
+        int sp = 0;
+        uint node = 0u;
+        float troot;
+        bool live = lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot);
+        while (live) {
+            uint first = floatBitsToUint(bvh_nodes[2u * node].w);
+            uint count = floatBitsToUint(bvh_nodes[2u * node + 1u].w);
+            if (count > 0u) {
+                for (uint i = first; i < first + count; ++i) {
+                    vec2 bary;
+                    if (intersect_triangle(ray, i, t, bary)) {
+                        hit.prim = i;
+                        hit.bary = bary;
+                    }
+                }
+            } else {
+                float ta, tb;
+                bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
+                bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
+                if (ha && hb) {
+                    bool a_first = ta <= tb;
+                    stack_node[sp] = a_first ? first + 1u : first;
+                    stack_t[sp] = a_first ? tb : ta;
+                    ++sp;
+                    node = a_first ? first : first + 1u;
+                    continue;
+                }
+                if (ha || hb) {
+                    node = ha ? first : first + 1u;
+                    continue;
+                }
+            }
+            // pop the next postponed node that may still hold something nearer than t
+            live = false;
+            while (sp > 0) {
+                --sp;
+                if (stack_t[sp] <= t) { node = stack_node[sp]; live = true; break; }
+            }
+        }
+    }
+    if (hit.prim != NO_HIT) {
+        hit.t = t;
+        if (hit.prim >= u_num_triangles) hit.bary = vec2(0.0);
+    }
+    return hit.prim != NO_HIT;
+}
+
+// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
+bool trace_occluded(Ray ray) {
+    float t = ray.tmax;
+#ifdef HAS_SPHERES
+    for (uint s = 0u; s < u_num_spheres; ++s) {
+        if (intersect_sphere(ray, s, t)) return true;
+    }
+#endif
+    if (u_num_triangles == 0u) return false;
+    vec3 inv = lift_bvh_inv_dir(ray.dir);
+    uint stack_node[LIFT_BVH_STACK];
+    int sp = 0;
+    float troot;
+    if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
+    uint node = 0u;
+    while (true) {
+        uint first = floatBitsToUint(bvh_nodes[2u * node].w);
+        uint count = floatBitsToUint(bvh_nodes[2u * node + 1u].w);
+        if (count > 0u) {
+            for (uint i = first; i < first + count; ++i) {
+                vec2 bary;
+                if (intersect_triangle(ray, i, t, bary)) return true;
+            }
+        } else {
+            float ta, tb;
+            bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
+            bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
+            if (ha && hb) {
+                stack_node[sp++] = first + 1u;
+                node = first;
+                continue;
+            }
+            if (ha || hb) {
+                node = ha ? first : first + 1u;
+                continue;
+            }
+        }
+        if (sp == 0) return false;
+        node = stack_node[--sp];
+    }
+    return false;
+}
+
+#endif

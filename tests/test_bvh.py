@@ -1,0 +1,407 @@
+"""BVH build (structure), traversal (numpy and GLSL) against trimesh's ray queries, spheres
+against the analytic answer, and the on-disk cache."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lift_gl.accel import bvh as bvh_mod
+from lift_gl.accel import cache as cache_mod
+from lift_gl.accel.bvh import MAX_DEPTH, MAX_LEAF, build_bvh, check_invariants, intersect_numpy
+
+N_RAYS = 3000
+MISMATCH_BOUND = 0.005   # fraction of rays allowed to disagree (rays grazing shared edges)
+
+
+def soup(n: int, seed: int, size: float = 0.08, degenerate: bool = True) -> np.ndarray:
+    """Random triangles in the unit cube, plus every kind of degenerate one."""
+    rng = np.random.default_rng(seed)
+    c = rng.random((n, 1, 3))
+    tris = c + size * rng.standard_normal((n, 3, 3))
+    if degenerate:
+        k = max(n // 20, 4)
+        idx = rng.choice(n, 4 * k, replace=False).reshape(4, k)
+        tris[idx[0]] = tris[idx[0], :1]                       # zero area: one point thrice
+        tris[idx[1], 1] = tris[idx[1], 0]                     # duplicated vertex
+        tris[idx[2], 2] = tris[idx[2], 0] + 0.37 * (tris[idx[2], 1] - tris[idx[2], 0])  # collinear
+        tris[idx[3]] = tris[idx[3] - 1]                       # exact duplicates of a neighbour
+    return tris.astype(np.float32)
+
+
+def random_rays(n: int, seed: int):
+    """Rays from around (and some inside) the unit cube, mostly towards points inside it."""
+    rng = np.random.default_rng(seed)
+    o = rng.uniform(-0.6, 1.6, (n, 3))
+    o[: n // 4] = rng.random((n // 4, 3))            # a quarter start inside the soup
+    d = rng.random((n, 3)) - o
+    d[-n // 4:] = rng.standard_normal((n // 4, 3))   # and a quarter in any direction: misses
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return o.astype(np.float32).astype(np.float64), d.astype(np.float32).astype(np.float64)
+
+
+def trimesh_closest(tris: np.ndarray, o: np.ndarray, d: np.ndarray):
+    """(t, tri) of the closest hit per ray from trimesh (inf, -1 for a miss)."""
+    trimesh = pytest.importorskip("trimesh")
+    pytest.importorskip("rtree")
+    from trimesh.ray.ray_triangle import RayMeshIntersector
+
+    mesh = trimesh.Trimesh(vertices=tris.reshape(-1, 3).astype(np.float64),
+                           faces=np.arange(3 * len(tris)).reshape(-1, 3), process=False)
+    tri, ray, loc = RayMeshIntersector(mesh).intersects_id(o, d, multiple_hits=False,
+                                                           return_locations=True)
+    t = np.full(len(o), np.inf)
+    out_tri = np.full(len(o), -1, np.int64)
+    t[ray] = np.einsum("ij,ij->i", loc - o[ray], d[ray])
+    out_tri[ray] = tri
+    return t, out_tri
+
+
+def disagreements(t_a, t_b, rtol=1e-4):
+    hit_a, hit_b = np.isfinite(t_a), np.isfinite(t_b)
+    bad = hit_a != hit_b
+    both = hit_a & hit_b
+    bad[both] |= ~np.isclose(t_a[both], t_b[both], rtol=rtol, atol=1e-6)
+    return bad
+
+
+# --- build ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 17, 1000, 20000])
+def test_structure_random_soup(n):
+    tris = soup(n, seed=n, degenerate=n >= 17)
+    b = build_bvh(tris)
+    check_invariants(b, tris[b.order])
+    assert b.count.max() <= MAX_LEAF
+    assert b.nodes[0, 0:3].tolist() == tris.reshape(-1, 3).min(axis=0).tolist()
+    assert b.nodes[0, 4:7].tolist() == tris.reshape(-1, 3).max(axis=0).tolist()
+
+
+def test_empty_input():
+    b = build_bvh(np.zeros((0, 3, 3), np.float32))
+    assert b.nodes.shape == (1, 8) and b.order.shape == (0,) and b.depth == 1
+    assert (b.nodes[0, 0:3] == 1).all() and (b.nodes[0, 4:7] == -1).all()
+    check_invariants(b, np.zeros((0, 3, 3), np.float32))
+    t, tri = intersect_numpy(b, np.zeros((0, 3, 3)), np.zeros((2, 3)), np.ones((2, 3)))
+    assert np.isinf(t).all() and (tri == -1).all()
+
+
+@pytest.mark.parametrize("kind", ["identical", "point", "line", "plane"])
+def test_degenerate_inputs(kind):
+    rng = np.random.default_rng(1)
+    n = 3000
+    if kind == "identical":      # no plane separates equal centroids: cut by count
+        tris = np.repeat(rng.random((1, 3, 3)), n, axis=0)
+    elif kind == "point":        # every triangle is the same point
+        tris = np.full((n, 3, 3), 0.25)
+    elif kind == "line":         # all on one line: zero-area boxes
+        tris = np.zeros((n, 3, 3))
+        tris[..., 0] = rng.random((n, 3))
+    else:                        # a flat scene
+        tris = rng.random((n, 3, 3))
+        tris[..., 2] = 0.5
+    tris = tris.astype(np.float32)
+    b = build_bvh(tris)
+    check_invariants(b, tris[b.order])
+    assert b.count.max() <= MAX_LEAF
+
+
+def test_nan_vertices_do_not_hang():
+    tris = soup(500, seed=3)
+    tris[::7, 1, 0] = np.nan
+    tris[::11, 2] = np.inf
+    b = build_bvh(tris)
+    assert b.depth <= MAX_DEPTH
+    check_invariants(b, tris[b.order])
+
+
+def test_depth_limit_forces_leaves():
+    tris = soup(2000, seed=4, degenerate=False)
+    b = build_bvh(tris, max_depth=5)
+    check_invariants(b, tris[b.order])
+    assert b.depth == 5 and b.count.max() > MAX_LEAF   # deep nodes became big leaves
+    # ...and the forced leaves still give the right answers
+    o, d = random_rays(300, seed=5)
+    full = build_bvh(tris)
+    t_a, _ = intersect_numpy(b, tris[b.order], o, d)
+    t_b, _ = intersect_numpy(full, tris[full.order], o, d)
+    assert not disagreements(t_a, t_b, rtol=1e-9).any()
+
+
+def test_layout_is_bit_exact_uint():
+    tris = soup(100, seed=6)
+    b = build_bvh(tris)
+    assert b.nodes.dtype == np.float32 and b.nodes.shape[1] == 8 and b.order.dtype == np.uint32
+    u = b.nodes.view(np.uint32)
+    interior = u[:, 7] == 0
+    assert (u[interior, 3] < len(b.nodes) - 1).all()
+    assert (u[~interior, 3] + u[~interior, 7]).max() == 100
+    # bit patterns, not float conversions: small ints as floats would be denormals
+    assert (b.nodes[~interior, 7] < 1e-30).all()
+
+
+def test_sah_beats_median_on_clustered_scene():
+    """Two far-apart clusters: the root must separate them (a sanity check that SAH, not a
+    count split, picks the planes)."""
+    a = soup(500, seed=7, size=0.01, degenerate=False) * 0.1
+    b_ = a + np.float32(100.0)
+    tris = np.concatenate([a, b_[:50]])
+    b = build_bvh(tris)
+    first = int(b.first[0])
+    sizes = b.nodes[[first, first + 1], 4:7] - b.nodes[[first, first + 1], 0:3]
+    assert (sizes.max(axis=1) < 50).all()
+
+
+# --- numpy traversal against trimesh ------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def scene():
+    tris = soup(4000, seed=11)
+    b = build_bvh(tris)
+    o, d = random_rays(N_RAYS, seed=12)
+    t_ref, tri_ref = trimesh_closest(tris, o, d)
+    return tris, b, o, d, t_ref, tri_ref
+
+
+def test_numpy_traversal_matches_trimesh(scene):
+    tris, b, o, d, t_ref, tri_ref = scene
+    assert np.isfinite(t_ref).mean() > 0.5          # the test is about hits, mostly
+    t, tri = intersect_numpy(b, tris[b.order], o, d)
+    bad = disagreements(t, t_ref)
+    assert bad.mean() < MISMATCH_BOUND, f"{bad.sum()} of {len(bad)} rays disagree"
+    same_t = ~bad & np.isfinite(t)
+    # same triangle, except where two triangles are hit at the same distance (duplicates)
+    assert (b.order[tri[same_t]] == tri_ref[same_t]).mean() > 0.97
+
+
+def test_numpy_traversal_tmin_tmax(scene):
+    tris, b, o, d, t_ref, _ = scene
+    hit = np.isfinite(t_ref)
+    # nothing before the closest hit, and the hit itself just inside tmax
+    t_short, _ = intersect_numpy(b, tris[b.order], o[hit], d[hit], tmax=0.999)
+    t_all, _ = intersect_numpy(b, tris[b.order], o[hit], d[hit])
+    assert ((t_short < 0.999) == (t_all < 0.999)).all()
+    # with tmin > 0 the nearest hit beyond tmin is found: brute force over all triangles
+    oh, dh = o[hit][:200], d[hit][:200]
+    t_next, _ = intersect_numpy(b, tris[b.order], oh, dh, tmin=0.7)
+    r = np.repeat(np.arange(len(oh)), len(tris))
+    p = np.tile(tris.astype(np.float64), (len(oh), 1, 1))
+    t_bf, _, _, ok = bvh_mod.moller_trumbore(p[:, 0], p[:, 1], p[:, 2], oh[r], dh[r])
+    t_bf = np.where(ok & (t_bf > 0.7), t_bf, np.inf).reshape(len(oh), len(tris)).min(axis=1)
+    assert (t_next[np.isfinite(t_next)] > 0.7).all()
+    assert disagreements(t_next, t_bf).sum() <= 1
+
+
+# --- GLSL ----------------------------------------------------------------------------------
+
+TEST_SHADER = """
+#include "lift/bvh.glsl"
+layout(local_size_x = 64) in;
+// two vec4 per ray: (origin, tmin), (dir, tmax)
+layout(std430, binding = 10) readonly buffer Rays { vec4 rays[]; };
+// two vec4 per ray: (t, prim bits, occluded, hit), (bary, 0, 0)
+layout(std430, binding = 11) writeonly buffer Results { vec4 results[]; };
+uniform uint u_num_rays;
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= u_num_rays) return;
+    vec4 a = rays[2u * i];
+    vec4 b = rays[2u * i + 1u];
+    Ray ray = Ray(a.xyz, b.xyz, a.w, b.w);
+    Hit hit;
+    bool found = trace_closest(ray, hit);
+    bool occluded = trace_occluded(ray);
+    results[2u * i] = vec4(hit.t, uintBitsToFloat(hit.prim), occluded ? 1.0 : 0.0, found ? 1.0 : 0.0);
+    results[2u * i + 1u] = vec4(hit.bary, 0.0, 0.0);
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def gl():
+    from lift_gl.gl.context import create_context
+    try:
+        return create_context()
+    except Exception as exc:  # no headless GL on this machine
+        pytest.skip(f"no OpenGL context: {exc}")
+
+
+def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None):
+    """Trace rays with lift/bvh.glsl; returns (t, prim, occluded, found, bary)."""
+    from lift_gl.shaders import assemble, compile_compute
+
+    defines = {"HAS_SPHERES": True} if spheres is not None else {}
+    prog = compile_compute(ctx, assemble(TEST_SHADER, defines=defines, main_name="test_bvh.comp"))
+    n = len(o)
+    rays = np.zeros((n, 2, 4), np.float32)
+    rays[:, 0, :3], rays[:, 0, 3] = o, tmin
+    rays[:, 1, :3], rays[:, 1, 3] = d, tmax
+    tri_buf = np.zeros((max(len(tris_reordered), 1), 3, 4), np.float32)
+    tri_buf[: len(tris_reordered), :, :3] = tris_reordered
+    sph = np.zeros((max(len(spheres) if spheres is not None else 0, 1), 2, 4), np.float32)
+    if spheres is not None and len(spheres):
+        sph[: len(spheres), 0] = spheres
+    dummy = np.zeros(16, np.float32)
+    data = {0: nodes, 1: tri_buf, 7: sph, 10: rays}
+    buffers = []
+    for binding in list(range(9)) + [10]:
+        buf = ctx.buffer(np.ascontiguousarray(data.get(binding, dummy)).tobytes())
+        buf.bind_to_storage_buffer(binding)
+        buffers.append(buf)
+    out = ctx.buffer(reserve=n * 32)
+    out.bind_to_storage_buffer(11)
+    buffers.append(out)
+    values = {"u_num_triangles": len(tris_reordered), "u_num_spheres": 0 if spheres is None else len(spheres),
+              "u_num_rays": n}
+    for name, value in values.items():
+        if prog.get(name, None) is not None:
+            prog[name].value = value
+    prog.run(group_x=(n + 63) // 64)
+    res = np.frombuffer(out.read(), np.float32).reshape(n, 2, 4).copy()
+    for buf in buffers:
+        buf.release()
+    prog.release()
+    prim = res[:, 0, 1].view(np.uint32)
+    return res[:, 0, 0], prim, res[:, 0, 2] > 0.5, res[:, 0, 3] > 0.5, res[:, 1, :2]
+
+
+NO_HIT = 0xFFFFFFFF
+
+
+def test_glsl_closest_matches_trimesh(gl, scene):
+    tris, b, o, d, t_ref, tri_ref = scene
+    t, prim, occluded, found, bary = run_glsl(gl, b.nodes, tris[b.order], o, d)
+    assert (found == (prim != NO_HIT)).all()
+    t = np.where(found, t, np.inf).astype(np.float64)
+    bad = disagreements(t, t_ref)
+    assert bad.mean() < MISMATCH_BOUND, f"{bad.sum()} of {len(bad)} rays disagree"
+    # trace_occluded with an unbounded interval: occluded exactly when something was hit
+    assert (occluded == found).mean() > 1 - MISMATCH_BOUND
+    # barycentrics rebuild the hit point
+    h = np.flatnonzero(found)
+    p = tris[b.order][prim[h]].astype(np.float64)
+    b1, b2 = bary[h, 0:1], bary[h, 1:2]
+    q = (1 - b1 - b2) * p[:, 0] + b1 * p[:, 1] + b2 * p[:, 2]
+    np.testing.assert_allclose(q, o[h] + t[h, None] * d[h], atol=1e-4)
+    assert (bary[h] >= 0).all() and (bary[h].sum(axis=1) <= 1 + 1e-6).all()
+
+
+def test_glsl_occluded_respects_interval(gl, scene):
+    tris, b, o, d, t_ref, _ = scene
+    hit = np.isfinite(t_ref)
+    oh, dh, th = o[hit], d[hit], t_ref[hit]
+    _, _, occ_short, found_short, _ = run_glsl(gl, b.nodes, tris[b.order], oh, dh, tmax=th * 0.999)
+    _, _, occ_long, _, _ = run_glsl(gl, b.nodes, tris[b.order], oh, dh, tmax=th * 1.001)
+    assert (~occ_short).mean() > 1 - MISMATCH_BOUND
+    assert (occ_short == found_short).all()          # both queries agree on the same interval
+    assert occ_long.mean() > 1 - MISMATCH_BOUND
+    # tmin beyond the whole scene: nothing
+    _, prim, occ, _, _ = run_glsl(gl, b.nodes, tris[b.order], oh, dh, tmin=10.0)
+    assert (prim == NO_HIT).all() and not occ.any()
+
+
+def test_glsl_empty_scene(gl):
+    b = build_bvh(np.zeros((0, 3, 3), np.float32))
+    o, d = random_rays(100, seed=13)
+    _, prim, occ, found, _ = run_glsl(gl, b.nodes, np.zeros((0, 3, 3), np.float32), o, d)
+    assert (prim == NO_HIT).all() and not occ.any() and not found.any()
+
+
+def sphere_reference(centers, radii, o, d, tmin=0.0):
+    """Nearest root in (tmin, inf) per ray and sphere index, in float64."""
+    oc = o[:, None, :] - centers[None]
+    b = np.einsum("rsk,rk->rs", oc, d)
+    c = np.einsum("rsk,rsk->rs", oc, oc) - radii[None] ** 2
+    disc = b * b - c
+    sq = np.sqrt(np.maximum(disc, 0))
+    t0, t1 = -b - sq, -b + sq
+    t = np.where(t0 > tmin, t0, np.where(t1 > tmin, t1, np.inf))
+    t[disc < 0] = np.inf
+    s = np.argmin(t, axis=1)
+    return t[np.arange(len(o)), s], s
+
+
+def test_glsl_spheres_analytic(gl):
+    rng = np.random.default_rng(14)
+    spheres = np.array([[0, 0, 0, 1.0], [3, 0, 0, 0.5], [0, 3, 1, 0.25], [0.5, 0.2, 0.1, 0.3]], np.float32)
+    n = 2000
+    o = rng.uniform(-4, 5, (n, 3))
+    o[:100] = rng.uniform(-0.4, 0.4, (100, 3))     # inside sphere 0 (and maybe 3): far roots
+    target = spheres[rng.integers(0, 4, n), :3] + rng.uniform(-0.8, 0.8, (n, 3))
+    d = target - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o, d = o.astype(np.float32).astype(np.float64), d.astype(np.float32).astype(np.float64)
+    t_ref, s_ref = sphere_reference(spheres[:, :3].astype(np.float64), spheres[:, 3].astype(np.float64), o, d)
+    assert 0.3 < np.isfinite(t_ref).mean() < 0.95
+
+    empty = build_bvh(np.zeros((0, 3, 3), np.float32))
+    t, prim, occ, found, _ = run_glsl(gl, empty.nodes, np.zeros((0, 3, 3), np.float32), o, d, spheres=spheres)
+    hit = np.isfinite(t_ref)
+    # grazing rays (discriminant ~ 0) may flip between hit and miss in float32
+    assert (found == hit).mean() > 0.998
+    both = found & hit
+    np.testing.assert_allclose(t[both], t_ref[both], rtol=1e-3, atol=1e-4)
+    assert (prim[both] == s_ref[both]).mean() > 0.998
+    assert (occ == found).all()
+
+    # spheres and triangles together: the nearer wins; sphere ids come after the triangles
+    tris = soup(300, seed=15, size=0.3, degenerate=False) * 3 - 1
+    b = build_bvh(tris)
+    t, prim, occ, found, _ = run_glsl(gl, b.nodes, tris[b.order], o, d, spheres=spheres)
+    t_tri, tri = intersect_numpy(b, tris[b.order], o, d)
+    expect_t = np.minimum(t_tri, t_ref)
+    expect_prim = np.where(t_ref < t_tri, len(tris) + s_ref, np.where(np.isfinite(t_tri), tri, NO_HIT))
+    ok = found == np.isfinite(expect_t)
+    assert ok.mean() > 0.995
+    both = found & np.isfinite(expect_t)
+    assert np.isclose(t[both], expect_t[both], rtol=1e-3, atol=1e-4).mean() > 0.995
+    assert (prim[both] == expect_prim[both]).mean() > 0.99
+    assert (occ == found).all()
+
+
+# --- cache ---------------------------------------------------------------------------------
+
+def test_cache_roundtrip_and_corruption(tmp_path, monkeypatch):
+    tris = soup(500, seed=16)
+    first = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+    files = list(tmp_path.glob("*.npz"))
+    assert len(files) == 1
+
+    def no_build(*a, **k):
+        raise AssertionError("should have been loaded from the cache")
+
+    monkeypatch.setattr(cache_mod, "build_bvh", no_build)
+    second = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+    assert np.array_equal(first.nodes.view(np.uint32), second.nodes.view(np.uint32))
+    assert np.array_equal(first.order, second.order) and first.depth == second.depth
+    monkeypatch.undo()
+
+    calls = []
+
+    def counting_build(p):
+        calls.append(1)
+        return build_bvh(p)
+
+    monkeypatch.setattr(cache_mod, "build_bvh", counting_build)
+    for garbage in (b"not a zip file", files[0].read_bytes()[:100], b""):
+        files[0].write_bytes(garbage)
+        third = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+        assert np.array_equal(first.nodes.view(np.uint32), third.nodes.view(np.uint32))
+    assert len(calls) == 3
+    # the rebuilt file is good again
+    cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+    assert len(calls) == 3
+    # different geometry, different entry
+    tris2 = tris.copy()
+    tris2[0, 0, 0] += 1
+    cache_mod.build_bvh_cached(tris2, cache_dir=tmp_path)
+    assert len(calls) == 4 and len(list(tmp_path.glob("*.npz"))) == 2
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_cache_default_dir_env(tmp_path, monkeypatch):
+    monkeypatch.setenv("LIFT_GL_CACHE_DIR", str(tmp_path))
+    assert cache_mod.default_cache_dir() == tmp_path / "bvh"
+    b = cache_mod.build_bvh_cached(soup(50, seed=17))
+    assert len(list((tmp_path / "bvh").glob("*.npz"))) == 1
+    empty = cache_mod.build_bvh_cached(np.zeros((0, 3, 3), np.float32))
+    assert empty.nodes.shape == (1, 8) and b.nodes.shape[0] > 1
