@@ -57,7 +57,7 @@ def _add_render(sub):
 
 
 def cmd_render(args) -> int:
-    from .image_io import write_image
+    from .image_io import write_image, write_srgb8
     from .renderer import Renderer
     from .scene.features import SceneFeatures
     from .scene.loader import load_scene
@@ -84,7 +84,10 @@ def cmd_render(args) -> int:
                             progress=progress)
     if progress is not None:
         progress.close()
-    write_image(args.out, image, exposure=args.exposure, tonemap=args.tonemap)
+    if args.out.lower().endswith(".png"):
+        write_srgb8(args.out, renderer.display(args.exposure, args.tonemap))
+    else:
+        write_image(args.out, image)
     print(f"{args.out}: {renderer.size[0]}x{renderer.size[1]}, {args.integrator}, {renderer.stats.summary()}")
     return 0
 

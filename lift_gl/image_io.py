@@ -81,6 +81,18 @@ def write_image(path, image, *, exposure: float = 0.0, tonemap: str = "aces",
     return path
 
 
+def write_srgb8(path, srgb8: np.ndarray) -> Path:
+    """Write an already display-encoded uint8 (H, W, 3) image, e.g. from the tonemap pass."""
+    from PIL import Image
+
+    path = Path(path)
+    if _extension(path) != ".png":
+        raise ImageError(f"{path}: display images are written as .png")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.ascontiguousarray(srgb8, dtype=np.uint8), mode="RGB").save(path)
+    return path
+
+
 def _write_png(path: Path, rgb: np.ndarray, exposure: float, operator: str) -> None:
     from PIL import Image
 

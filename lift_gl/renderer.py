@@ -18,6 +18,7 @@ from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
 from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
+from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
 from .plugins import find_plugin
 from .scene.features import SceneFeatures
@@ -64,6 +65,7 @@ class Renderer:
                                     self.packed.num_spheres) if uses_gbuffer else None)
         self.trace = TracePass(self.ctx, self.size, self.plugin, self.defines)
         self.accumulate = AccumulatePass(self.ctx, self.size)
+        self.tonemap = None  # created on the first display() call: headless float output needs none
         self.timers = {p.name: GpuTimer(self.ctx) for p in self.passes} if timers else None
         self.frame_index = 0
         self.stats = RenderStats()
@@ -89,7 +91,7 @@ class Renderer:
 
     @property
     def passes(self) -> list:
-        return [p for p in (self.gbuffer, self.trace, self.accumulate) if p is not None]
+        return [p for p in (self.gbuffer, self.trace, self.accumulate, self.tonemap) if p is not None]
 
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
@@ -100,7 +102,8 @@ class Renderer:
                  "passes:"]
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}",
-                   "accumulate": "still camera: exact running mean (compensated sum)"}
+                   "accumulate": "still camera: exact running mean (compensated sum)",
+                   "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
             lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(p.outputs)}: {reasons[p.name]}")
         if self.gbuffer is None:
@@ -168,6 +171,13 @@ class Renderer:
     def image(self) -> np.ndarray:
         """Mean radiance so far: float32 (H, W, 3), row 0 = top."""
         return self.accumulate.read_mean()
+
+    def display(self, exposure: float = 0.0, operator: str = "aces") -> np.ndarray:
+        """The mean so far tone-mapped on the GPU: uint8 sRGB (H, W, 3), row 0 = top."""
+        if self.tonemap is None:
+            self.tonemap = TonemapPass(self.ctx, self.size)
+        self.tonemap.run(self.accumulate, exposure, operator)
+        return self.tonemap.read()
 
     def aov(self, name: str) -> np.ndarray:
         """A G-buffer channel of the current frame, float32 (H, W, 3), row 0 = top."""
