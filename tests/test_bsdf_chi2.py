@@ -215,10 +215,39 @@ def test_sample_matches_pdf(name, mat, wo):
     assert not weights[ok, 3].any(), "a rough lobe returned is_delta"
     assert np.isfinite(weights[ok, :3]).all() and (weights[ok, :3] >= 0.0).all()
     pdf_sample, pdf_eval = dirs[ok, 3].astype(np.float64), evals[ok, 3].astype(np.float64)
-    np.testing.assert_allclose(pdf_eval, pdf_sample, rtol=REL_TOL, err_msg="bsdf_pdf != BsdfSample.pdf")
-    expected_weight = evals[ok, :3] / pdf_sample[:, None]
+    assert (pdf_eval > 0.0).all(), "bsdf_pdf is 0 at a direction bsdf_sample produced"
+    # Same microfacet normal on both sides of the ratio (eval and pdf both rebuild it from wo
+    # and wi), so the Fresnel terms cancel and float32 rounding is all that is left.
+    expected_weight = evals[ok, :3] / pdf_eval[:, None]
     np.testing.assert_allclose(weights[ok, :3], expected_weight, rtol=REL_TOL, atol=1e-6,
                                err_msg="weight != bsdf_eval / bsdf_pdf")
+    # The sample's pdf uses the sampled normal, bsdf_pdf the rebuilt one: near the critical
+    # angle, dF/dcos is unbounded and a rounding of the normal moves F by more than REL_TOL.
+    # Those few samples are left out of the comparison (and counted).
+    well_conditioned = critical_margin(np.array(wo), dirs[ok, :3].astype(np.float64), mat) > CRITICAL_MARGIN
+    assert well_conditioned.mean() > 0.99
+    np.testing.assert_allclose(pdf_eval[well_conditioned], pdf_sample[well_conditioned], rtol=REL_TOL,
+                               err_msg="bsdf_pdf != BsdfSample.pdf")
+
+
+# Float32 rounding moves sin^2(theta_t) by ~1e-6; near total internal reflection, 1 - F goes
+# like sqrt(1 - sin^2(theta_t)), so its relative error is ~ 5e-7 / margin: below REL_TOL / 4
+# when the margin exceeds 1e-3.
+CRITICAL_MARGIN = 1e-3
+
+
+def critical_margin(wo: np.ndarray, wi: np.ndarray, mat: np.ndarray) -> np.ndarray:
+    """|1 - sin^2(theta_t)| at the microfacet normal that maps wo to wi (dielectrics only)."""
+    if int(mat[0, 3]) != MAT_DIELECTRIC:
+        return np.full(len(wi), np.inf)
+    ior = float(mat[2, 3])
+    eta_wo = ior if wo[2] > 0 else 1.0 / ior
+    reflect = wi[:, 2] * wo[2] > 0
+    etap = np.where(reflect, 1.0, eta_wo)
+    h = wi * etap[:, None] + wo
+    h /= np.linalg.norm(h, axis=1, keepdims=True)
+    cos_h = np.abs(h @ wo)
+    return np.abs(1.0 - (1.0 - cos_h ** 2) / eta_wo ** 2)
 
 
 # ---- delta lobes: compared with analytic Fresnel (numpy, independent of the shader) --------
@@ -317,16 +346,26 @@ def test_every_variant_compiles_and_runs(flags):
     assert (dirs[:, 3] > 0).all() and np.allclose(weights[:, :3], 1.0)
 
 
-def test_diffuse_only_compiles_no_conductor_or_glass_code():
-    text = source(SAMPLE_KERNEL, {}).text
-    for needle in ("fresnel_conductor", "fresnel_dielectric", "ggx_D", "conductor_", "dielectric_"):
-        assert needle not in text, f"{needle} is in a diffuse-only shader"
-    calls_conductor = SAMPLE_KERNEL.replace(
-        "sample_dir[i] = vec4(s.wi, ok ? s.pdf : -1.0);",
-        "sample_dir[i] = vec4(conductor_fresnel(m, 1.0), 0.0);")
+# A function of each material's code, and the define set under which it must exist.
+MATERIAL_FUNCTIONS = {
+    "conductor_smooth_sample(m, u_wo, s)": ("HAS_CONDUCTOR",),
+    "conductor_rough_sample(m, u_wo, vec2(0.5), s)": ("HAS_ROUGH_CONDUCTOR",),
+    "dielectric_smooth_sample(m, u_wo, 0.5, s)": ("HAS_DIELECTRIC",),
+    "dielectric_rough_sample(m, u_wo, vec3(0.5), s)": ("HAS_ROUGH_DIELECTRIC",),
+}
+
+
+@pytest.mark.parametrize("call", list(MATERIAL_FUNCTIONS), ids=lambda c: c.split("(")[0])
+def test_material_code_exists_only_under_its_define(call):
+    kernel = SAMPLE_KERNEL.replace("bool ok = bsdf_sample(m, u_wo, rng_next3(rng), s);", f"bool ok = {call};")
+    assert kernel != SAMPLE_KERNEL
     with pytest.raises(ShaderError):
-        Kernel(calls_conductor, {})
-    Kernel(calls_conductor, {"HAS_CONDUCTOR": True})
+        Kernel(kernel, {})  # diffuse-only: no conductor or glass code at all
+    others = {f: True for f in FLAGS if f not in MATERIAL_FUNCTIONS[call] and "ROUGH" not in f}
+    if "ROUGH" in MATERIAL_FUNCTIONS[call][0]:
+        with pytest.raises(ShaderError):  # the smooth variant's define is not enough
+            Kernel(kernel, {MATERIAL_FUNCTIONS[call][0].replace("ROUGH_", ""): True})
+    Kernel(kernel, {MATERIAL_FUNCTIONS[call][0]: True, **others})
 
 
 def test_uncompiled_material_reflects_nothing():

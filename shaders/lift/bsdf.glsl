@@ -36,14 +36,13 @@
 #define HAS_DIELECTRIC
 #endif
 
+// Included whatever the defines: the assembler inlines an #include once, even inside an
+// inactive #if, so a conditional include here would hide these files from a later include.
+// Functions nobody calls cost nothing; the material code below is what the defines remove.
 #include "lift/scene_data.glsl"
 #include "lift/sampling.glsl"
-#if defined(HAS_CONDUCTOR) || defined(HAS_DIELECTRIC)
 #include "lift/fresnel.glsl"
-#endif
-#if defined(HAS_ROUGH_CONDUCTOR) || defined(HAS_ROUGH_DIELECTRIC)
 #include "lift/microfacet.glsl"
-#endif
 
 #define BSDF_MIN_ALPHA 1e-4
 
