@@ -110,7 +110,7 @@ bool trace_closest(Ray ray, out Hit hit) {
                 float ta, tb;
                 bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
                 bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-                if (ha && hb) {
+                if (ha && hb && sp < LIFT_BVH_STACK) {   // the bound holds by construction
                     bool a_first = ta <= tb;
                     stack_node[sp] = a_first ? first + 1u : first;
                     stack_t[sp] = a_first ? tb : ta;
@@ -165,7 +165,7 @@ bool trace_occluded(Ray ray) {
             float ta, tb;
             bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
             bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-            if (ha && hb) {
+            if (ha && hb && sp < LIFT_BVH_STACK) {
                 stack_node[sp++] = first + 1u;
                 node = first;
                 continue;
