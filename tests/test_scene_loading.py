@@ -27,7 +27,7 @@ def test_cornell_toml():
     assert types["glass"] == "dielectric" and types["gold"] == "conductor"
     assert s.materials[s.material_index("gold")].alpha == pytest.approx(0.09)
     light = next(m for m in s.meshes if m.name == "light")
-    np.testing.assert_allclose(s.materials[light.material].emission, [17, 12, 4])
+    np.testing.assert_allclose(s.materials[light.material].emission, [4.25, 3, 1])
     # The light faces down, the walls face into the box.
     assert geometric_normals(light.positions, light.indices)[0][1] < 0
     assert s.camera.fov_deg == 19.5
