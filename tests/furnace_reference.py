@@ -25,66 +25,58 @@ from __future__ import annotations
 import numpy as np
 
 
-def ggx_D(h: np.ndarray, alpha: float) -> np.ndarray:
-    """GGX normal distribution; h is (..., 3), unit."""
-    cos2 = h[..., 2] ** 2
+def ggx_D(cos_h: np.ndarray, alpha: float) -> np.ndarray:
+    """GGX normal distribution as a function of cos(theta_h)."""
+    cos2 = cos_h ** 2
     a2 = alpha * alpha
-    d = np.pi * (cos2 * (a2 - 1.0) + 1.0) ** 2
-    return np.where(h[..., 2] > 0.0, a2 / d, 0.0)
+    return np.where(cos_h > 0.0, a2 / (np.pi * (cos2 * (a2 - 1.0) + 1.0) ** 2), 0.0)
 
 
-def ggx_lambda(w: np.ndarray, alpha: float) -> np.ndarray:
-    """Smith Lambda of GGX: (sqrt(1 + alpha^2 tan^2(theta)) - 1) / 2."""
-    cos2 = w[..., 2] ** 2
+def ggx_lambda(cos_theta, alpha: float):
+    """Smith Lambda of GGX: (sqrt(1 + alpha^2 tan^2(theta)) - 1) / 2 (isotropic: only the
+    polar angle matters)."""
+    cos2 = np.asarray(cos_theta, dtype=np.float64) ** 2
     with np.errstate(divide="ignore", invalid="ignore"):
         tan2 = np.where(cos2 > 0.0, (1.0 - cos2) / cos2, np.inf)
     return 0.5 * (np.sqrt(1.0 + alpha * alpha * tan2) - 1.0)
 
 
-def ggx_G2(wo: np.ndarray, wi: np.ndarray, alpha: float) -> np.ndarray:
+def ggx_G2(cos_o, cos_i, alpha: float):
     """Height-correlated Smith masking-shadowing, 1 / (1 + Lambda(wo) + Lambda(wi))."""
-    return 1.0 / (1.0 + ggx_lambda(wo, alpha) + ggx_lambda(wi, alpha))
+    return 1.0 / (1.0 + ggx_lambda(cos_o, alpha) + ggx_lambda(cos_i, alpha))
 
 
-def _direction(mu: float) -> np.ndarray:
-    return np.array([np.sqrt(max(0.0, 1.0 - mu * mu)), 0.0, mu])
+def _nodes(n: int, lo: float, hi: float):
+    x, w = np.polynomial.legendre.leggauss(n)
+    return lo + 0.5 * (hi - lo) * (x + 1.0), 0.5 * (hi - lo) * w
 
 
 def ggx_directional_albedo(mu_o: float, alpha: float, n_theta: int = 1024, n_phi: int = 512) -> float:
     """E(mu_o, alpha) with F = 1, by Gauss-Legendre quadrature over (xi, phi) of the half vector."""
     if not (0.0 < mu_o <= 1.0) or alpha <= 0.0:
         raise ValueError("need 0 < mu_o <= 1 and alpha > 0")
-    wo = _direction(mu_o)
-    x, wx = np.polynomial.legendre.leggauss(n_theta)
-    y, wy = np.polynomial.legendre.leggauss(n_phi)
-    xi, w_xi = 0.5 * (x + 1.0), 0.5 * wx                 # [0, 1]
-    phi, w_phi = 0.5 * np.pi * (y + 1.0), 0.5 * np.pi * wy  # [0, pi]
+    sin_o = np.sqrt(max(0.0, 1.0 - mu_o * mu_o))  # wo = (sin_o, 0, mu_o)
+    xi, w_xi = _nodes(n_theta, 0.0, 1.0)
+    phi, w_phi = _nodes(n_phi, 0.0, np.pi)
     tan_h = alpha * np.sqrt(xi / (1.0 - xi))
-    cos_h = 1.0 / np.sqrt(1.0 + tan_h ** 2)
-    sin_h = tan_h * cos_h
-    h = np.stack(np.broadcast_arrays(sin_h[:, None] * np.cos(phi)[None, :],
-                                     sin_h[:, None] * np.sin(phi)[None, :],
-                                     cos_h[:, None]), axis=-1)
-    wo_h = h @ wo
-    wi = 2.0 * wo_h[..., None] * h - wo
-    valid = (wo_h > 0.0) & (wi[..., 2] > 0.0)
-    integrand = np.where(valid, ggx_G2(wo, wi, alpha) * wo_h / (mu_o * cos_h[:, None]), 0.0)
-    # Weights: xi, phi over [0, pi] doubled for the other half, divided by 2 pi.
+    cos_h = (1.0 / np.sqrt(1.0 + tan_h ** 2))[:, None]
+    sin_h = tan_h[:, None] * cos_h
+    wo_h = sin_o * sin_h * np.cos(phi)[None, :] + mu_o * cos_h
+    cos_i = 2.0 * wo_h * cos_h - mu_o  # wi = 2 (wo.h) h - wo
+    valid = (wo_h > 0.0) & (cos_i > 0.0)
+    integrand = np.where(valid, ggx_G2(mu_o, np.where(valid, cos_i, 1.0), alpha) * wo_h / (mu_o * cos_h), 0.0)
+    # phi over [0, pi] doubled for the other half, divided by 2 pi.
     return float(w_xi @ integrand @ w_phi / np.pi)
 
 
-def ggx_directional_albedo_direct(mu_o: float, alpha: float, n_theta: int = 512, n_phi: int = 256) -> float:
-    """The same integral taken over wi in (cos theta_i, phi): only accurate for wide lobes
+def ggx_directional_albedo_direct(mu_o: float, alpha: float, n_theta: int = 1024, n_phi: int = 512) -> float:
+    """The same integral taken over wi in (cos theta_i, phi_i): only accurate for wide lobes
     (alpha >~ 0.3), used to check the change of variables above."""
-    wo = _direction(mu_o)
-    x, wx = np.polynomial.legendre.leggauss(n_theta)
-    y, wy = np.polynomial.legendre.leggauss(n_phi)
-    mu_i, w_mu = 0.5 * (x + 1.0), 0.5 * wx
-    phi, w_phi = 0.5 * np.pi * (y + 1.0), 0.5 * np.pi * wy
-    sin_i = np.sqrt(1.0 - mu_i ** 2)
-    wi = np.stack(np.broadcast_arrays(sin_i[:, None] * np.cos(phi)[None, :],
-                                      sin_i[:, None] * np.sin(phi)[None, :], mu_i[:, None]), axis=-1)
-    h = wi + wo
-    h /= np.linalg.norm(h, axis=-1, keepdims=True)
-    f_cos = ggx_D(h, alpha) * ggx_G2(wo, wi, alpha) / (4.0 * mu_o)
+    sin_o = np.sqrt(max(0.0, 1.0 - mu_o * mu_o))
+    mu_i, w_mu = _nodes(n_theta, 0.0, 1.0)
+    phi, w_phi = _nodes(n_phi, 0.0, np.pi)
+    sin_i = np.sqrt(1.0 - mu_i ** 2)[:, None]
+    wo_wi = sin_o * sin_i * np.cos(phi)[None, :] + mu_o * mu_i[:, None]
+    cos_h = (mu_i[:, None] + mu_o) / np.sqrt(2.0 + 2.0 * wo_wi)  # h = (wo + wi) / |wo + wi|
+    f_cos = ggx_D(cos_h, alpha) * ggx_G2(mu_o, mu_i[:, None], alpha) / (4.0 * mu_o)
     return float(2.0 * (w_mu @ f_cos @ w_phi))
