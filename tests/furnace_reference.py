@@ -22,6 +22,8 @@ alpha. wo lies in the xz-plane, so the integrand is even in phi and phi runs ove
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 
@@ -46,8 +48,13 @@ def ggx_G2(cos_o, cos_i, alpha: float):
     return 1.0 / (1.0 + ggx_lambda(cos_o, alpha) + ggx_lambda(cos_i, alpha))
 
 
+@functools.lru_cache(maxsize=None)
+def _legendre(n: int):
+    return np.polynomial.legendre.leggauss(n)  # O(n^3): computed once per n
+
+
 def _nodes(n: int, lo: float, hi: float):
-    x, w = np.polynomial.legendre.leggauss(n)
+    x, w = _legendre(n)
     return lo + 0.5 * (hi - lo) * (x + 1.0), 0.5 * (hi - lo) * w
 
 
