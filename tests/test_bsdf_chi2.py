@@ -372,3 +372,105 @@ def test_uncompiled_material_reflects_nothing():
     """A conductor in a shader built without HAS_CONDUCTOR gives no sample, not garbage."""
     dirs, weights, evals = sample(material(MAT_CONDUCTOR, alpha=0.3), (0.0, 0.0, 1.0), 256, defines={})
     assert (dirs[:, 3] < 0).all() and (weights[:, :3] == 0).all() and (evals == 0).all()
+
+
+# ---- the building blocks: frame, warps and their pdfs, MIS weights ---------------------------
+HELPERS_KERNEL = """
+#include "lift/frame.glsl"
+layout(std430, binding = 10) readonly buffer Inputs { vec4 inputs[]; };
+layout(std430, binding = 11) writeonly buffer Outputs { vec4 outputs[]; };
+uniform int u_mode;
+void main() {
+    uint i = invocation_index();
+    if (i >= u_count) return;
+    vec4 x = inputs[i];
+    vec4 result = vec4(0.0);
+    if (u_mode == 0) {         // a frame round trip: (|t x b - n|, to_world(to_local(v)) error, t.n, b.n)
+        Frame f = frame_from_normal(normalize(x.xyz));
+        vec3 v = vec3(0.3, -0.5, 0.8);
+        result = vec4(length(cross(f.t, f.b) - f.n), length(to_world(f, to_local(f, v)) - v),
+                      dot(f.t, f.n), dot(f.b, f.n));
+    } else if (u_mode == 1) {  // uniform sphere: direction, pdf
+        vec3 w = sample_uniform_sphere(x.xy);
+        result = vec4(w, pdf_uniform_sphere(w));
+    } else if (u_mode == 2) {  // uniform triangle: barycentrics (b1, b2)
+        result = vec4(sample_uniform_triangle(x.xy), 0.0, 0.0);
+    } else if (u_mode == 3) {  // power heuristic
+        result = vec4(power_heuristic(x.x, x.y), 0.0, 0.0, 0.0);
+    } else {                   // concentric disk: point, pdf
+        result = vec4(sample_concentric_disk(x.xy), pdf_concentric_disk(), 0.0);
+    }
+    outputs[i] = result;
+}
+"""
+
+
+def run_helper(mode: int, inputs: np.ndarray) -> np.ndarray:
+    inputs = np.asarray(inputs, dtype=np.float32)
+    inputs = np.pad(inputs, ((0, 0), (0, 4 - inputs.shape[1])))
+    out = Kernel(HELPERS_KERNEL, {}).run(len(inputs), inputs={10: inputs}, outputs={11: (len(inputs), 4)},
+                                         uniforms={"u_mode": mode})
+    return out[11]
+
+
+def uniform_square(n: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).random((n, 2), dtype=np.float32)
+
+
+HELPER_SIGNIFICANCE = SIGNIFICANCE / 3  # three goodness-of-fit tests below (Bonferroni)
+
+
+def test_frame_is_orthonormal_and_round_trips():
+    rng = np.random.default_rng(3)
+    normals = rng.normal(size=(4096, 3))
+    normals = np.concatenate([normals, [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, 0, -1 + 1e-7], [1e-8, 0, -1]]])
+    out = run_helper(0, normals)
+    assert np.isfinite(out).all()
+    assert np.abs(out).max() < 1e-5, out[np.abs(out).max(axis=1).argmax()]
+
+
+def test_uniform_sphere_matches_its_pdf():
+    n = 1 << 18
+    out = run_helper(1, uniform_square(n, 1))
+    np.testing.assert_allclose(np.linalg.norm(out[:, :3], axis=1), 1.0, atol=1e-5)
+    np.testing.assert_allclose(out[:, 3], 1.0 / (4.0 * np.pi), rtol=1e-6)
+    observed = histogram(out[:, :3])
+    expected = np.full_like(observed, n / observed.size)  # equal-area cells in (cos theta, phi)
+    assert pearson_chi2(observed, expected)[2] > HELPER_SIGNIFICANCE
+
+
+def test_uniform_triangle_is_uniform():
+    n = 1 << 18
+    b = run_helper(2, uniform_square(n, 2))[:, :2].astype(np.float64)
+    assert (b >= 0).all() and (b.sum(axis=1) <= 1 + 1e-6).all()
+    # Cells of a 16 x 16 grid over the unit square, clipped to the triangle b1 + b2 <= 1: the
+    # expected count is proportional to each cell's area inside the triangle.
+    res = 16
+    i, j = (np.minimum((b * res).astype(int), res - 1)).T
+    observed = np.bincount(i * res + j, minlength=res * res).reshape(res, res).astype(np.float64)
+    ii, jj = np.meshgrid(np.arange(res), np.arange(res), indexing="ij")
+    s = ii + jj  # cell (i, j) is inside when s + 2 <= res, on the diagonal when s + 1 == res
+    area = np.where(s + 2 <= res, 1.0, np.where(s + 1 == res, 0.5, 0.0)) / res ** 2
+    expected = n * area / area.sum()
+    assert observed[area == 0].sum() == 0
+    assert pearson_chi2(observed[area > 0], expected[area > 0])[2] > HELPER_SIGNIFICANCE
+
+
+def test_concentric_disk_is_uniform():
+    n = 1 << 18
+    out = run_helper(4, uniform_square(n, 4)).astype(np.float64)
+    r2 = (out[:, :2] ** 2).sum(axis=1)
+    assert (r2 <= 1.0 + 1e-6).all()
+    np.testing.assert_allclose(out[:, 2], 1.0 / np.pi, rtol=1e-6)
+    # Uniform on the disk: r^2 and the angle are independent uniforms; 16 x 16 cells.
+    cells = (np.minimum((r2 * 16).astype(int), 15) * 16
+             + np.minimum((np.mod(np.arctan2(out[:, 1], out[:, 0]), 2 * np.pi) / (2 * np.pi) * 16).astype(int), 15))
+    observed = np.bincount(cells, minlength=256).astype(np.float64)
+    assert pearson_chi2(observed, np.full(256, n / 256))[2] > HELPER_SIGNIFICANCE
+
+
+def test_power_heuristic_values_and_guards():
+    inf = np.float32(np.inf)
+    pairs = np.array([[1, 1], [3, 1], [0, 0], [0, 2], [inf, 1], [1, inf], [inf, 0], [1e30, 1e30], [1e-30, 0]])
+    out = run_helper(3, pairs)[:, 0]
+    np.testing.assert_allclose(out, [0.5, 0.9, 0.0, 0.0, 1.0, 0.0, 1.0, 0.5, 1.0], rtol=1e-6)
