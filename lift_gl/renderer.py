@@ -134,6 +134,7 @@ class Renderer:
         uniforms = dict(self.scene_uniforms, **self.camera_uniforms,
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,
+                        u_sample_base=self.stats.spp,
                         u_jitter=jitter)
         with self._timed("trace"):
             self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None)

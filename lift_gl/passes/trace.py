@@ -26,6 +26,7 @@ uniform usampler2D u_visibility;
 uniform uint u_frame;
 uniform uint u_seed;
 uniform uint u_samples;
+uniform uint u_sample_base;  // samples per pixel accumulated before this frame
 uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 
 // ---- plugin parameters ----
@@ -73,7 +74,7 @@ void main() {{
     vec3 sum = vec3(0.0);
     float valid = 0.0;
     for (uint s = 0u; s < u_samples; ++s) {{
-        Rng rng = rng_init(uvec2(pixel), u_frame, s, u_seed);
+        Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed);
         Ray ray;
         Hit hit;
 #ifdef PRIMARY_GBUFFER

@@ -48,7 +48,8 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
-            if (sample_light(s.p, rng_next3(rng), ls)) {
+            // rng_ld2: low-discrepancy for the first light and BSDF samples of the path
+            if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls)) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
@@ -61,7 +62,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 
         // ---- BSDF sampling: the next direction ----
         BsdfSample bs;
-        if (!bsdf_sample(m, wo, rng_next3(rng), bs)) break;
+        if (!bsdf_sample(m, wo, vec3(rng_ld2(rng), rng_next(rng)), bs)) break;
         vec3 wi_world = to_world(frame, bs.wi);
         // A reflection that the shading normal allows but the true surface does not.
         if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wi_world, s.ng) * dot(wo_world, s.ng) <= 0.0) break;
