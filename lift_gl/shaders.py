@@ -56,16 +56,19 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
              main_name: str = "<generated>") -> ShaderSource:
     """Resolve includes of `main` (a path, or source text named `main_name`).
 
-    Each file is included once (include guards are not needed but are harmless).
+    Every `#include` is expanded where it stands, also inside `#if` blocks (the assembler
+    does not evaluate the preprocessor), so library files need include guards, as all of
+    `shaders/lift/` has; an include cycle is an error.
     """
     search = [Path(d) for d in include_dirs] + [SHADER_DIR]
     src = ShaderSource(text="")
-    seen: set[Path] = set()
+    open_files: list[Path] = []  # the include chain being expanded, to catch cycles
     out: list[str] = [GLSL_VERSION, _defines_block(defines)]
 
-    def add_file(text: str, path: Path, from_path: Path | None, from_line: int | None):
-        src.files.append(path)
-        number = len(src.files)
+    def add_file(text: str, path: Path):
+        if path not in src.files:
+            src.files.append(path)
+        number = src.files.index(path) + 1
         out.append(f"#line {number * LINE_BLOCK + 1}")
         for lineno, line in enumerate(text.splitlines(), start=1):
             if line.lstrip().startswith("#version"):
@@ -79,16 +82,19 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
             if target is None:
                 raise ShaderError(f'#include "{m.group(1)}" not found (searched {", ".join(map(str, search))})',
                                   path, lineno)
-            if target not in seen:
-                seen.add(target)
-                add_file(target.read_text(), target, path, lineno)
+            if target in open_files:
+                raise ShaderError(f'#include "{m.group(1)}" includes itself (through '
+                                  f'{" -> ".join(p.name for p in open_files)})', path, lineno)
+            open_files.append(target)
+            add_file(target.read_text(), target)
+            open_files.pop()
             out.append(f"#line {number * LINE_BLOCK + lineno + 1}")
 
     if isinstance(main, Path):
-        seen.add(main.resolve())
-        add_file(main.read_text(), main.resolve(), None, None)
+        open_files.append(main.resolve())
+        add_file(main.read_text(), main.resolve())
     else:
-        add_file(main, Path(main_name), None, None)
+        add_file(main, Path(main_name))
     src.text = "\n".join(out) + "\n"
     return src
 
