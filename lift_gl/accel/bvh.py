@@ -117,6 +117,10 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
               max_depth: int = MAX_DEPTH) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
+    More generally (T, K, 3): primitive i is bounded by the box of its K points. A moving
+    triangle passes its corners at shutter open and at shutter close, (T, 6, 3), and gets
+    the box it sweeps (a linear motion stays inside the union of the two end boxes).
+
     Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
     axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits. A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
@@ -126,8 +130,8 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     Non-finite coordinates are treated as 0 for the build (callers should drop such triangles).
     """
     pos = np.asarray(tri_positions, dtype=np.float32)
-    if pos.ndim != 3 or pos.shape[1:] != (3, 3):
-        raise ValueError(f"tri_positions must have shape (T, 3, 3), got {pos.shape}")
+    if pos.ndim != 3 or pos.shape[1] < 1 or pos.shape[2] != 3:
+        raise ValueError(f"tri_positions must have shape (T, 3, 3) or (T, K, 3), got {pos.shape}")
     n_tris = pos.shape[0]
     if n_tris == 0:
         return empty_bvh()

@@ -9,6 +9,7 @@ from ..scene.pack import PackedScene
 SCENE_BINDINGS = {
     "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
     "materials": 5, "lights": 6, "spheres": 7,
+    "prim_motion": 9,  # read only by shaders compiled with HAS_MOTION; one zero row otherwise
 }
 STATS_BINDING = 8
 STAT_DROPPED = 0

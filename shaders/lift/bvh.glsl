@@ -10,6 +10,24 @@ struct Ray { vec3 origin; vec3 dir; float tmin; float tmax; };   // dir normaliz
 struct Hit { float t; uint prim; vec2 bary; };
 const uint NO_HIT = 0xffffffffu;
 
+#ifdef HAS_MOTION
+// The moment the current rays see, as a fraction of the shutter interval: 0 = open,
+// 1 = close. One per invocation, like the ray it goes with: the host sets it for each camera
+// sample (primary = "camera"); it stays 0, the G-buffer's moment, otherwise. Every query
+// and surface lookup of this sample then sees the scene at that moment.
+float g_ray_time = 0.0;
+#endif
+
+// Where primitive `prim` (a triangle id, or u_num_triangles + sphere index) has moved to
+// from its stored position, at g_ray_time.
+vec3 prim_displacement(uint prim) {
+#ifdef HAS_MOTION
+    return g_ray_time * prim_motion[prim].xyz;
+#else
+    return vec3(0.0);
+#endif
+}
+
 // The build limits the tree to 48 levels, so a stack of 48 never overflows: it holds at most
 // one postponed sibling per level of the current path.
 #define LIFT_BVH_STACK 48
@@ -19,7 +37,7 @@ const uint NO_HIT = 0xffffffffu;
 bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
-    vec3 p0 = tri_pos[i].xyz;
+    vec3 p0 = tri_pos[i].xyz + prim_displacement(tri);
     vec3 e1 = tri_pos[i + 1u].xyz - p0;
     vec3 e2 = tri_pos[i + 2u].xyz - p0;
     vec3 pv = cross(ray.dir, e2);
@@ -45,7 +63,7 @@ bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
 // far less precision than b*b - c when the sphere is small and far away.
 bool intersect_sphere(Ray ray, uint s, inout float t) {
     vec4 cr = spheres[2u * s];
-    vec3 oc = ray.origin - cr.xyz;
+    vec3 oc = ray.origin - (cr.xyz + prim_displacement(u_num_triangles + s));
     float b = dot(oc, ray.dir);
     vec3 q = oc - b * ray.dir;
     float h = cr.w * cr.w - dot(q, q);

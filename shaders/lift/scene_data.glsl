@@ -39,6 +39,14 @@ layout(std430, binding = 6) readonly buffer Lights { vec4 lights[]; };
 // light selection probability, 0, 0).
 layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 
+#ifdef HAS_MOTION
+// Motion blur. The arrays above hold every primitive where it is when the shutter opens;
+// one vec4 per primitive (triangles in BVH order, then spheres) holds its displacement
+// (xyz, world space) from shutter open to shutter close; w is unused. Motion is a
+// translation, so normals, areas and light selection probabilities do not change.
+layout(std430, binding = 9) readonly buffer PrimMotion { vec4 prim_motion[]; };
+#endif
+
 // Counters the host reads back: [0] samples dropped as NaN/Inf.
 layout(std430, binding = 8) buffer Stats { uint stats[]; };
 
