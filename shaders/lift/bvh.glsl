@@ -37,14 +37,14 @@ vec3 prim_displacement(uint prim) {
 bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
-    vec3 p0 = tri_pos[i].xyz + prim_displacement(tri);
+    vec3 p0 = tri_pos[i].xyz;
     vec3 e1 = tri_pos[i + 1u].xyz - p0;
     vec3 e2 = tri_pos[i + 2u].xyz - p0;
     vec3 pv = cross(ray.dir, e2);
     float det = dot(e1, pv);
     if (det == 0.0) return false;
     float inv_det = 1.0 / det;
-    vec3 tv = ray.origin - p0;
+    vec3 tv = ray.origin - (p0 + prim_displacement(tri));  // a moving triangle: where it is now
     float b1 = dot(tv, pv) * inv_det;
     if (b1 < 0.0 || b1 > 1.0) return false;
     vec3 qv = cross(tv, e1);
