@@ -16,6 +16,7 @@ import pytest
 from scipy.optimize import least_squares
 
 from conftest import REPO, furnace_scene
+from sample_stats import block_means, welch_t
 from lift_gl.renderer import Renderer
 from lift_gl.scene import Camera, Material, Scene
 from lift_gl.scene.loader import load_scene
@@ -154,20 +155,6 @@ def test_motion_blur_spreads_an_edge_over_its_motion_extent():
 
 
 # ---------------------------------------------------------------- against pt and analytic values
-def _welch_t(a, b):
-    """t statistics of mean(a) - mean(b) along axis 0; 0 where both agree exactly and have
-    no variance (background or light pixels), inf where they disagree without variance."""
-    se = np.sqrt(a.var(ddof=1, axis=0) / len(a) + b.var(ddof=1, axis=0) / len(b))
-    diff = a.mean(axis=0) - b.mean(axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(se > 0, diff / se, np.where(np.abs(diff) < 1e-6, 0.0, np.inf))
-
-
-def _block_means(images, block=4):
-    k, h, w, c = images.shape
-    return images.reshape(k, h // block, block, w // block, block, c).mean(axis=(2, 4, 5))
-
-
 def _renders(scene, integrator, seeds, size, spp, **params):
     images = []
     for seed in seeds:
@@ -182,9 +169,9 @@ def _assert_same_expectation(a, b, what):
     """a, b: (K, H, W, 3) independent renders. The whole image and each 4x4 block agree
     within the standard errors of their means. With 2K - 2 = 14 degrees of freedom,
     P(|t| > 6) ~ 4e-5 per block: over 64 blocks a false alarm is a 1-in-400 event."""
-    whole = _welch_t(a.mean(axis=(1, 2, 3)), b.mean(axis=(1, 2, 3)))
+    whole = welch_t(a.mean(axis=(1, 2, 3)), b.mean(axis=(1, 2, 3)))
     assert abs(whole) < T_CRIT, f"{what}: image means differ by {whole:.2f} standard errors"
-    t = _welch_t(_block_means(a), _block_means(b))
+    t = welch_t(block_means(a), block_means(b))
     assert np.abs(t).max() < 6.0, f"{what}: worst block {np.abs(t).max():.2f} standard errors"
 
 
