@@ -234,3 +234,23 @@ def test_gbuffer_plugins_see_the_scene_at_shutter_open():
     # which of two triangles sharing an edge a grazing ray reports.
     close = np.isclose(moving, frozen, rtol=1e-4, atol=1e-5).all(axis=-1)
     assert close.mean() > 0.99, close.mean()
+
+
+def test_a_still_scene_compiled_with_every_feature_renders_the_same():
+    """`--all-features` compiles the motion code for a scene that has no motion buffer of
+    its own: it gets zero motion (never an out-of-bounds read), and the same image as the
+    specialised shader, within noise (the extra features change which random numbers go
+    where: the time sample, the environment's share of light samples)."""
+    scene = _room((0.5, 0.5))
+    K = 6
+    specialised = np.array([_render(scene, "drt", 10 + k, 8) for k in range(K)])
+    everything = []
+    for k in range(K):
+        r = Renderer(scene, size=SIZE, integrator="drt", seed=20 + k, features=SceneFeatures.everything())
+        assert r.buffers.motion is not None and "HAS_MOTION" in r.defines
+        everything.append(r.render(spp=8).astype(np.float64))
+        assert r.stats.dropped_samples == 0
+        r.release()
+    # 6 + 6 renders: two-sided p < 1e-3 at |t| > 4.6 (10 degrees of freedom).
+    t = welch_t(specialised.mean(axis=(1, 2, 3)), np.array(everything).mean(axis=(1, 2, 3)))
+    assert abs(t) < 4.6, t

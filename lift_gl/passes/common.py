@@ -9,9 +9,9 @@ from ..scene.pack import PackedScene
 SCENE_BINDINGS = {
     "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
     "materials": 5, "lights": 6, "spheres": 7,
-    "prim_motion": 9,  # read only by shaders compiled with HAS_MOTION; one zero row otherwise
 }
 STATS_BINDING = 8
+MOTION_BINDING = 9  # prim_motion, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
@@ -36,18 +36,28 @@ def set_uniforms(program, values: dict) -> None:
 
 
 class SceneBuffers:
-    """The packed scene uploaded as SSBOs, plus the statistics counters."""
+    """The packed scene uploaded as SSBOs, plus the statistics counters.
 
-    def __init__(self, ctx, packed: PackedScene):
+    `motion`: the shaders are compiled with HAS_MOTION (default: when the scene moves), so
+    they read prim_motion. A still scene compiled with every feature gets zero motion."""
+
+    def __init__(self, ctx, packed: PackedScene, motion: bool | None = None):
         self.packed = packed
         self.buffers = {name: ctx.buffer(np.ascontiguousarray(getattr(packed, name)).tobytes())
                         for name in SCENE_BINDINGS}
+        self.motion = None
+        if packed.has_motion if motion is None else motion:
+            rows = packed.prim_motion if packed.has_motion else np.zeros(
+                (max(packed.num_triangles + packed.num_spheres, 1), 4), np.float32)
+            self.motion = ctx.buffer(np.ascontiguousarray(rows).tobytes())
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()
 
     def bind(self) -> None:
         for name, binding in SCENE_BINDINGS.items():
             self.buffers[name].bind_to_storage_buffer(binding)
+        if self.motion is not None:
+            self.motion.bind_to_storage_buffer(MOTION_BINDING)
         self.stats.bind_to_storage_buffer(STATS_BINDING)
 
     def uniforms(self, environment_radiance) -> dict:
@@ -64,6 +74,8 @@ class SceneBuffers:
     def release(self) -> None:
         for b in self.buffers.values():
             b.release()
+        if self.motion is not None:
+            self.motion.release()
         self.stats.release()
 
 

@@ -35,7 +35,8 @@ class PackedScene:
     num_spheres: int
     num_lights: int
     # One row per primitive (triangles in BVH order, then spheres): xyz = displacement from
-    # shutter open to shutter close, w = 0. One zero row when nothing moves (has_motion False).
+    # shutter open to shutter close, w = 0. One zero row when nothing moves (has_motion False):
+    # the motion buffer is then not uploaded (lift_gl/passes/common.py).
     prim_motion: np.ndarray = field(default_factory=lambda: np.zeros((1, 4), np.float32))  # (T + S, 4)
     has_motion: bool = False
 
