@@ -116,7 +116,7 @@ def _moving_soup(n=300, seed=5):
     return Scene(camera=camera, materials=[Material("m")], meshes=meshes, spheres=[s])
 
 
-def test_pack_stores_shutter_open_positions_and_the_swept_bvh_bounds_both_ends():
+def test_pack_stores_shutter_open_positions_and_bvh_boxes_at_open_and_close():
     scene = _moving_soup()
     packed = pack_scene(scene)
     assert packed.has_motion
@@ -131,19 +131,37 @@ def test_pack_stores_shutter_open_positions_and_the_swept_bvh_bounds_both_ends()
     key = {tuple(np.round(t.ravel(), 4)): i for i, t in enumerate(at_open)}
     order = np.array([key[tuple(np.round(t.ravel(), 4))] for t in packed.tri_pos[:T, :, :3].astype(np.float64)])
     assert sorted(order) == list(range(T))
-    np.testing.assert_allclose(packed.prim_motion[:T, :3], velocity[order] * (close - open_), rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(packed.motion[:T, :3], velocity[order] * (close - open_), rtol=1e-6, atol=1e-6)
     np.testing.assert_allclose(packed.spheres[0, 0, :3], [0, open_ * 3.0, 0], atol=1e-6)
-    np.testing.assert_allclose(packed.prim_motion[T, :3], [0, 3.0 * (close - open_), 0], atol=1e-6)
-    # The BVH is valid for both ends of the motion: each leaf box holds its triangles at
-    # shutter open and at shutter close (so, for a linear motion, at every moment between).
+    np.testing.assert_allclose(packed.motion[T, :3], [0, 3.0 * (close - open_), 0], atol=1e-6)
+    # One tree, two sets of boxes: at shutter open (bvh_nodes) and close (after the
+    # primitives' rows in `motion`). Each holds its triangles at that moment, and so does
+    # their blend at any moment between (checked at a few), as the GPU blends them.
     start = packed.tri_pos[:T, :, :3]
-    end = start + packed.prim_motion[:T, None, :3]
+    move = packed.motion[:T, None, :3]
+    close_rows = packed.motion[T + len(scene.spheres):]
     from lift_gl.accel.bvh import BVH
-    bvh = BVH(nodes=packed.bvh_nodes, order=np.arange(T, dtype=np.uint32), depth=packed.bvh_depth)
-    check_invariants(bvh, start)
-    check_invariants(bvh, end)
+    for t in (0.0, 0.3, 0.75, 1.0):
+        nodes = packed.bvh_nodes.copy()
+        nodes[:, 0:3] = (1 - t) * nodes[:, 0:3] + t * close_rows[0::2, :3]
+        nodes[:, 4:7] = (1 - t) * nodes[:, 4:7] + t * close_rows[1::2, :3]
+        bvh = BVH(nodes=nodes, order=np.arange(T, dtype=np.uint32), depth=packed.bvh_depth)
+        check_invariants(bvh, start + np.float32(t) * move)
     # The scene bounds hold the sphere at both ends.
     assert packed.bounds[1][1] >= 0.5 + 3.0 * close - 1e-6 and packed.bounds[0][1] <= open_ * 3.0 - 0.5 + 1e-6
+
+
+def test_node_boxes_of_a_rigid_motion_just_move():
+    """One mesh moving as a whole: its node boxes at shutter close are those at open moved
+    by the displacement (to the padding), not stretched along the path as swept boxes are."""
+    m = box([0, 0, 0], [1, 1, 1], material=0)
+    m.velocity = np.array([3.0, -1.0, 0.5])
+    scene = Scene(camera=Camera(position=[0, 0, 9], target=[0, 0, 0]), materials=[Material("m")], meshes=[m])
+    packed = pack_scene(scene)
+    close = packed.motion[packed.num_triangles:]
+    np.testing.assert_allclose(close[0::2, :3], packed.bvh_nodes[:, 0:3] + m.velocity, atol=1e-5)
+    np.testing.assert_allclose(close[1::2, :3], packed.bvh_nodes[:, 4:7] + m.velocity, atol=1e-5)
+    np.testing.assert_allclose(packed.bvh_nodes[0, 0:3], [-0.5] * 3, atol=1e-5)
 
 
 def test_a_still_scene_packs_as_before():
@@ -151,13 +169,13 @@ def test_a_still_scene_packs_as_before():
     for o in (*scene.meshes, *scene.spheres):
         o.velocity = None
     packed = pack_scene(scene)
-    assert not packed.has_motion and packed.prim_motion.shape == (1, 4)
+    assert not packed.has_motion and packed.motion is None
     assert not SceneFeatures.of(scene).motion
 
 
 def test_motion_code_is_compiled_only_for_moving_scenes():
     scene = _moving_soup(24)
-    probe = "vec4 probe(uint i) { return prim_motion[i]; }\n"
+    probe = "vec4 probe(uint i) { return motion[i]; }\n"
     import moderngl
     for moving in (True, False):
         if not moving:
@@ -254,3 +272,13 @@ def test_a_still_scene_compiled_with_every_feature_renders_the_same():
     # 6 + 6 renders: two-sided p < 1e-3 at |t| > 4.6 (10 degrees of freedom).
     t = welch_t(specialised.mean(axis=(1, 2, 3)), np.array(everything).mean(axis=(1, 2, 3)))
     assert abs(t) < 4.6, t
+
+
+def test_refit_over_the_build_positions_gives_the_build_boxes():
+    from lift_gl.accel.bvh import build_bvh, refit_boxes
+    rng = np.random.default_rng(9)
+    tris = (rng.random((500, 1, 3)) + 0.05 * rng.standard_normal((500, 3, 3))).astype(np.float32)
+    bvh = build_bvh(tris)
+    lo, hi = refit_boxes(bvh, tris[bvh.order])
+    np.testing.assert_array_equal(lo, bvh.bmin)
+    np.testing.assert_array_equal(hi, bvh.bmax)

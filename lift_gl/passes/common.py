@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.pack import PackedScene
+from ..scene.pack import PackedScene, still_motion
 
 # Binding points declared in shaders/lift/scene_data.glsl.
 SCENE_BINDINGS = {
@@ -11,7 +11,7 @@ SCENE_BINDINGS = {
     "materials": 5, "lights": 6, "spheres": 7,
 }
 STATS_BINDING = 8
-MOTION_BINDING = 9  # prim_motion, declared (and bound) only with HAS_MOTION
+MOTION_BINDING = 9  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
@@ -39,7 +39,7 @@ class SceneBuffers:
     """The packed scene uploaded as SSBOs, plus the statistics counters.
 
     `motion`: the shaders are compiled with HAS_MOTION (default: when the scene moves), so
-    they read prim_motion. A still scene compiled with every feature gets zero motion."""
+    they read `motion`. A still scene compiled with every feature gets still_motion()."""
 
     def __init__(self, ctx, packed: PackedScene, motion: bool | None = None):
         self.packed = packed
@@ -47,8 +47,7 @@ class SceneBuffers:
                         for name in SCENE_BINDINGS}
         self.motion = None
         if packed.has_motion if motion is None else motion:
-            rows = packed.prim_motion if packed.has_motion else np.zeros(
-                (max(packed.num_triangles + packed.num_spheres, 1), 4), np.float32)
+            rows = packed.motion if packed.has_motion else still_motion(packed)
             self.motion = ctx.buffer(np.ascontiguousarray(rows).tobytes())
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()

@@ -2,15 +2,18 @@
 
 Triangles of all meshes are concatenated in world space and reordered into BVH leaf order.
 Moving objects (motion blur) are stored where they are when the shutter opens, plus their
-displacement until it closes (`prim_motion`); the BVH bounds the boxes they sweep.
+displacement until it closes (`motion`). One BVH serves the whole shutter interval: its
+topology is built over the boxes the triangles sweep, and each node keeps two boxes, at
+shutter open (in `bvh_nodes`) and at shutter close (in `motion`); a ray at time t tests the
+blend of the two, which bounds every triangle below the node at t (motion is linear).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..accel.bvh import build_bvh
+from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached
 from .model import Scene
 
@@ -34,10 +37,11 @@ class PackedScene:
     num_triangles: int
     num_spheres: int
     num_lights: int
-    # One row per primitive (triangles in BVH order, then spheres): xyz = displacement from
-    # shutter open to shutter close, w = 0. One zero row when nothing moves (has_motion False):
-    # the motion buffer is then not uploaded (lift_gl/passes/common.py).
-    prim_motion: np.ndarray = field(default_factory=lambda: np.zeros((1, 4), np.float32))  # (T + S, 4)
+    # Motion blur (shaders/lift/scene_data.glsl): rows 0 .. T+S-1 hold each primitive's
+    # displacement from shutter open to close (xyz; triangles in BVH order, then spheres);
+    # then two rows per BVH node, its box at shutter close (bmin.xyz, bmax.xyz). None when
+    # nothing moves (has_motion False): see still_motion().
+    motion: np.ndarray | None = None  # float32 (T + S + 2 N, 4)
     has_motion: bool = False
 
 
@@ -96,6 +100,27 @@ def _shutter_motion(scene: Scene, velocity: np.ndarray):
     return velocity * open_, velocity * (close - open_)
 
 
+def _boxes_at_open_and_close(bvh, open_positions: np.ndarray, displacement: np.ndarray):
+    """Node rows with the boxes at shutter open, and two rows per node with the boxes at
+    close. The GPU blends them with float rounding, so both are padded by a few ulps."""
+    def padded(lo, hi):
+        pad = 4 * np.spacing(np.maximum(np.abs(lo), np.abs(hi)))
+        return lo - pad, hi + pad
+
+    nodes = bvh.nodes.copy()
+    nodes[:, 0:3], nodes[:, 4:7] = padded(*refit_boxes(bvh, open_positions))
+    close = np.zeros((bvh.num_nodes, 2, 4), np.float32)
+    close[:, 0, :3], close[:, 1, :3] = padded(*refit_boxes(bvh, open_positions + displacement[:, None, :]))
+    return nodes, close.reshape(-1, 4)
+
+
+def still_motion(packed: PackedScene) -> np.ndarray:
+    """`motion` rows for a scene that does not move, for shaders compiled with HAS_MOTION
+    anyway (every feature): no displacement, and node boxes at close = at open."""
+    displacement = np.zeros((packed.num_triangles + packed.num_spheres, 4), np.float32)
+    return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
+
+
 def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
     positions, normals, uvs, material_ids, tri_velocity = _triangles(scene)
     has_motion = scene.has_motion
@@ -113,10 +138,13 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
     sphere_velocity = np.array([s.velocity if s.velocity is not None else np.zeros(3)
                                 for s in scene.spheres]).reshape(S, 3)
     sphere_open, sphere_move = _shutter_motion(scene, sphere_velocity)
-    prim_motion = np.zeros((max(T + S, 1) if has_motion else 1, 4), np.float32)
+    bvh_nodes, motion = bvh.nodes, None
     if has_motion:
-        prim_motion[:T, :3] = tri_move[order]
-        prim_motion[T:T + S, :3] = sphere_move
+        bvh_nodes, close_boxes = _boxes_at_open_and_close(bvh, positions, tri_move[order].astype(np.float32))
+        displacement = np.zeros((T + S, 4), np.float32)
+        displacement[:T, :3] = tri_move[order]
+        displacement[T:, :3] = sphere_move
+        motion = np.concatenate([displacement, close_boxes])
 
     # Light selection proportional to emitted power (luminance x area); pi is common to all.
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
@@ -173,7 +201,7 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
         return a if len(a) else np.zeros(shape, np.float32)
 
     return PackedScene(
-        bvh_nodes=bvh.nodes,
+        bvh_nodes=bvh_nodes,
         tri_pos=nonempty(_pad4(positions), (1, 3, 4)),
         tri_normal=nonempty(_pad4(normals), (1, 3, 4)),
         tri_uv=nonempty(_pad4(uvs), (1, 3, 4)),
@@ -186,6 +214,6 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
         num_triangles=T,
         num_spheres=S,
         num_lights=len(light_prims),
-        prim_motion=prim_motion,
+        motion=motion,
         has_motion=has_motion,
     )

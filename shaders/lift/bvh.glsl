@@ -22,7 +22,7 @@ float g_ray_time = 0.0;
 // from its stored position, at g_ray_time.
 vec3 prim_displacement(uint prim) {
 #ifdef HAS_MOTION
-    return g_ray_time * prim_motion[prim].xyz;
+    return g_ray_time * motion[prim].xyz;
 #else
     return vec3(0.0);
 #endif
@@ -85,8 +85,18 @@ vec3 lift_bvh_inv_dir(vec3 d) {
 
 // Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
 bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
-    vec3 t0 = (bvh_nodes[2u * n].xyz - org) * inv;
-    vec3 t1 = (bvh_nodes[2u * n + 1u].xyz - org) * inv;
+    vec3 bmin = bvh_nodes[2u * n].xyz;
+    vec3 bmax = bvh_nodes[2u * n + 1u].xyz;
+#ifdef HAS_MOTION
+    // The node's boxes at shutter open and close, blended to the ray's moment: for linear
+    // motion this bounds every triangle below the node at that moment, and it stays as
+    // tight as a still scene's box where the whole node moves as one.
+    uint close = u_num_triangles + u_num_spheres + 2u * n;
+    bmin = mix(bmin, motion[close].xyz, g_ray_time);
+    bmax = mix(bmax, motion[close + 1u].xyz, g_ray_time);
+#endif
+    vec3 t0 = (bmin - org) * inv;
+    vec3 t1 = (bmax - org) * inv;
     vec3 lo = min(t0, t1);
     vec3 hi = max(t0, t1);
     tn = max(max(lo.x, lo.y), max(lo.z, tmin));
