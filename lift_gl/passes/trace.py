@@ -79,6 +79,9 @@ void main() {{
         Ray ray;
         Hit hit;
 #ifdef PRIMARY_GBUFFER
+#ifdef HAS_MOTION
+        g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
+#endif
         ray = camera_ray(vec2(pixel) + u_jitter);
         hit = gbuffer_hit(pixel, ray);
 #else
