@@ -1,6 +1,8 @@
 """What motion blur costs the trace pass: drt on a scene (1) frozen (shutter [0, 0]: no motion
 code), (2) frozen but compiled with the motion code (HAS_MOTION, zero motion), (3) moving
-(motion code, and a BVH over the boxes the triangles sweep). Wall time per frame, the GPU
+(motion code; node boxes at shutter open and close, blended at the ray's moment), and (4)
+moving with each node's box the one it sweeps over the whole shutter (the same tree, the
+blend switched off by making both boxes the swept one), the simpler scheme. Wall time per frame, the GPU
 drained at the end (llvmpipe's timer queries do not time compute dispatches; on llvmpipe
 the GPU is the CPU, so wall time is its time). The three are interleaved in each round so
 that machine load hits them alike; only ratios measured in the same run are reported.
@@ -48,8 +50,24 @@ def mesh_scene(path: Path, shutter) -> Scene:
     return scene
 
 
-def frame_ms(scene, size, frames, features=None) -> tuple[float, Renderer]:
+def use_swept_boxes(renderer: Renderer) -> None:
+    """Both boxes of every node := the box it sweeps, the union of its boxes at open and
+    close (each triangle sweeps the union of its two end boxes)."""
+    packed = renderer.packed
+    nodes, motion = packed.bvh_nodes.copy(), packed.motion.copy()
+    close = motion[packed.num_triangles + packed.num_spheres:]
+    lo = np.minimum(nodes[:, 0:3], close[0::2, :3])
+    hi = np.maximum(nodes[:, 4:7], close[1::2, :3])
+    nodes[:, 0:3], nodes[:, 4:7] = lo, hi
+    close[0::2, :3], close[1::2, :3] = lo, hi
+    renderer.buffers.buffers["bvh_nodes"].write(nodes.tobytes())
+    renderer.buffers.motion.write(motion.tobytes())
+
+
+def frame_ms(scene, size, frames, features=None, swept=False) -> tuple[float, Renderer]:
     renderer = Renderer(scene, size=(size, size), integrator="drt", features=features)
+    if swept:
+        use_swept_boxes(renderer)
     renderer.render(spp=4)  # warm up: shader compile, first dispatch
     renderer.reset()
     renderer.render(spp=frames * renderer.samples_per_frame)
@@ -69,12 +87,12 @@ def main() -> None:
     frozen = mesh_scene(Path(args.mesh), (0.0, 0.0))
     moving = mesh_scene(Path(args.mesh), (0.0, 1.0))
     with_motion_code = dataclasses.replace(SceneFeatures.of(frozen), motion=True)
-    cases = {"frozen": (frozen, None), "frozen + motion code": (frozen, with_motion_code),
-             "moving": (moving, None)}
+    cases = {"frozen": (frozen, None, False), "frozen + motion code": (frozen, with_motion_code, False),
+             "moving": (moving, None, False), "moving, swept boxes": (moving, None, True)}
     results = {name: [] for name in cases}
     for _ in range(args.rounds):
-        for name, (scene, features) in cases.items():
-            ms, renderer = frame_ms(scene, args.size, args.frames, features)
+        for name, (scene, features, swept) in cases.items():
+            ms, renderer = frame_ms(scene, args.size, args.frames, features, swept)
             results[name].append(ms)
     print(f"device: {describe(renderer.ctx)}")
     print(f"scene: {Path(args.mesh).name}, {frozen.triangle_count} triangles, {args.size}x{args.size}, "
