@@ -55,7 +55,7 @@ class Renderer:
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
         self.packed = pack_scene(scene)
-        self.buffers = SceneBuffers(self.ctx, self.packed)
+        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         self.camera_uniforms = camera_uniforms(scene.camera, self.size)

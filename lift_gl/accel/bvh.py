@@ -117,6 +117,10 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
               max_depth: int = MAX_DEPTH) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
+    More generally (T, K, 3): primitive i is bounded by the box of its K points. A moving
+    triangle passes its corners at shutter open and at shutter close, (T, 6, 3), and gets
+    the box it sweeps (a linear motion stays inside the union of the two end boxes).
+
     Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
     axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits. A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
@@ -126,8 +130,8 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     Non-finite coordinates are treated as 0 for the build (callers should drop such triangles).
     """
     pos = np.asarray(tri_positions, dtype=np.float32)
-    if pos.ndim != 3 or pos.shape[1:] != (3, 3):
-        raise ValueError(f"tri_positions must have shape (T, 3, 3), got {pos.shape}")
+    if pos.ndim != 3 or pos.shape[1] < 1 or pos.shape[2] != 3:
+        raise ValueError(f"tri_positions must have shape (T, 3, 3) or (T, K, 3), got {pos.shape}")
     n_tris = pos.shape[0]
     if n_tris == 0:
         return empty_bvh()
@@ -242,6 +246,36 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         act_count = np.stack([nl, act_count[split] - nl], axis=1).ravel()
 
     return BVH(nodes=nodes[:n_nodes].copy(), order=order.astype(np.uint32), depth=level)
+
+
+def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The node boxes of the same tree over other positions of its triangles: float32 (T, K, 3)
+    in the tree's order. Returns (lo, hi), float32 (N, 3) each. Motion blur keeps one tree and
+    two sets of boxes, at shutter open and at shutter close (shaders/lift/bvh.glsl)."""
+    pts = np.asarray(tri_points_reordered, np.float32)
+    if pts.shape[0] == 0:
+        return bvh.bmin.copy(), bvh.bmax.copy()
+    n = bvh.num_nodes
+    first = bvh.first.astype(np.int64)
+    count = bvh.count.astype(np.int64)
+    lo = np.empty((n, 3), np.float32)
+    hi = np.empty((n, 3), np.float32)
+    # Leaves: their triangle ranges are contiguous and cover 0..T-1, so one segment
+    # reduction over the ranges' sorted starts gives every leaf box.
+    leaves = np.flatnonzero(count > 0)
+    leaves = leaves[np.argsort(first[leaves])]
+    lo[leaves] = np.minimum.reduceat(pts.min(axis=1), first[leaves], axis=0)
+    hi[leaves] = np.maximum.reduceat(pts.max(axis=1), first[leaves], axis=0)
+    # Interior nodes, deepest level first: a child's box is ready before its parent's.
+    levels, frontier = [], np.zeros(1, np.int64)
+    while frontier.size:
+        inner = frontier[count[frontier] == 0]
+        levels.append(inner)
+        frontier = np.concatenate((first[inner], first[inner] + 1))
+    for inner in reversed(levels):
+        lo[inner] = np.minimum(lo[first[inner]], lo[first[inner] + 1])
+        hi[inner] = np.maximum(hi[first[inner]], hi[first[inner] + 1])
+    return lo, hi
 
 
 # --- reference traversal (tests) -----------------------------------------------------------

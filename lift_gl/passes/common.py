@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene.pack import PackedScene
+from ..scene.pack import PackedScene, still_motion
 
 # Binding points declared in shaders/lift/scene_data.glsl.
 SCENE_BINDINGS = {
@@ -11,6 +11,7 @@ SCENE_BINDINGS = {
     "materials": 5, "lights": 6, "spheres": 7,
 }
 STATS_BINDING = 8
+MOTION_BINDING = 9  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
@@ -35,18 +36,27 @@ def set_uniforms(program, values: dict) -> None:
 
 
 class SceneBuffers:
-    """The packed scene uploaded as SSBOs, plus the statistics counters."""
+    """The packed scene uploaded as SSBOs, plus the statistics counters.
 
-    def __init__(self, ctx, packed: PackedScene):
+    `motion`: the shaders are compiled with HAS_MOTION (default: when the scene moves), so
+    they read `motion`. A still scene compiled with every feature gets still_motion()."""
+
+    def __init__(self, ctx, packed: PackedScene, motion: bool | None = None):
         self.packed = packed
         self.buffers = {name: ctx.buffer(np.ascontiguousarray(getattr(packed, name)).tobytes())
                         for name in SCENE_BINDINGS}
+        self.motion = None
+        if packed.has_motion if motion is None else motion:
+            rows = packed.motion if packed.has_motion else still_motion(packed)
+            self.motion = ctx.buffer(np.ascontiguousarray(rows).tobytes())
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()
 
     def bind(self) -> None:
         for name, binding in SCENE_BINDINGS.items():
             self.buffers[name].bind_to_storage_buffer(binding)
+        if self.motion is not None:
+            self.motion.bind_to_storage_buffer(MOTION_BINDING)
         self.stats.bind_to_storage_buffer(STATS_BINDING)
 
     def uniforms(self, environment_radiance) -> dict:
@@ -63,6 +73,8 @@ class SceneBuffers:
     def release(self) -> None:
         for b in self.buffers.values():
             b.release()
+        if self.motion is not None:
+            self.motion.release()
         self.stats.release()
 
 

@@ -6,6 +6,8 @@ outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count i
 
 The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
+With primary = "camera" it also picks each sample's point on the lens and, in scenes with
+motion (HAS_MOTION), its moment in the shutter interval (g_ray_time, lift/bvh.glsl).
 The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`.
 """
 from __future__ import annotations
@@ -78,11 +80,18 @@ void main() {{
         Ray ray;
         Hit hit;
 #ifdef PRIMARY_GBUFFER
+#ifdef HAS_MOTION
+        g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
+#endif
         ray = camera_ray(vec2(pixel) + u_jitter);
         hit = gbuffer_hit(pixel, ray);
 #else
         vec2 subpixel = rng_next2(rng);
-        ray = camera_ray_lens(vec2(pixel) + subpixel, rng_next2(rng));
+        vec2 lens = rng_next2(rng);
+#ifdef HAS_MOTION
+        g_ray_time = rng_next(rng);  // uniform over the shutter: a box shutter
+#endif
+        ray = camera_ray_lens(vec2(pixel) + subpixel, lens);
         trace_closest(ray, hit);
 #endif
         vec3 L = radiance(ray, hit, rng);

@@ -19,6 +19,7 @@ class SceneFeatures:
     spheres: bool = False
     environment: bool = False
     emissive: bool = False  # emissive triangles or spheres (light sampling code)
+    motion: bool = False  # objects that move while the shutter is open (motion blur)
 
     @classmethod
     def of(cls, scene: Scene) -> "SceneFeatures":
@@ -32,6 +33,7 @@ class SceneFeatures:
             spheres=bool(scene.spheres),
             environment=scene.environment is not None and bool((scene.environment.radiance > 0).any()),
             emissive=any(m.is_emissive for m in used),
+            motion=scene.has_motion,
         )
 
     @classmethod

@@ -13,6 +13,10 @@ import numpy as np
 MATERIAL_TYPES = ("diffuse", "conductor", "dielectric")
 
 
+def _optional_vec3(v) -> np.ndarray | None:
+    return None if v is None else np.asarray(v, dtype=np.float64).reshape(3)
+
+
 @dataclass
 class Camera:
     position: np.ndarray
@@ -21,6 +25,9 @@ class Camera:
     fov_deg: float = 40.0  # vertical field of view
     aperture_radius: float = 0.0  # thin lens; 0 is a pinhole
     focus_distance: float | None = None  # None: distance to target
+    # Scene times at which the shutter opens and closes; objects with a velocity move
+    # between them (motion blur). Time is in the same unit as the objects' velocities.
+    shutter: tuple[float, float] = (0.0, 1.0)
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=np.float64)
@@ -89,6 +96,9 @@ class Mesh:
     normals: np.ndarray | None = None  # float32 (V, 3), shading normals
     uvs: np.ndarray | None = None  # float32 (V, 2)
     source: str = ""
+    # Linear motion: world units per unit of scene time. The positions above are where the
+    # mesh is at time 0; at time t it is translated by t * velocity. None: it stays put.
+    velocity: np.ndarray | None = None
 
     def __post_init__(self):
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float32).reshape(-1, 3)
@@ -97,6 +107,7 @@ class Mesh:
             self.normals = np.ascontiguousarray(self.normals, dtype=np.float32).reshape(-1, 3)
         if self.uvs is not None:
             self.uvs = np.ascontiguousarray(self.uvs, dtype=np.float32).reshape(-1, 2)
+        self.velocity = _optional_vec3(self.velocity)
 
 
 @dataclass
@@ -107,9 +118,11 @@ class Sphere:
     radius: float
     material: int
     source: str = ""
+    velocity: np.ndarray | None = None  # as Mesh.velocity: `center` is at time 0
 
     def __post_init__(self):
         self.center = np.asarray(self.center, dtype=np.float64)
+        self.velocity = _optional_vec3(self.velocity)
 
 
 @dataclass
@@ -132,6 +145,13 @@ class Scene:
     max_depth: int = 16  # path length limit the scene file asks for
     film_size: tuple[int, int] = (256, 256)  # width, height the scene file asks for
     path: Path | None = None
+
+    @property
+    def has_motion(self) -> bool:
+        """Whether anything moves while the shutter is open (motion blur is visible)."""
+        open_, close = self.camera.shutter
+        return close > open_ and any(o.velocity is not None and bool(np.any(o.velocity != 0))
+                                     for o in (*self.meshes, *self.spheres))
 
     @property
     def triangle_count(self) -> int:

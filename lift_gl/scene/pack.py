@@ -1,6 +1,11 @@
 """Flatten a Scene into the arrays that shaders/lift/scene_data.glsl declares.
 
 Triangles of all meshes are concatenated in world space and reordered into BVH leaf order.
+Moving objects (motion blur) are stored where they are when the shutter opens, plus their
+displacement until it closes (`motion`). One BVH serves the whole shutter interval: its
+topology is built over the boxes the triangles sweep, and each node keeps two boxes, at
+shutter open (in `bvh_nodes`) and at shutter close (in `motion`); a ray at time t tests the
+blend of the two, which bounds every triangle below the node at t (motion is linear).
 """
 from __future__ import annotations
 
@@ -8,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..accel.bvh import build_bvh
+from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached
 from .model import Scene
 
@@ -32,6 +37,12 @@ class PackedScene:
     num_triangles: int
     num_spheres: int
     num_lights: int
+    # Motion blur (shaders/lift/scene_data.glsl): rows 0 .. T+S-1 hold each primitive's
+    # displacement from shutter open to close (xyz; triangles in BVH order, then spheres);
+    # then two rows per BVH node, its box at shutter close (bmin.xyz, bmax.xyz). None when
+    # nothing moves (has_motion False): see still_motion().
+    motion: np.ndarray | None = None  # float32 (T + S + 2 N, 4)
+    has_motion: bool = False
 
 
 def _as_float_bits(values) -> np.ndarray:
@@ -57,9 +68,11 @@ def pack_materials(scene: Scene) -> np.ndarray:
 def _triangles(scene: Scene):
     if not scene.meshes:
         return (np.zeros((0, 3, 3), np.float32), np.zeros((0, 3, 3), np.float32),
-                np.zeros((0, 3, 2), np.float32), np.zeros(0, np.uint32))
-    pos, nrm, uvs, mat = [], [], [], []
+                np.zeros((0, 3, 2), np.float32), np.zeros(0, np.uint32), np.zeros((0, 3)))
+    pos, nrm, uvs, mat, vel = [], [], [], [], []
     for mesh in scene.meshes:
+        vel.append(np.broadcast_to(mesh.velocity if mesh.velocity is not None else np.zeros(3),
+                                   (len(mesh.indices), 3)))
         corners = mesh.positions[mesh.indices]
         pos.append(corners)
         if mesh.normals is not None:
@@ -72,7 +85,7 @@ def _triangles(scene: Scene):
         uvs.append(mesh.uvs[mesh.indices] if mesh.uvs is not None else np.zeros((len(mesh.indices), 3, 2), np.float32))
         mat.append(np.full(len(mesh.indices), mesh.material, np.uint32))
     return (np.concatenate(pos).astype(np.float32), np.concatenate(nrm).astype(np.float32),
-            np.concatenate(uvs).astype(np.float32), np.concatenate(mat))
+            np.concatenate(uvs).astype(np.float32), np.concatenate(mat), np.concatenate(vel))
 
 
 def _pad4(a: np.ndarray) -> np.ndarray:
@@ -81,12 +94,57 @@ def _pad4(a: np.ndarray) -> np.ndarray:
     return out
 
 
+def _shutter_motion(scene: Scene, velocity: np.ndarray):
+    """(offset at shutter open, displacement from open to close) for velocities (N, 3)."""
+    open_, close = scene.camera.shutter
+    return velocity * open_, velocity * (close - open_)
+
+
+def _boxes_at_open_and_close(bvh, open_positions: np.ndarray, displacement: np.ndarray):
+    """Node rows with the boxes at shutter open, and two rows per node with the boxes at
+    close. The GPU blends them with float rounding, so both are padded by a few ulps."""
+    def padded(lo, hi):
+        pad = 4 * np.spacing(np.maximum(np.abs(lo), np.abs(hi)))
+        return lo - pad, hi + pad
+
+    nodes = bvh.nodes.copy()
+    nodes[:, 0:3], nodes[:, 4:7] = padded(*refit_boxes(bvh, open_positions))
+    close = np.zeros((bvh.num_nodes, 2, 4), np.float32)
+    close[:, 0, :3], close[:, 1, :3] = padded(*refit_boxes(bvh, open_positions + displacement[:, None, :]))
+    return nodes, close.reshape(-1, 4)
+
+
+def still_motion(packed: PackedScene) -> np.ndarray:
+    """`motion` rows for a scene that does not move, for shaders compiled with HAS_MOTION
+    anyway (every feature): no displacement, and node boxes at close = at open."""
+    displacement = np.zeros((packed.num_triangles + packed.num_spheres, 4), np.float32)
+    return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
+
+
 def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
-    positions, normals, uvs, material_ids = _triangles(scene)
-    bvh = build_bvh_cached(positions, cache_dir=cache_dir) if len(positions) else build_bvh(positions)
+    positions, normals, uvs, material_ids, tri_velocity = _triangles(scene)
+    has_motion = scene.has_motion
+    tri_open, tri_move = _shutter_motion(scene, tri_velocity)
+    if tri_open.any():  # where the shutter opens after time 0, things have moved already
+        positions = (positions + tri_open[:, None, :]).astype(np.float32)
+    bvh_input = positions
+    if has_motion:
+        # Corners at shutter open and at close: the BVH bounds the box each triangle sweeps.
+        bvh_input = np.concatenate([positions, positions + tri_move[:, None, :].astype(np.float32)], axis=1)
+    bvh = build_bvh_cached(bvh_input, cache_dir=cache_dir) if len(positions) else build_bvh(positions)
     order = bvh.order
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
     T, S = len(positions), len(scene.spheres)
+    sphere_velocity = np.array([s.velocity if s.velocity is not None else np.zeros(3)
+                                for s in scene.spheres]).reshape(S, 3)
+    sphere_open, sphere_move = _shutter_motion(scene, sphere_velocity)
+    bvh_nodes, motion = bvh.nodes, None
+    if has_motion:
+        bvh_nodes, close_boxes = _boxes_at_open_and_close(bvh, positions, tri_move[order].astype(np.float32))
+        displacement = np.zeros((T + S, 4), np.float32)
+        displacement[:T, :3] = tri_move[order]
+        displacement[T:, :3] = sphere_move
+        motion = np.concatenate([displacement, close_boxes])
 
     # Light selection proportional to emitted power (luminance x area); pi is common to all.
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
@@ -124,23 +182,26 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
 
     spheres = np.zeros((max(S, 1), 2, 4), np.float32)
     for i, s in enumerate(scene.spheres):
-        spheres[i, 0, :3] = s.center
+        spheres[i, 0, :3] = s.center + sphere_open[i]
         spheres[i, 0, 3] = s.radius
         spheres[i, 1, 0] = _as_float_bits([s.material])[0]
         spheres[i, 1, 1] = prim_select_pdf[T + i:T + i + 1].view(np.uint32).view(np.float32)[0]
 
-    lo = [positions.reshape(-1, 3).min(0)] if T else []
-    hi = [positions.reshape(-1, 3).max(0)] if T else []
-    for s in scene.spheres:
-        lo.append(s.center - s.radius)
-        hi.append(s.center + s.radius)
+    # Everything the scene holds at any time the shutter is open.
+    swept = bvh_input.reshape(-1, 3)
+    lo = [swept.min(0)] if T else []
+    hi = [swept.max(0)] if T else []
+    for i, s in enumerate(scene.spheres):
+        for c in (s.center + sphere_open[i], s.center + sphere_open[i] + sphere_move[i]):
+            lo.append(c - s.radius)
+            hi.append(c + s.radius)
     bounds = np.array([np.min(lo, axis=0), np.max(hi, axis=0)]) if lo else np.array([[-1.0] * 3, [1.0] * 3])
 
     def nonempty(a, shape):
         return a if len(a) else np.zeros(shape, np.float32)
 
     return PackedScene(
-        bvh_nodes=bvh.nodes,
+        bvh_nodes=bvh_nodes,
         tri_pos=nonempty(_pad4(positions), (1, 3, 4)),
         tri_normal=nonempty(_pad4(normals), (1, 3, 4)),
         tri_uv=nonempty(_pad4(uvs), (1, 3, 4)),
@@ -153,4 +214,6 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
         num_triangles=T,
         num_spheres=S,
         num_lights=len(light_prims),
+        motion=motion,
+        has_motion=has_motion,
     )

@@ -28,7 +28,7 @@ METALS = {
 METALS["aluminum"] = METALS["aluminium"]
 
 TOP_KEYS = {"camera", "film", "integrator", "environment", "materials", "objects"}
-CAMERA_KEYS = {"position", "target", "up", "fov", "aperture", "focus_distance"}
+CAMERA_KEYS = {"position", "target", "up", "fov", "aperture", "focus_distance", "shutter"}
 MATERIAL_KEYS = {
     "diffuse": {"type", "color", "emission"},
     "conductor": {"type", "color", "emission", "roughness", "alpha", "eta", "k", "metal"},
@@ -40,7 +40,8 @@ OBJECT_KEYS = {
     "box": {"center", "size"},
     "sphere": {"center", "radius"},
 }
-OBJECT_COMMON = {"type", "material", "name", "translate", "rotate", "scale"}
+OBJECT_COMMON = {"type", "material", "name", "translate", "rotate", "scale", "motion"}
+MOTION_KEYS = {"translate"}
 
 
 class SourceMap:
@@ -183,6 +184,18 @@ class _Reader:
         return a
 
 
+class _InlineReader(_Reader):
+    """A table written inline as one key's value (`motion = { ... }`): its keys have no
+    lines of their own, so messages point at the parent key's line."""
+
+    def __init__(self, parent: _Reader, key: str, data: dict):
+        super().__init__(parent.ctx, data, parent.table, parent.index, f"'{key}' of {parent.label}")
+        self.parent, self.key = parent, key
+
+    def line(self, key=None):
+        return self.parent.line(self.key)
+
+
 def _show(v) -> str:
     text = repr(v)
     return f"{type(v).__name__} {text if len(text) < 40 else text[:37] + '...'}"
@@ -274,7 +287,37 @@ def _read_camera(ctx, data) -> Camera:
         r.error("fov", f"'fov' must be below 180 degrees, got {fov}")
     return Camera(position=position, target=target, up=up, fov_deg=fov,
                   aperture_radius=r.number("aperture", 0.0, minimum=0.0),
-                  focus_distance=r.number("focus_distance", None, positive=True))
+                  focus_distance=r.number("focus_distance", None, positive=True),
+                  shutter=_read_shutter(r))
+
+
+def _read_shutter(r) -> tuple[float, float]:
+    if not r.has("shutter"):
+        return Camera.shutter
+    v = r.data["shutter"]
+    ok = (isinstance(v, list) and len(v) == 2
+          and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v))
+    if not ok or not np.isfinite(v).all():
+        r.error("shutter", f"'shutter' in [camera] must be [open, close] (two finite times), not {_show(v)}")
+    if v[1] < v[0]:
+        r.error("shutter", f"'shutter' in [camera] closes before it opens: {v}")
+    return float(v[0]), float(v[1])
+
+
+def _read_motion(r):
+    """An object's `motion = { translate = [x, y, z] }`: its velocity, world units per unit
+    of time (it is where the object's other keys put it at time 0)."""
+    if not r.has("motion"):
+        return None
+    data = r.data["motion"]
+    if not isinstance(data, dict):
+        r.error("motion", f"'motion' in {r.label} must be a table such as "
+                f"motion = {{ translate = [1, 0, 0] }}, not {_show(data)}")
+    m = _InlineReader(r, "motion", data)
+    m.check_keys(MOTION_KEYS)
+    if not m.has("translate"):
+        m.error("translate", f"'motion' in {r.label} needs 'translate' (world units per unit of time)")
+    return m.vec3("translate")
 
 
 def _read_material(ctx, name, data) -> Material:
@@ -335,12 +378,16 @@ def _read_object(ctx, i, data, scene):
         r.error("scale", "'scale' must not be zero")
     m = prim.trs_matrix(r.vec3("translate", [0, 0, 0]), r.vec3("rotate", [0, 0, 0]), scale)
 
+    velocity = _read_motion(r)
+
     if kind == "sphere":
         if not prim.uniform_scale(m):
             r.error("scale", "a sphere needs a uniform 'scale' (use a mesh for ellipsoids)")
         s = prim.sphere(r.vec3("center", [0, 0, 0]), r.number("radius", 1.0, positive=True),
                         material, source)
-        scene.spheres.append(prim.transform_sphere(s, m))
+        s = prim.transform_sphere(s, m)
+        s.velocity = velocity
+        scene.spheres.append(s)
         return
     if kind == "mesh":
         file = r.string("file")
@@ -367,7 +414,9 @@ def _read_object(ctx, i, data, scene):
             r.error("size", "box 'size' must be positive")
         mesh = prim.box(r.vec3("center", [0, 0, 0]), size, material)
     mesh.name, mesh.source = name, source
-    scene.meshes.append(prim.transform_mesh(mesh, m))
+    mesh = prim.transform_mesh(mesh, m)
+    mesh.velocity = velocity
+    scene.meshes.append(mesh)
 
 
 def _material_index(r, scene) -> int:

@@ -10,6 +10,24 @@ struct Ray { vec3 origin; vec3 dir; float tmin; float tmax; };   // dir normaliz
 struct Hit { float t; uint prim; vec2 bary; };
 const uint NO_HIT = 0xffffffffu;
 
+#ifdef HAS_MOTION
+// The moment the current rays see, as a fraction of the shutter interval: 0 = open,
+// 1 = close. One per invocation, like the ray it goes with: the host sets it for each camera
+// sample (primary = "camera"); it stays 0, the G-buffer's moment, otherwise. Every query
+// and surface lookup of this sample then sees the scene at that moment.
+float g_ray_time = 0.0;
+#endif
+
+// Where primitive `prim` (a triangle id, or u_num_triangles + sphere index) has moved to
+// from its stored position, at g_ray_time.
+vec3 prim_displacement(uint prim) {
+#ifdef HAS_MOTION
+    return g_ray_time * motion[prim].xyz;
+#else
+    return vec3(0.0);
+#endif
+}
+
 // The build limits the tree to 48 levels, so a stack of 48 never overflows: it holds at most
 // one postponed sibling per level of the current path.
 #define LIFT_BVH_STACK 48
@@ -26,7 +44,7 @@ bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
     float det = dot(e1, pv);
     if (det == 0.0) return false;
     float inv_det = 1.0 / det;
-    vec3 tv = ray.origin - p0;
+    vec3 tv = ray.origin - (p0 + prim_displacement(tri));  // a moving triangle: where it is now
     float b1 = dot(tv, pv) * inv_det;
     if (b1 < 0.0 || b1 > 1.0) return false;
     vec3 qv = cross(tv, e1);
@@ -45,7 +63,7 @@ bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
 // far less precision than b*b - c when the sphere is small and far away.
 bool intersect_sphere(Ray ray, uint s, inout float t) {
     vec4 cr = spheres[2u * s];
-    vec3 oc = ray.origin - cr.xyz;
+    vec3 oc = ray.origin - (cr.xyz + prim_displacement(u_num_triangles + s));
     float b = dot(oc, ray.dir);
     vec3 q = oc - b * ray.dir;
     float h = cr.w * cr.w - dot(q, q);
@@ -67,8 +85,18 @@ vec3 lift_bvh_inv_dir(vec3 d) {
 
 // Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
 bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
-    vec3 t0 = (bvh_nodes[2u * n].xyz - org) * inv;
-    vec3 t1 = (bvh_nodes[2u * n + 1u].xyz - org) * inv;
+    vec3 bmin = bvh_nodes[2u * n].xyz;
+    vec3 bmax = bvh_nodes[2u * n + 1u].xyz;
+#ifdef HAS_MOTION
+    // The node's boxes at shutter open and close, blended to the ray's moment: for linear
+    // motion this bounds every triangle below the node at that moment, and it stays as
+    // tight as a still scene's box where the whole node moves as one.
+    uint close = u_num_triangles + u_num_spheres + 2u * n;
+    bmin = mix(bmin, motion[close].xyz, g_ray_time);
+    bmax = mix(bmax, motion[close + 1u].xyz, g_ray_time);
+#endif
+    vec3 t0 = (bmin - org) * inv;
+    vec3 t1 = (bmax - org) * inv;
     vec3 lo = min(t0, t1);
     vec3 hi = max(t0, t1);
     tn = max(max(lo.x, lo.y), max(lo.z, tmin));

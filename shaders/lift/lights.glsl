@@ -59,7 +59,7 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
         vec2 b = sample_uniform_triangle(u.yz);
         uint i = 3u * prim;
         vec3 p0 = tri_pos[i].xyz, p1 = tri_pos[i + 1u].xyz, p2 = tri_pos[i + 2u].xyz;
-        point = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
+        point = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2 + prim_displacement(prim);
         n = normalize(cross(p1 - p0, p2 - p0));
         material = tri_info[prim].x;
     }
@@ -67,7 +67,7 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     else {
         vec4 cr = spheres[2u * (prim - u_num_triangles)];
         n = sample_uniform_sphere(u.yz);
-        point = cr.xyz + cr.w * n;
+        point = cr.xyz + prim_displacement(prim) + cr.w * n;
         material = floatBitsToUint(spheres[2u * (prim - u_num_triangles) + 1u].x);
     }
 #else

@@ -39,6 +39,16 @@ layout(std430, binding = 6) readonly buffer Lights { vec4 lights[]; };
 // light selection probability, 0, 0).
 layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 
+#ifdef HAS_MOTION
+// Motion blur. The arrays above hold every primitive where it is when the shutter opens,
+// and bvh_nodes the node boxes at that moment. `motion` holds, first, one vec4 per
+// primitive (triangles in BVH order, then spheres): its displacement (xyz, world space)
+// from shutter open to shutter close; then, from row u_num_triangles + u_num_spheres, two
+// vec4 per BVH node: its box at shutter close (bmin.xyz), (bmax.xyz). Motion is a
+// translation, so normals, areas and light selection probabilities do not change.
+layout(std430, binding = 9) readonly buffer Motion { vec4 motion[]; };
+#endif
+
 // Counters the host reads back: [0] samples dropped as NaN/Inf.
 layout(std430, binding = 8) buffer Stats { uint stats[]; };
 

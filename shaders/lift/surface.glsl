@@ -21,7 +21,8 @@ Surface surface_at(Ray ray, Hit hit) {
     s.prim = hit.prim;
     if (hit.prim < u_num_triangles) {
         uint i = 3u * hit.prim;
-        vec3 p0 = tri_pos[i].xyz, p1 = tri_pos[i + 1u].xyz, p2 = tri_pos[i + 2u].xyz;
+        vec3 moved = prim_displacement(hit.prim);
+        vec3 p0 = tri_pos[i].xyz + moved, p1 = tri_pos[i + 1u].xyz + moved, p2 = tri_pos[i + 2u].xyz + moved;
         float b0 = 1.0 - hit.bary.x - hit.bary.y;
         // The barycentric point is more accurate than origin + t * dir far from the camera.
         s.p = b0 * p0 + hit.bary.x * p1 + hit.bary.y * p2;
@@ -42,6 +43,7 @@ Surface surface_at(Ray ray, Hit hit) {
     else {
         uint k = hit.prim - u_num_triangles;
         vec4 cr = spheres[2u * k];
+        cr.xyz += prim_displacement(hit.prim);
         vec3 p = ray.origin + hit.t * ray.dir;
         s.ng = normalize(p - cr.xyz);
         s.p = cr.xyz + cr.w * s.ng;  // re-project onto the sphere
