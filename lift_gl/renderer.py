@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .gl.context import create_context, describe
+from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
 from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
@@ -76,7 +76,7 @@ class Renderer:
         self.trace = TracePass(self.ctx, self.size, self.plugin, self.defines)
         self.accumulate = AccumulatePass(self.ctx, self.size)
         self.tonemap = None  # created on the first display() call: headless float output needs none
-        self.timers = {p.name: GpuTimer(self.ctx) for p in self.passes} if self.use_timers else None
+        self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
 
     # ---- settings ----
     def _resolve_params(self, overrides: dict) -> dict:
@@ -151,6 +151,9 @@ class Renderer:
         self.frame_index = 0
         self.stats = RenderStats()
 
+    def _timer(self) -> GpuTimer:
+        return GpuTimer(self.ctx, cpu_clock=is_software(self.ctx))
+
     def _timed(self, name):
         if self.timers is None:
             return _NoTimer()
@@ -217,7 +220,7 @@ class Renderer:
         if self.tonemap is None:
             self.tonemap = TonemapPass(self.ctx, self.size)
             if self.timers is not None:
-                self.timers["tonemap"] = GpuTimer(self.ctx)
+                self.timers["tonemap"] = self._timer()
         with self._timed("tonemap"):
             self.tonemap.run(self.accumulate, exposure, operator, gamma)
         return self.tonemap.read() if readback else None

@@ -18,12 +18,13 @@ from imgui_bundle import imgui, implot
 from moderngl_window.conf import settings
 
 from ..errors import LiftError
+from ..gl.context import is_software
 from ..image_io import write_srgb8
 from .aov_view import AOV_VIEWS
 from .image_view import ImageView, fit_rect
 from .imgui_renderer import ImguiRenderer
 from .panels import UiState, make_panels
-from .session import Resolution, ViewSession, is_software_gl
+from .session import Resolution, ViewSession
 
 WINDOW_CLASSES = {"pyglet": "moderngl_window.context.pyglet.Window",
                   "glfw": "moderngl_window.context.glfw.Window",
@@ -92,7 +93,7 @@ class ViewerWindow:
             if panel.key in ("F1", "F2", "H"):
                 panel.visible = {"F1": "settings", "F2": "statistics", "H": "help"}[panel.key] in options.panels
 
-        software = is_software_gl(self.ctx)
+        software = is_software(self.ctx)
         resolution = Resolution(
             window=tuple(self.wnd.buffer_size),
             scale=options.render_scale if options.render_scale is not None else (SOFTWARE_SCALE if software else 1.0),

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from imgui_bundle import imgui
 
+from ...gl.context import is_software
 from . import Panel, UiState
 
 SATURATED_MS = 4294.9  # moderngl reads GL_TIME_ELAPSED as 32 bits: 2^32 ns is its ceiling
@@ -39,9 +40,14 @@ class StatisticsPanel(Panel):
         imgui.text(f"accumulated  {stats['spp']} spp, {stats['frames']} frames")
         imgui.text(f"render time  {stats['render_seconds']:.2f} s")
         imgui.text(f"frame        {frame.wall_ms:.1f} ms  ({frame.samples} spp)")
+        clock = "wall" if is_software(session.ctx) else "GPU"
         for name, ms in frame.pass_ms.items():
-            shown = f">= {SATURATED_MS:.0f}" if ms >= SATURATED_MS else f"{ms:8.2f}"
-            imgui.text(f"  {name:<11}{shown} ms (GPU)")
+            shown = f">= {SATURATED_MS:.0f}" if ms >= SATURATED_MS and clock == "GPU" else f"{ms:8.2f}"
+            imgui.text(f"  {name:<11}{shown} ms ({clock})")
+            if clock == "wall":
+                imgui.set_item_tooltip("a CPU rasterizer: each pass timed between two glFinish calls")
+            else:
+                imgui.set_item_tooltip("GL timer query (GL_TIME_ELAPSED)")
         imgui.text(f"paths / s    {_si(stats['paths_per_second'])}")
         imgui.set_item_tooltip("camera paths (pixels x samples) per second of render time")
         dropped = stats["dropped_samples"]
