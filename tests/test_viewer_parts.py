@@ -93,3 +93,13 @@ def test_scene_list_has_the_shipped_scenes_and_the_lift_folder(tmp_path, monkeyp
     assert "scenes/cornell.toml" in labels and "scenes/furnace.toml" in labels
     assert f"{tmp_path.name}/kitchen/scene.pbrt" in labels
     assert not any("LICENSE" in label or "bookmarks" in label for label in labels)
+
+
+# ---- the convergence plot's log ticks --------------------------------------------------------
+def test_log_ticks_label_short_and_long_ranges():
+    from lift_gl.app.panels.convergence import log_ticks
+
+    assert log_ticks(2.4, 99.8) == [5.0, 10.0, 20.0, 50.0]
+    ticks = log_ticks(0.0022, 0.0061)  # less than a decade: 1..9 per decade
+    assert ticks == pytest.approx([0.003, 0.004, 0.005, 0.006])
+    assert log_ticks(0.0, 1.0) == [] and log_ticks(1e-3, 1e3)[:3] == pytest.approx([1e-3, 2e-3, 5e-3])

@@ -33,6 +33,15 @@ def _gamma(text: str):
     return value
 
 
+def _prefixed(pairs: list[str], plugin: str | None) -> dict:
+    """The --set PLUGIN.NAME=VALUE pairs of one plugin (for the split view's right side)."""
+    from ..cli import _settings
+
+    if plugin is None:
+        return {}
+    return _settings([p for p in pairs if p.split("=", 1)[0].startswith(plugin + ".")], plugin)
+
+
 def add_parser(subparsers) -> None:
     from ..cli import _size  # here, not at import time: cli imports this module
 
@@ -42,7 +51,9 @@ def add_parser(subparsers) -> None:
                               "--screenshot it renders N frames, saves the window and exits (for lab reports and tests).")
     p.add_argument("scene", nargs="?", default=str(DEFAULT_SCENE), help="scene file (default: scenes/cornell.toml)")
     p.add_argument("--integrator", default="pt")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="plugin parameter; PLUGIN.NAME=VALUE for one plugin (the split view's right side takes "
+                   "only these)")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--size", type=_size, default=(1280, 720), help="window size WxH (default 1280x720)")
@@ -97,6 +108,6 @@ def cmd_view(args) -> int:
         render_scale=args.scale, moving_scale=args.moving_scale, render_size=args.render_size,
         samples_per_frame=max(1, args.spp_per_frame), target_spp=args.target_spp, target_seconds=args.target_time,
         exposure=args.exposure, operator=args.tonemap, gamma=args.gamma, view=args.aov or "render",
-        split=args.split, reference=args.ref, panels=args.panels, inspector=args.inspector,
+        split=args.split, split_params=_prefixed(args.set, args.split), reference=args.ref, panels=args.panels, inspector=args.inspector,
         frames=args.frames, screenshot=args.screenshot)
     return ViewerWindow(options).run()

@@ -9,6 +9,10 @@ maintained integration that covers our needs (panels, tooltips, implot) instead 
 renderer of our own to keep in step with ImGui's texture protocol.
 
 Fixes over the stock integration:
+- it sets the mouse state directly (`io.mouse_down[0] = 1`), so a click whose press and
+  release both arrive between two frames is lost; a frame on llvmpipe can take a second, so
+  here mouse events go through ImGui's input queue (`add_mouse_button_event`...), which
+  replays them one frame at a time;
 - its vertex and index buffers hold 65536 entries and a bigger draw list (a long convergence
   plot, many text lines) would overflow them: here they grow;
 - it forwards only navigation keys: here Ctrl/Shift/Alt and the letters of the usual
@@ -32,6 +36,30 @@ class ImguiRenderer(ModernglWindowRenderer):
         self.io.add_key_event(imgui.Key.mod_shift, bool(modifiers.shift))
         self.io.add_key_event(imgui.Key.mod_alt, bool(modifiers.alt))
         super().key_event(key, action, modifiers)
+
+    # ---- mouse, through the input queue ----
+    def _button(self, button) -> int | None:
+        mouse = self.wnd.mouse
+        return {mouse.left: 0, mouse.right: 1, mouse.middle: 2}.get(button)
+
+    def mouse_position_event(self, x, y, dx, dy):
+        self.io.add_mouse_pos_event(*self._mouse_pos_viewport(x, y))
+
+    def mouse_drag_event(self, x, y, dx, dy):
+        self.io.add_mouse_pos_event(*self._mouse_pos_viewport(x, y))
+
+    def mouse_press_event(self, x, y, button):
+        self.io.add_mouse_pos_event(*self._mouse_pos_viewport(x, y))
+        if self._button(button) is not None:
+            self.io.add_mouse_button_event(self._button(button), True)
+
+    def mouse_release_event(self, x, y, button):
+        self.io.add_mouse_pos_event(*self._mouse_pos_viewport(x, y))
+        if self._button(button) is not None:
+            self.io.add_mouse_button_event(self._button(button), False)
+
+    def mouse_scroll_event(self, x_offset, y_offset):
+        self.io.add_mouse_wheel_event(x_offset, y_offset)
 
     def render(self, draw_data: imgui.ImDrawData):
         vertices = max((c.vtx_buffer.size() for c in draw_data.cmd_lists), default=0) * imgui.VERTEX_SIZE

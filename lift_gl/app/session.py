@@ -190,14 +190,14 @@ class ViewSession:
         self._restarted()
         return True
 
-    def set_compare(self, name: str | None) -> bool:
+    def set_compare(self, name: str | None, params: dict | None = None) -> bool:
         """The split view's right side: another integrator, or None to end the split view."""
         if self.compare is not None:
             self.compare.release()
             self.compare = None
         if name:
             try:
-                self.compare = self._make_renderer(name, {}, self._current_scene())
+                self.compare = self._make_renderer(name, params or {}, self._current_scene())
             except LiftError as exc:
                 self.errors.add(exc)
                 return False

@@ -56,6 +56,7 @@ class ViewOptions:
     gamma: float | None = None
     view: str = "render"
     split: str | None = None
+    split_params: dict | None = None
     reference: str | None = None
     panels: tuple = ("settings", "statistics")
     inspector: bool = False
@@ -109,7 +110,7 @@ class ViewerWindow:
         s.display.exposure, s.display.operator, s.display.gamma = options.exposure, options.operator, options.gamma
         s.display.view = options.view
         if options.split:
-            s.set_compare(options.split)
+            s.set_compare(options.split, options.split_params)
         if options.reference:
             s.load_reference(options.reference)
         self.ui.scene_text = str(options.scene)
@@ -189,6 +190,7 @@ class ViewerWindow:
     def on_resize(self, width, height):
         self.gui.resize(width, height)
         self.ui.window_size = tuple(self.wnd.buffer_size)
+        self.ui.resized = True
         self.session.set_window_size(self.wnd.buffer_size)
 
     def on_files_dropped(self, x, y, paths):
@@ -251,6 +253,7 @@ class ViewerWindow:
             if panel.visible:
                 panel.draw(self.session, self.ui)
         self._draw_labels()
+        self.ui.resized = False
         imgui.render()
         self.gui.render(imgui.get_draw_data())
 

@@ -33,6 +33,11 @@ class UiState:
     panel_rects: dict = field(default_factory=dict)
     screenshot_request: bool = False
     messages: list = field(default_factory=list)  # short notices (screenshot written...)
+    resized: bool = False  # the window changed size this frame: panels go back to their anchors
+
+    def placement(self) -> int:
+        """The imgui condition for a panel's default position and size."""
+        return imgui.Cond_.always if self.resized else imgui.Cond_.first_use_ever
 
 
 class Panel:

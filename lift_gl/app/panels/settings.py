@@ -31,9 +31,9 @@ class SettingsPanel(Panel):
         self._plugins = None
 
     def draw(self, session, ui: UiState) -> None:
-        imgui.set_next_window_pos(imgui.ImVec2(8, 8), imgui.Cond_.first_use_ever)
+        imgui.set_next_window_pos(imgui.ImVec2(8, 8), ui.placement())
         imgui.set_next_window_size(imgui.ImVec2(min(self.width, 0.45 * ui.window_size[0]), max(200, ui.window_size[1] - 16)),
-                                   imgui.Cond_.first_use_ever)
+                                   ui.placement())
         if not self.begin(ui):
             return
         imgui.push_item_width(imgui.get_window_width() * 0.55)  # leaves room for the labels
@@ -199,6 +199,8 @@ class SettingsPanel(Panel):
             session.apply_resolution()
         imgui.set_item_tooltip("render resolution / window resolution")
         changed, r.moving_scale = imgui.slider_float("scale while moving", r.moving_scale, 0.1, 1.0, "%.2f")
+        if changed:
+            session.apply_resolution()
         imgui.set_item_tooltip("a lower resolution while the camera moves keeps the viewer fluid (1: off)")
         w, h = session.renderer.size
         imgui.text_disabled(f"render {w}x{h}" + (" (fixed)" if fixed else ""))

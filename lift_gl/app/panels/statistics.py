@@ -22,7 +22,7 @@ class StatisticsPanel(Panel):
     flags = imgui.WindowFlags_.always_auto_resize
 
     def draw(self, session, ui: UiState) -> None:
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, 8), imgui.Cond_.first_use_ever,
+        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, 8), ui.placement(),
                                   imgui.ImVec2(1.0, 0.0))
         imgui.set_next_window_bg_alpha(0.8)
         if not self.begin(ui):
@@ -53,9 +53,12 @@ class StatisticsPanel(Panel):
         dropped = stats["dropped_samples"]
         color = imgui.ImVec4(1.0, 0.4, 0.4, 1.0) if dropped else imgui.ImVec4(0.7, 0.7, 0.7, 1.0)
         imgui.text_colored(color, f"dropped NaN/Inf samples: {dropped}")
+        # Always one status line, so that the panel keeps its height (others are placed below it).
         if session.frozen:
             reason = "paused" if session.sampling.paused else "target reached"
             imgui.text_colored(imgui.ImVec4(0.4, 1.0, 0.4, 1.0), f"frozen ({reason})")
-        if session.moving and session.resolution.moving_scale < 1:
-            imgui.text_disabled("moving: lower resolution")
+        elif session.moving and session.resolution.moving_scale < 1:
+            imgui.text_colored(imgui.ImVec4(1.0, 0.8, 0.3, 1.0), "moving: lower resolution")
+        else:
+            imgui.text_disabled("rendering")
         imgui.end()
