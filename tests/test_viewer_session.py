@@ -199,3 +199,30 @@ def test_pixel_inspector_reads_radiance_and_gbuffer(session):
     assert info["samples"] == 1
     assert abs(np.linalg.norm(info["normal"]) - 1.0) < 1e-3 and info["depth"][0] > 0
     assert session.inspect(32, 0) is None
+
+
+def test_hot_reload_plugs_in_where_the_renderer_offers_it(session):
+    """Renderer.reload_if_changed() comes with hot reload (another branch); the session calls it
+    and shows its ShaderError, keeping the renderer."""
+    from lift_gl.errors import ShaderError
+
+    session.step()
+    calls = []
+
+    def changed():
+        calls.append("changed")
+        return True
+
+    session.renderer.reload_if_changed = changed
+    session._last_reload_poll = -1e9
+    session.step()
+    assert calls == ["changed"] and session.renderer.stats.spp == 1  # restarted, then one frame
+
+    def broken():
+        raise ShaderError("undeclared identifier", "plugins/pt/pt.glsl", 12)
+
+    session.renderer.reload_if_changed = broken
+    session._last_reload_poll = -1e9
+    renderer = session.renderer
+    assert session.step() and session.renderer is renderer
+    assert session.errors.entries == ["plugins/pt/pt.glsl:12: undeclared identifier"]

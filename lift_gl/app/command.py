@@ -58,7 +58,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--size", type=_size, default=(1280, 720), help="window size WxH (default 1280x720)")
     p.add_argument("--scale", type=float, help="render resolution / window resolution "
-                   "(default 1; 0.5 on a CPU rasterizer such as llvmpipe)")
+                   "(default 1; 0.25 on a CPU rasterizer such as llvmpipe)")
     p.add_argument("--moving-scale", type=float, help="extra resolution factor while the camera moves "
                    "(default 1; 0.5 on llvmpipe)")
     p.add_argument("--render-size", type=_size, help="a fixed render resolution WxH, letterboxed in the window")

@@ -78,6 +78,10 @@ class ImageView:
         self._upload.write(np.ascontiguousarray(srgb8[::-1]).tobytes())
         return self._upload
 
+    @property
+    def uploaded(self) -> moderngl.Texture | None:
+        return self._upload
+
     def draw(self, framebuffer_size, rect, left: moderngl.Texture, right: moderngl.Texture | None = None,
              split: float = 0.5) -> None:
         """Draw into the bound framebuffer; rect (x, y, w, h) from the top left."""

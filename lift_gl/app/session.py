@@ -28,6 +28,7 @@ from .bookmarks import Bookmark, bookmarks_path, load_bookmarks, save_bookmarks
 from .camera_controller import CameraController
 
 MAX_ERRORS = 20
+RELOAD_POLL_S = 0.5  # how often the plugin's files are checked for changes
 CONVERGENCE_GROWTH = 1.25  # sample the error at spp 1, 2, 3, 4, 5, 7, 9, ... (x1.25 each time)
 
 
@@ -119,10 +120,12 @@ class ViewSession:
         self.reference: np.ndarray | None = None
         self.reference_path: Path | None = None
         self.reference_factor = 1
+        self._fixed_without_reference = self.resolution.fixed
         self.convergence: list[ConvergencePoint] = []
         self._next_convergence_spp = 1
         self._aov_cache: dict[str, np.ndarray] = {}
         self._display_key = None
+        self._last_reload_poll = -math.inf
         self.scene_path = Path(scene_path)
         self.scene = load_scene(self.scene_path)
         self.renderer = self._make_renderer(integrator, params or {})
@@ -294,8 +297,27 @@ class ViewSession:
     def frozen(self) -> bool:
         return self.sampling.paused or self.target_reached
 
+    def poll_reload(self) -> None:
+        """Hot reload, where the Renderer offers it (`reload_if_changed()`: True when it rebuilt
+        its shaders; a ShaderError leaves its last good program running)."""
+        now = time.perf_counter()
+        if now - self._last_reload_poll < RELOAD_POLL_S:
+            return
+        self._last_reload_poll = now
+        for r in self.renderers:
+            reload = getattr(r, "reload_if_changed", None)
+            if reload is None:
+                continue
+            try:
+                if reload():
+                    r.reset()
+                    self._restarted()
+            except LiftError as exc:
+                self.errors.add(exc)
+
     def step(self) -> bool:
         """Render one frame unless frozen; True if samples were added."""
+        self.poll_reload()
         if self.frozen:
             return False
         samples = max(1, int(self.sampling.samples_per_frame))
@@ -344,7 +366,11 @@ class ViewSession:
         return self._aov_cache[name]
 
     def aov_display(self, name: str) -> np.ndarray:
-        return aov_to_display(name, self.aov(name))
+        """uint8 display colours of an AOV (cached with it: the same array until the view changes)."""
+        key = "display:" + name
+        if key not in self._aov_cache:
+            self._aov_cache[key] = aov_to_display(name, self.aov(name))
+        return self._aov_cache[key]
 
     def inspect(self, x: int, y: int) -> dict | None:
         """What one render pixel holds: (x, y) from the top left."""
@@ -380,6 +406,8 @@ class ViewSession:
         factor = next((k for k in range(1, 33) if w % k == 0 and h % k == 0 and (w // k) * (h // k) <= budget), None)
         if factor is None:
             factor = max(k for k in range(1, 33) if w % k == 0 and h % k == 0)
+        if self.reference is None:
+            self._fixed_without_reference = self.resolution.fixed  # --render-size, restored on clear
         self.reference, self.reference_path, self.reference_factor = reference, path, factor
         self.resolution.fixed = (w // factor, h // factor)
         self.apply_resolution()
@@ -388,7 +416,7 @@ class ViewSession:
 
     def clear_reference(self) -> None:
         if self.reference is not None:
-            self.resolution.fixed = None
+            self.resolution.fixed = self._fixed_without_reference
         self.reference = None
         self.reference_path = None
         self.convergence.clear()

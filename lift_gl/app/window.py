@@ -8,6 +8,7 @@ GUI as a PNG (plus the statistics and panel rectangles as JSON beside it) and re
 from __future__ import annotations
 
 import json
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +31,8 @@ WINDOW_CLASSES = {"pyglet": "moderngl_window.context.pyglet.Window",
                   "glfw": "moderngl_window.context.glfw.Window",
                   "headless": "moderngl_window.context.headless.Window"}
 MOVING_HOLD_S = 0.25  # the camera counts as moving this long after the last motion
-SOFTWARE_SCALE = 0.5  # default render scale on a CPU rasterizer (llvmpipe)
+MAX_FLY_STEP_S = 1.0  # a longer frame (a shader compile) does not throw the camera far
+SOFTWARE_SCALE = 0.25  # default render scale on a CPU rasterizer (llvmpipe: seconds a frame at 1280x720)
 MIN_GUI_FRAMES = 2  # ImGui sizes auto-resizing panels a frame after their content changes
 SCENE_EXTENSIONS = (".toml", ".pbrt", ".obj", ".ply", ".glb", ".gltf")
 IMAGE_EXTENSIONS = (".exr", ".pfm", ".npy", ".png")
@@ -78,8 +80,11 @@ class ViewerWindow:
         try:
             self.wnd = mglw.create_window_from_settings()
         except Exception as exc:  # the toolkit's own errors: no display, no OpenGL 4.3 context
+            hint = ""
+            if options.window_class != "headless" and not os.environ.get("DISPLAY"):
+                hint = " (no $DISPLAY: run it under `xvfb-run -a`, or with --window headless)"
             raise LiftError(f"cannot open a {options.window_class} window with OpenGL 4.3: "
-                            f"{type(exc).__name__}: {exc}") from None
+                            f"{type(exc).__name__}: {exc}{hint}") from None
         mglw.activate_context(window=self.wnd)
         self.ctx = self.wnd.ctx
 
@@ -117,6 +122,8 @@ class ViewerWindow:
         self.ui.reference_text = options.reference or ""
         self.view = ImageView(self.ctx)
         self._drag = False
+        self._camera_dirty = False
+        self._uploaded = None  # the AOV image now in the view's upload texture
         self._last_motion = -1e9
         self._last_time = time.perf_counter()
         self._connect_events()
@@ -164,9 +171,14 @@ class ViewerWindow:
             if key in digits and digits.index(key) < len(s.bookmarks):
                 s.go_to_bookmark(digits.index(key))
 
+    def _mouse_in_pixels(self, x, y):
+        """Window coordinates -> framebuffer pixels (they differ on high-DPI screens)."""
+        ratio = self.wnd.pixel_ratio
+        return int(x * ratio), int(y * ratio)
+
     def on_mouse_position(self, x, y, dx, dy):
         self.gui.mouse_position_event(x, y, dx, dy)
-        self.ui.mouse = (x, y)
+        self.ui.mouse = self._mouse_in_pixels(x, y)
 
     def on_mouse_press(self, x, y, button):
         self.gui.mouse_press_event(x, y, button)
@@ -178,7 +190,7 @@ class ViewerWindow:
 
     def on_mouse_drag(self, x, y, dx, dy):
         self.gui.mouse_drag_event(x, y, dx, dy)
-        self.ui.mouse = (x, y)
+        self.ui.mouse = self._mouse_in_pixels(x, y)
         if self._drag and self.session.controller.look(dx, dy):
             self._camera_moved()
 
@@ -201,9 +213,9 @@ class ViewerWindow:
                 self.session.load_reference(path)
 
     def _camera_moved(self):
+        """Input moved the camera: applied once per frame (a drag sends many events a frame)."""
         self._last_motion = time.perf_counter()
-        self.session.set_moving(True)
-        self.session.apply_camera()
+        self._camera_dirty = True
 
     # ---- one frame ----------------------------------------------------------------------------
     def _fly(self, dt: float) -> None:
@@ -219,8 +231,12 @@ class ViewerWindow:
     def frame(self) -> None:
         now = time.perf_counter()
         dt, self._last_time = now - self._last_time, now
-        self._fly(min(dt, 0.25))
-        if self.session.moving and now - self._last_motion > MOVING_HOLD_S:
+        self._fly(min(dt, MAX_FLY_STEP_S))
+        if self._camera_dirty:
+            self._camera_dirty = False
+            self.session.set_moving(True)
+            self.session.apply_camera()
+        elif self.session.moving and now - self._last_motion > MOVING_HOLD_S:
             self.session.set_moving(False)
         self.session.step()
         self.session.update_display()
@@ -238,7 +254,11 @@ class ViewerWindow:
         s = self.session
         self.ui.image_rect = fit_rect(s.renderer.size, fb_size)
         if s.display.view in AOV_VIEWS:
-            left, right = self.view.upload(s.aov_display(s.display.view)), None
+            shown = s.aov_display(s.display.view)
+            if shown is not self._uploaded:  # upload once per view change, not every frame
+                self.view.upload(shown)
+                self._uploaded = shown
+            left, right = self.view.uploaded, None
         else:
             textures = s.display_textures()
             if not textures:
