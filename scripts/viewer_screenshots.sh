@@ -6,7 +6,7 @@
 set -euo pipefail
 out=${1:-docs/viewer}
 mkdir -p "$out"
-view() { xvfb-run -a -s "-screen 0 1920x1080x24" .venv/bin/lift-gl view "$@"; }
+view() { xvfb-run -a -s "-screen 0 1920x1080x24" .venv/bin/lift-gl view --scale 0.5 "$@"; }
 shared=../shared
 
 view scenes/cornell.toml --size 960x540 --spp-per-frame 4 --frames 16 --screenshot "$out/cornell-settings.png"
