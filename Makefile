@@ -1,6 +1,7 @@
 # lift-gl: set up from a fresh clone and run.
 #   make test   system check, .venv, editable install, then the test suite (2 workers)
-#   make demo   same set-up, then a headless render of the Cornell box to out/cornell.png
+#   make demo   same set-up, then a headless render of the Cornell box to out/cornell.png,
+#               then the viewer on it when $DISPLAY is set
 #   make clean  remove outputs and caches; make distclean also removes .venv
 
 PYTHON ?= python3
@@ -35,7 +36,7 @@ demo: venv
 	@if [ -n "$$DISPLAY" ] && $(VENV)/bin/lift-gl view --help >/dev/null 2>&1; then \
 		$(VENV)/bin/lift-gl view scenes/cornell.toml; \
 	else \
-		echo "demo: image in out/cornell.png (no viewer: DISPLAY unset or lift-gl view not available yet)"; \
+		echo "demo: image in out/cornell.png (no viewer: DISPLAY unset or the viewer extra not installed)"; \
 	fi
 
 clean:

@@ -8,12 +8,13 @@ Only the passes the settings need are created (see `explain()`).
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .gl.context import create_context, describe
+from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
 from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
@@ -45,11 +46,12 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, integrator: str = "pt",
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
-                 timers: bool = False):
+                 timers: bool = False, ctx=None):
         self.scene = scene
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
-        self.ctx = create_context(backend)
+        # A window hands in its own context (the viewer); otherwise a headless one.
+        self.ctx = ctx if ctx is not None else create_context(backend)
         self.plugin = find_plugin(integrator, plugin_dirs)
         self.params = self._resolve_params(params or {})
         self.features = features or SceneFeatures.of(scene)
@@ -61,14 +63,20 @@ class Renderer:
         self.camera_uniforms = camera_uniforms(scene.camera, self.size)
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.samples_per_frame = samples_per_frame or (1 if uses_gbuffer else 4)
+        self.use_timers = timers
+        self._create_passes()
+        self.frame_index = 0
+        self.stats = RenderStats()
+
+    def _create_passes(self) -> None:
+        """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
+        uses_gbuffer = self.plugin.primary == "gbuffer"
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                     self.packed.num_spheres) if uses_gbuffer else None)
         self.trace = TracePass(self.ctx, self.size, self.plugin, self.defines)
         self.accumulate = AccumulatePass(self.ctx, self.size)
         self.tonemap = None  # created on the first display() call: headless float output needs none
-        self.timers = {p.name: GpuTimer(self.ctx) for p in self.passes} if timers else None
-        self.frame_index = 0
-        self.stats = RenderStats()
+        self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
 
     # ---- settings ----
     def _resolve_params(self, overrides: dict) -> dict:
@@ -87,6 +95,30 @@ class Renderer:
         """Change plugin parameters; accumulation restarts."""
         for name, value in values.items():
             self.params.update(self._resolve_params({name: value}))
+        self.reset()
+
+    def set_camera(self, camera) -> None:
+        """Look through another camera; only the camera uniforms change, accumulation restarts.
+
+        The caller's Scene is not modified (two renderers may share one).
+        """
+        self.scene = dataclasses.replace(self.scene, camera=camera)
+        self.camera_uniforms = camera_uniforms(camera, self.size)
+        self.reset()
+
+    def resize(self, size: tuple[int, int]) -> None:
+        """Render at another resolution: the scene stays uploaded, the passes are rebuilt,
+        accumulation restarts."""
+        size = tuple(int(v) for v in size)
+        if size == self.size:
+            return
+        if min(size) <= 0:
+            raise ValueError(f"resolution must be positive, not {size}")
+        for p in self.passes:
+            p.release()
+        self.size = size
+        self.camera_uniforms = camera_uniforms(self.scene.camera, self.size)
+        self._create_passes()
         self.reset()
 
     @property
@@ -119,6 +151,9 @@ class Renderer:
         self.frame_index = 0
         self.stats = RenderStats()
 
+    def _timer(self) -> GpuTimer:
+        return GpuTimer(self.ctx, cpu_clock=is_software(self.ctx))
+
     def _timed(self, name):
         if self.timers is None:
             return _NoTimer()
@@ -144,8 +179,10 @@ class Renderer:
         self.stats.frames += 1
         self.stats.spp += samples
 
-    def render(self, spp: int | None = None, seconds: float | None = None, progress=None) -> np.ndarray:
-        """Add spp samples per pixel (or render for `seconds` of wall time); the mean so far."""
+    def render(self, spp: int | None = None, seconds: float | None = None, progress=None,
+               readback: bool = True) -> np.ndarray | None:
+        """Add spp samples per pixel (or render for `seconds` of wall time); the mean so far
+        (None with readback=False: the viewer shows the GPU image and reads nothing back)."""
         if spp is None and seconds is None:
             spp = 16
         start = time.perf_counter()
@@ -167,18 +204,31 @@ class Renderer:
         self.stats.dropped_samples = int(self.buffers.read_stats()[STAT_DROPPED])
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
-        return self.image()
+        return self.image() if readback else None
 
     def image(self) -> np.ndarray:
         """Mean radiance so far: float32 (H, W, 3), row 0 = top."""
         return self.accumulate.read_mean()
 
-    def display(self, exposure: float = 0.0, operator: str = "aces") -> np.ndarray:
-        """The mean so far tone-mapped on the GPU: uint8 sRGB (H, W, 3), row 0 = top."""
+    def display(self, exposure: float = 0.0, operator: str = "aces", gamma: float | None = None,
+                readback: bool = True) -> np.ndarray | None:
+        """The mean so far tone-mapped on the GPU: uint8 sRGB (H, W, 3), row 0 = top.
+
+        gamma None encodes with the sRGB curve, a number with x^(1/gamma). With readback=False
+        the result stays in the RGBA8 texture `self.tonemap.display` (rows bottom-up) and
+        None is returned.
+        """
         if self.tonemap is None:
             self.tonemap = TonemapPass(self.ctx, self.size)
-        self.tonemap.run(self.accumulate, exposure, operator)
-        return self.tonemap.read()
+            if self.timers is not None:
+                self.timers["tonemap"] = self._timer()
+        with self._timed("tonemap"):
+            self.tonemap.run(self.accumulate, exposure, operator, gamma)
+        return self.tonemap.read() if readback else None
+
+    def pixel(self, x: int, y: int) -> tuple[np.ndarray, float]:
+        """Mean radiance (float64 RGB) and valid sample count of one pixel; (0, 0) = top left."""
+        return self.accumulate.read_pixel(int(x), self.size[1] - 1 - int(y))
 
     def aov(self, name: str) -> np.ndarray:
         """A G-buffer channel of the current frame, float32 (H, W, 3), row 0 = top."""

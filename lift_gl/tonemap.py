@@ -10,6 +10,7 @@ The display pipeline, per pixel and per channel (no cross-channel operations):
       -> exposure:   x * 2**exposure                                         (apply_exposure)
       -> operator:   ACES fit | Reinhard | clamp, result in [0, 1]           (tonemap)
       -> sRGB OETF:  exact piecewise curve (IEC 61966-2-1)                   (srgb_encode)
+                     or, when a display gamma g is asked for, x^(1/g)        (gamma_encode)
       -> 8 bit:      round(255 * v)                                          (to_srgb8)
 
 ACES variant: Krzysztof Narkowicz's rational fit of the ACES filmic curve (RRT + ODT),
@@ -120,7 +121,17 @@ def srgb_decode(encoded) -> np.ndarray:
     return np.where(v <= SRGB_ENCODED_THRESHOLD, low, high).astype(np.float32)
 
 
-def to_srgb8(linear, exposure: float = 0.0, operator: str = "aces") -> np.ndarray:
-    """Scene-referred linear RGB -> 8-bit sRGB (uint8): tonemap, encode, round to nearest."""
-    encoded = srgb_encode(tonemap(linear, exposure=exposure, operator=operator))
+def gamma_encode(linear, gamma: float) -> np.ndarray:
+    """A plain display gamma instead of the sRGB curve: x^(1/gamma) for x in [0, 1] (float32)."""
+    x = np.clip(np.asarray(linear, dtype=np.float32), 0.0, 1.0)
+    return np.power(x, np.float32(1.0 / gamma)).astype(np.float32)
+
+
+def to_srgb8(linear, exposure: float = 0.0, operator: str = "aces", gamma: float | None = None) -> np.ndarray:
+    """Scene-referred linear RGB -> 8-bit sRGB (uint8): tonemap, encode, round to nearest.
+
+    ``gamma`` None encodes with the sRGB curve; a number encodes with x^(1/gamma) instead.
+    """
+    mapped = tonemap(linear, exposure=exposure, operator=operator)
+    encoded = srgb_encode(mapped) if gamma is None else gamma_encode(mapped, gamma)
     return np.clip(np.rint(encoded * 255.0), 0, 255).astype(np.uint8)

@@ -12,7 +12,8 @@ from lift_gl.tonemap import to_srgb8
 
 @pytest.mark.parametrize("operator", ["aces", "reinhard", "clamp"])
 @pytest.mark.parametrize("exposure", [0.0, -2.0, 1.5])
-def test_gpu_tonemap_matches_numpy(operator, exposure):
+@pytest.mark.parametrize("gamma", [None, 2.2, 1.0])
+def test_gpu_tonemap_matches_numpy(operator, exposure, gamma):
     ctx = create_context()
     size = (16, 8)
     rng = np.random.default_rng(3)
@@ -25,7 +26,7 @@ def test_gpu_tonemap_matches_numpy(operator, exposure):
     totals[..., 3] = 2.0
     acc.sum.write(totals.tobytes())
     tonemap = TonemapPass(ctx, size)
-    tonemap.run(acc, exposure, operator)
+    tonemap.run(acc, exposure, operator, gamma)
     gpu = tonemap.read().astype(int)
-    cpu = to_srgb8(linear, exposure=exposure, operator=operator).astype(int)
+    cpu = to_srgb8(linear, exposure=exposure, operator=operator, gamma=gamma).astype(int)
     assert np.abs(gpu - cpu).max() <= 1

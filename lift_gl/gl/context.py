@@ -130,3 +130,11 @@ def describe(ctx: moderngl.Context) -> str:
     info = ctx.info
     backend = getattr(ctx, "extra", None) or {}
     return f"{info['GL_RENDERER']} | {info['GL_VERSION']} | {backend.get('backend', '?')}"
+
+
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")
+
+
+def is_software(ctx: moderngl.Context) -> bool:
+    """True on a CPU rasterizer (Mesa llvmpipe): no GPU, and timer queries are not to be trusted."""
+    return any(name in ctx.info["GL_RENDERER"].lower() for name in SOFTWARE_RENDERERS)

@@ -24,6 +24,7 @@ class AccumulatePass:
         self.program = shaders.compile_compute(ctx, shaders.assemble(SOURCE))
         self.sum = ctx.texture(size, 4, dtype="f4")
         self.compensation = ctx.texture(size, 4, dtype="f4")
+        self._pixel_fbo = None  # made on the first read_pixel (the viewer's pixel inspector)
         self.reset()
 
     def reset(self) -> None:
@@ -51,6 +52,19 @@ class AccumulatePass:
         mean = np.divide(totals[..., :3], count, out=np.zeros_like(totals[..., :3]), where=count > 0)
         return np.ascontiguousarray(mean[::-1]).astype(np.float32)
 
+    def read_pixel(self, x: int, y: int) -> tuple[np.ndarray, float]:
+        """Mean radiance (float64 RGB) and sample count of one pixel, (x, y) in GL order
+        (row 0 = bottom); reads back 2 texels, not the image."""
+        if self._pixel_fbo is None:
+            self._pixel_fbo = self.ctx.framebuffer([self.sum, self.compensation])
+        texels = [np.frombuffer(self._pixel_fbo.read(viewport=(x, y, 1, 1), components=4, attachment=i,
+                                                     dtype="f4"), np.float32).astype(np.float64)
+                  for i in (0, 1)]
+        total = texels[0] + texels[1]
+        count = float(total[3])
+        return (total[:3] / count if count > 0 else np.zeros(3)), count
+
     def release(self) -> None:
-        for obj in (self.program, self.sum, self.compensation):
-            obj.release()
+        for obj in (self.program, self.sum, self.compensation, self._pixel_fbo):
+            if obj is not None:
+                obj.release()

@@ -1,6 +1,8 @@
 """What every pass shares: the scene's GPU buffers, uniform setting, and GPU timers."""
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..scene.pack import PackedScene, still_motion
@@ -79,22 +81,44 @@ class SceneBuffers:
 
 
 class GpuTimer:
-    """Accumulated GPU time of one pass, from timer queries (ns)."""
+    """Accumulated GPU time of one pass, from timer queries (ns).
 
-    def __init__(self, ctx):
-        self.query = ctx.query(time=True)
+    On a CPU rasterizer (`cpu_clock=True`, e.g. Mesa llvmpipe, whose GL_TIME_ELAPSED reads 0
+    for some compute dispatches) the pass is timed by the wall clock between two glFinish
+    calls instead: there the "GPU" is the CPU, so this is the pass's real cost.
+    """
+
+    def __init__(self, ctx, cpu_clock: bool = False):
+        self.ctx = ctx
+        self.cpu_clock = cpu_clock
+        self.query = None if cpu_clock else ctx.query(time=True)
         self.total_ns = 0
+        self.last_ns = 0
         self.count = 0
+        self._start = 0
 
     def __enter__(self):
-        self.query.__enter__()
+        if self.cpu_clock:
+            self.ctx.finish()
+            self._start = time.perf_counter_ns()
+        else:
+            self.query.__enter__()
         return self
 
     def __exit__(self, *exc):
-        self.query.__exit__(*exc)
-        self.total_ns += self.query.elapsed
+        if self.cpu_clock:
+            self.ctx.finish()
+            self.last_ns = time.perf_counter_ns() - self._start
+        else:
+            self.query.__exit__(*exc)
+            self.last_ns = self.query.elapsed
+        self.total_ns += self.last_ns
         self.count += 1
 
     @property
     def mean_ms(self) -> float:
         return self.total_ns / max(self.count, 1) / 1e6
+
+    @property
+    def last_ms(self) -> float:
+        return self.last_ns / 1e6

@@ -24,11 +24,15 @@ class TonemapPass:
         self.program = shaders.compile_compute(ctx, shaders.assemble(SOURCE))
         self.display = ctx.texture(size, 4, dtype="f1")
 
-    def run(self, accumulate, exposure: float = 0.0, operator: str = "aces") -> None:
+    def run(self, accumulate, exposure: float = 0.0, operator: str = "aces", gamma: float | None = None) -> None:
+        """gamma None: the sRGB curve; a number g > 0: encode x^(1/g) instead."""
         if operator not in OPERATORS:
             raise ValueError(f"unknown tone mapping operator {operator!r}; choose one of {', '.join(OPERATORS)}")
+        if gamma is not None and not gamma > 0:
+            raise ValueError(f"display gamma must be positive, not {gamma!r}")
         self.program["u_exposure"].value = float(exposure)
         self.program["u_operator"].value = OPERATORS.index(operator)
+        self.program["u_gamma"].value = 0.0 if gamma is None else float(gamma)
         accumulate.sum.bind_to_image(1, read=True, write=False)
         accumulate.compensation.bind_to_image(2, read=True, write=False)
         self.display.bind_to_image(3, read=False, write=True)

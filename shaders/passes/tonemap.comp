@@ -6,6 +6,7 @@ layout(rgba32f, binding = 2) uniform readonly image2D u_compensation;
 layout(rgba8, binding = 3) uniform writeonly image2D u_display;
 uniform float u_exposure;  // stops
 uniform int u_operator;    // 0 aces, 1 reinhard, 2 clamp
+uniform float u_gamma;     // 0: the sRGB curve; g > 0: x^(1/g) (a display gamma)
 
 const float MAX_INPUT = 1.0e4;
 
@@ -28,5 +29,7 @@ void main() {
     x = mix(vec3(0.0), min(x, vec3(MAX_INPUT)), greaterThan(x, vec3(0.0)));
     x *= exp2(u_exposure);
     vec3 mapped = u_operator == 0 ? aces_narkowicz(x) : (u_operator == 1 ? x / (1.0 + x) : clamp(x, 0.0, 1.0));
-    imageStore(u_display, p, vec4(srgb_encode(clamp(mapped, 0.0, 1.0)), 1.0));
+    mapped = clamp(mapped, 0.0, 1.0);
+    vec3 encoded = u_gamma > 0.0 ? pow(mapped, vec3(1.0 / u_gamma)) : srgb_encode(mapped);
+    imageStore(u_display, p, vec4(encoded, 1.0));
 }

@@ -1,0 +1,34 @@
+"""Errors: shader compile errors (file:line), bad scene, plugin or reference files. The last good
+renderer keeps running; the panel stays until cleared."""
+from __future__ import annotations
+
+from imgui_bundle import imgui
+
+from . import Panel, UiState
+
+
+class ErrorsPanel(Panel):
+    title = "Errors"
+
+    def draw(self, session, ui: UiState) -> None:
+        if not session.errors.entries:
+            return
+        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] * 0.5, ui.window_size[1] - 8),
+                                  imgui.Cond_.appearing, imgui.ImVec2(0.5, 1.0))
+        imgui.set_next_window_size(imgui.ImVec2(min(720, ui.window_size[0] - 16), 0), imgui.Cond_.appearing)
+        imgui.push_style_color(imgui.Col_.title_bg_active, imgui.ImVec4(0.6, 0.1, 0.1, 1.0))
+        imgui.push_style_color(imgui.Col_.title_bg, imgui.ImVec4(0.45, 0.08, 0.08, 1.0))
+        visible = self.begin(ui)
+        imgui.pop_style_color(2)
+        if not self.visible:  # closed with its box: dismiss the messages
+            session.errors.clear()
+            self.visible = True
+        if not visible:
+            return
+        imgui.text_disabled("the last good renderer keeps running")
+        for text in reversed(session.errors.entries):
+            imgui.separator()
+            imgui.text_wrapped(text)
+        if imgui.button("Clear"):
+            session.errors.clear()
+        imgui.end()
