@@ -103,7 +103,8 @@ def assert_same_expectation(images_a: np.ndarray, images_b: np.ndarray, block: i
         "blocks without noise differ"
     tests = t.size
     critical = stats.t.ppf(1.0 - p / (2 * tests), np.where(exact, 1e6, df))
-    worst = np.unravel_index(np.nanargmax(np.where(exact, 0.0, np.abs(t) / critical)), t.shape)
+    worst = tuple(int(i) for i in np.unravel_index(np.nanargmax(np.where(exact, 0.0, np.abs(t) / critical)),
+                                                   t.shape))
     ratio = float(np.abs(t[worst]) / critical[worst]) if not exact[worst] else 0.0
     assert ratio <= 1.0, (
         f"block {worst[:2]} channel {worst[2]} differs by {diff[worst]:.4g} = {t[worst]:.2f} standard errors "
