@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from . import scaffold
 from .errors import LiftError
 
 
@@ -138,6 +139,7 @@ def main(argv=None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     _add_render(sub)
     _add_plugins(sub)
+    scaffold.add_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

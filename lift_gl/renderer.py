@@ -166,7 +166,7 @@ class Renderer:
                  f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}",
                  "passes:"]
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
-                   "trace": f"runs {self.plugin.entry}",
+                   "trace": f"runs {self.plugin.entry}" + self._trace_device(),
                    "accumulate": "still camera: exact running mean (compensated sum)",
                    "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
@@ -176,6 +176,13 @@ class Renderer:
         lines.append("scene features compiled in (+) and left out (-):")
         lines += ["  " + f for f in self.features.explain()]
         return "\n".join(lines)
+
+    def _trace_device(self) -> str:
+        if self.plugin.language != "opencl":
+            return ""
+        from .opencl import describe_device
+
+        return f" as an OpenCL kernel on {describe_device()}; G-buffer read back, frame written to GL"
 
     # ---- rendering ----
     def reset(self, seed: int | None = None) -> None:
