@@ -67,6 +67,7 @@ class Renderer:
         self.camera_uniforms = camera_uniforms(scene.camera, self.size)
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.samples_per_frame = samples_per_frame or (1 if uses_gbuffer else 4)
+        self._samples_per_frame_asked = samples_per_frame  # None: the default of the plugin's primary
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                     self.packed.num_spheres) if uses_gbuffer else None)
         self.trace = self._create_trace(self.plugin)
@@ -133,6 +134,10 @@ class Renderer:
         if plugin.primary == "gbuffer" and self.gbuffer is None:
             self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                        self.packed.num_spheres)
+        elif plugin.primary == "camera" and self.gbuffer is not None:
+            self.gbuffer.release()  # the plugin now traces its own camera rays
+            self.gbuffer = None
+        self.samples_per_frame = self._samples_per_frame_asked or (1 if plugin.primary == "gbuffer" else 4)
         if self.timers is not None:
             for p in self.passes:
                 self.timers.setdefault(p.name, GpuTimer(self.ctx))

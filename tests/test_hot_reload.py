@@ -127,6 +127,19 @@ def test_a_setting_survives_a_reload_where_it_still_applies(ao_copy):
     r.release()
 
 
+def test_switching_primary_hit_source_on_reload(renderer, ao_copy):
+    """primary = "camera" drops the G-buffer pass, "gbuffer" brings it back; each renders what
+    a renderer built for that manifest renders."""
+    manifest = ao_copy / "plugin.toml"
+    for primary in ("camera", "gbuffer"):
+        edit(manifest, 'primary = "gbuffer"' if primary == "camera" else 'primary = "camera"', f'primary = "{primary}"')
+        assert renderer.reload() is True
+        assert (renderer.gbuffer is None) == (primary == "camera")
+        fresh = Renderer(cornell_scene(), size=SIZE, integrator=str(ao_copy), seed=5)
+        np.testing.assert_array_equal(renderer.render(spp=4), fresh.render(spp=4))
+        fresh.release()
+
+
 def test_parameter_change_restarts_accumulation(renderer):
     renderer.render(spp=8)
     renderer.set_params(radius=0.1)
