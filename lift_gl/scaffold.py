@@ -12,7 +12,6 @@ from pathlib import Path
 
 from .errors import LiftError
 from .plugins import _IDENT, discover, find_plugin, search_path
-from .testing import CORNELL
 
 TEST_TEMPLATE = '''"""Tests of the {name} plugin, written by `lift-gl new-plugin` (started from {source}).
 
@@ -82,12 +81,14 @@ def cmd_new_plugin(args) -> int:
              (entry, "your radiance(): start where it says YOUR TURN"),
              (f"test_{args.name}.py", "checks it: renders, white furnace, agrees with pt")]
     width = max(len(f) for f, _ in files) + 2
-    print(f"created {folder}/ from {args.source}:")
+    print(f"created {_shown(folder)}/ from {args.source}:")
     for file, what in files:
         print(f"  {file:<{width}}{what}")
     print("next:")
+    from .testing import CORNELL  # numpy: only for this command, not at every CLI start
+
     print(f"  lift-gl render {_shown(CORNELL)} --integrator {found_as} --spp 64 --out {args.name}.png")
-    print(f"  python -m pytest {folder}")
+    print(f"  python -m pytest {_shown(folder)}")
     if not on_path:
         print(f"  (to use it by name: --plugins {folder.parent}, or add that folder to LIFT_GL_PLUGIN_PATH)")
     return 0
