@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from . import scaffold
 from .app.command import add_parser as add_view_parser
 from .errors import LiftError
 
@@ -140,6 +141,7 @@ def main(argv=None) -> int:
     _add_render(sub)
     _add_plugins(sub)
     add_view_parser(sub)
+    scaffold.add_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

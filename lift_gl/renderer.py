@@ -5,6 +5,9 @@
 
 A frame is: G-buffer (when the plugin takes its first hit from it) -> trace -> accumulate.
 Only the passes the settings need are created (see `explain()`).
+
+Hot reload: `reload()` recompiles the plugin when its files changed; a broken edit raises
+its error (file and line) and the last good program goes on rendering.
 """
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .errors import LiftError
 from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
@@ -21,10 +25,11 @@ from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
-from .plugins import find_plugin
+from .plugins import Plugin, find_plugin, load_manifest
 from .scene.features import SceneFeatures
 from .scene.model import Scene
 from .scene.pack import pack_scene
+from .watch import FileWatcher
 
 AOVS = ("albedo", "normal", "depth")
 
@@ -53,7 +58,8 @@ class Renderer:
         # A window hands in its own context (the viewer); otherwise a headless one.
         self.ctx = ctx if ctx is not None else create_context(backend)
         self.plugin = find_plugin(integrator, plugin_dirs)
-        self.params = self._resolve_params(params or {})
+        self.param_overrides = dict(params or {})  # what the caller set; survives a reload
+        self.params = self._resolve_params(self.param_overrides)
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
         self.packed = pack_scene(scene)
@@ -63,17 +69,20 @@ class Renderer:
         self.camera_uniforms = camera_uniforms(scene.camera, self.size)
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.samples_per_frame = samples_per_frame or (1 if uses_gbuffer else 4)
+        self._samples_per_frame_asked = samples_per_frame  # None: the default of the plugin's primary
         self.use_timers = timers
         self._create_passes()
         self.frame_index = 0
         self.stats = RenderStats()
+        self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
+        self.watcher = FileWatcher(self._watched_files())
 
     def _create_passes(self) -> None:
         """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                     self.packed.num_spheres) if uses_gbuffer else None)
-        self.trace = TracePass(self.ctx, self.size, self.plugin, self.defines)
+        self.trace = self._create_trace(self.plugin)
         self.accumulate = AccumulatePass(self.ctx, self.size)
         self.tonemap = None  # created on the first display() call: headless float output needs none
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
@@ -95,6 +104,7 @@ class Renderer:
         """Change plugin parameters; accumulation restarts."""
         for name, value in values.items():
             self.params.update(self._resolve_params({name: value}))
+            self.param_overrides[name] = value
         self.reset()
 
     def set_camera(self, camera) -> None:
@@ -121,6 +131,66 @@ class Renderer:
         self._create_passes()
         self.reset()
 
+    # ---- hot reload ----
+    def _create_trace(self, plugin: Plugin):
+        if plugin.language == "opencl":
+            from .passes.trace_cl import OpenCLTracePass  # pyopencl only when such a plugin runs
+
+            return OpenCLTracePass(self.ctx, self.size, plugin, self.defines, self.buffers)
+        return TracePass(self.ctx, self.size, plugin, self.defines)
+
+    def _watched_files(self) -> set:
+        """The plugin's own files and every file its program included (the library's too)."""
+        return set(self.plugin.source_files()) | {f for f in self.trace.source.files if f.is_file()}
+
+    def reload(self, force: bool = False) -> bool:
+        """Recompile the plugin if any of its files changed since the last call (always with
+        `force`). True when a new program replaced the old one; accumulation then restarts.
+
+        A broken edit (manifest or shader) raises its PluginError or ShaderError, which names
+        the file and line, and the renderer keeps rendering with the last good program.
+        `reload_error` keeps that error until an edit compiles; the same broken files are
+        reported once, not on every call.
+        """
+        if not self.watcher.changed() and not force:
+            return False
+        try:
+            plugin = load_manifest(self.plugin.folder)
+            params = self._params_after_reload(plugin)
+            trace = self._create_trace(plugin)
+        except LiftError as exc:
+            self.reload_error = exc
+            raise
+        self.trace.release()
+        self.plugin, self.params, self.trace, self.reload_error = plugin, params, trace, None
+        if plugin.primary == "gbuffer" and self.gbuffer is None:
+            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
+                                       self.packed.num_spheres)
+        elif plugin.primary == "camera" and self.gbuffer is not None:
+            self.gbuffer.release()  # the plugin now traces its own camera rays
+            self.gbuffer = None
+        self.samples_per_frame = self._samples_per_frame_asked or (1 if plugin.primary == "gbuffer" else 4)
+        if self.timers is not None:
+            for p in self.passes:
+                self.timers.setdefault(p.name, self._timer())
+        self.watcher.watch(self._watched_files())
+        self.reset()
+        return True
+
+    def _params_after_reload(self, plugin: Plugin) -> dict:
+        """The new manifest's defaults, with the caller's settings where they still apply."""
+        old, self.plugin = self.plugin, plugin
+        try:
+            kept = {}
+            for name, value in self.param_overrides.items():
+                try:
+                    kept[name] = self._resolve_params({name: value})[name]
+                except LiftError:
+                    pass  # the parameter is gone, or its new type or range rejects the value
+            return {**self._resolve_params({}), **kept}
+        finally:
+            self.plugin = old
+
     @property
     def passes(self) -> list:
         return [p for p in (self.gbuffer, self.trace, self.accumulate, self.tonemap) if p is not None]
@@ -133,7 +203,7 @@ class Renderer:
                  f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}",
                  "passes:"]
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
-                   "trace": f"runs {self.plugin.entry}",
+                   "trace": f"runs {self.plugin.entry}" + self._trace_device(),
                    "accumulate": "still camera: exact running mean (compensated sum)",
                    "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
@@ -144,8 +214,18 @@ class Renderer:
         lines += ["  " + f for f in self.features.explain()]
         return "\n".join(lines)
 
+    def _trace_device(self) -> str:
+        if self.plugin.language != "opencl":
+            return ""
+        from .opencl import describe_device
+
+        return f" as an OpenCL kernel on {describe_device()}; G-buffer read back, frame written to GL"
+
     # ---- rendering ----
-    def reset(self) -> None:
+    def reset(self, seed: int | None = None) -> None:
+        """Restart accumulation (and the frame sequence), optionally with another seed."""
+        if seed is not None:
+            self.seed = int(seed)
         self.accumulate.reset()
         self.buffers.reset_stats()
         self.frame_index = 0

@@ -202,26 +202,27 @@ def test_pixel_inspector_reads_radiance_and_gbuffer(session):
 
 
 def test_hot_reload_plugs_in_where_the_renderer_offers_it(session):
-    """Renderer.reload_if_changed() comes with hot reload (another branch); the session calls it
+    """The session polls Renderer.reload() (which restarts accumulation when it recompiled)
     and shows its ShaderError, keeping the renderer."""
     from lift_gl.errors import ShaderError
 
     session.step()
     calls = []
 
-    def changed():
+    def changed(force=False):
         calls.append("changed")
+        session.renderer.reset()
         return True
 
-    session.renderer.reload_if_changed = changed
+    session.renderer.reload = changed
     session._last_reload_poll = -1e9
     session.step()
     assert calls == ["changed"] and session.renderer.stats.spp == 1  # restarted, then one frame
 
-    def broken():
+    def broken(force=False):
         raise ShaderError("undeclared identifier", "plugins/pt/pt.glsl", 12)
 
-    session.renderer.reload_if_changed = broken
+    session.renderer.reload = broken
     session._last_reload_poll = -1e9
     renderer = session.renderer
     assert session.step() and session.renderer is renderer

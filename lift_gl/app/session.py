@@ -298,19 +298,16 @@ class ViewSession:
         return self.sampling.paused or self.target_reached
 
     def poll_reload(self) -> None:
-        """Hot reload, where the Renderer offers it (`reload_if_changed()`: True when it rebuilt
-        its shaders; a ShaderError leaves its last good program running)."""
+        """Hot reload: `Renderer.reload()` recompiles a plugin whose files changed (True when
+        it did, accumulation restarted); a broken edit raises its error, shown in the Errors
+        panel, and the last good program keeps running."""
         now = time.perf_counter()
         if now - self._last_reload_poll < RELOAD_POLL_S:
             return
         self._last_reload_poll = now
         for r in self.renderers:
-            reload = getattr(r, "reload_if_changed", None)
-            if reload is None:
-                continue
             try:
-                if reload():
-                    r.reset()
+                if r.reload():
                     self._restarted()
             except LiftError as exc:
                 self.errors.add(exc)
