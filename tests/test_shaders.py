@@ -58,3 +58,44 @@ def test_defines_are_emitted_after_the_version_line():
     assert lines[0].startswith("#version")
     assert "#define HAS_X" in lines and "#define COUNT 3" in lines
     assert not any("OFF" in line for line in lines)
+
+
+def test_low_discrepancy_pairs_are_uniform_and_stratified():
+    """rng_ld2 over one pixel's 256 samples: every pair puts exactly one point in each cell of
+    a 16x16 grid (Sobol's (0,2)-net property survives Owen scrambling), while the same pair
+    of another pixel, and another pair of the same pixel, is a different point set; and over
+    many pixels each pair is uniform (chi-square)."""
+    import numpy as np
+    from scipy import stats
+
+    ctx = create_context()
+    src = assemble("""
+layout(local_size_x = 64) in;
+#include "lift/rng.glsl"
+layout(std430, binding = 10) buffer Out { vec2 points[]; };
+uniform uint u_pairs;
+void main() {
+    uint pixel = gl_GlobalInvocationID.x / 256u, s = gl_GlobalInvocationID.x % 256u;
+    Rng r = rng_init_pixel_sample(uvec2(pixel, 7u), 0u, 0u, s, 3u);
+    for (uint p = 0u; p < u_pairs; ++p) points[gl_GlobalInvocationID.x * u_pairs + p] = rng_ld2(r);
+}
+""")
+    program = compile_compute(ctx, src)
+    pixels, pairs = 64, 4
+    out = ctx.buffer(reserve=pixels * 256 * pairs * 8)
+    out.bind_to_storage_buffer(10)
+    program["u_pairs"].value = pairs
+    program.run(pixels * 256 // 64)
+    points = np.frombuffer(out.read(), np.float32).reshape(pixels, 256, pairs, 2)
+    assert points.min() >= 0.0 and points.max() < 1.0
+    cells = (points * 16).astype(int)
+    flat = cells[..., 0] * 16 + cells[..., 1]
+    for pixel in range(pixels):
+        for pair in range(pairs):
+            assert len(np.unique(flat[pixel, :, pair])) == 256
+    assert not np.array_equal(points[0, :, 0], points[1, :, 0])
+    assert not np.array_equal(points[0, :, 0], points[0, :, 1])
+    # Uniformity over pixels: first points of each pixel, pooled over pairs, on an 8x8 grid.
+    first = points[:, 0].reshape(-1, 2)
+    counts = np.histogram2d(first[:, 0], first[:, 1], bins=8, range=[[0, 1], [0, 1]])[0].ravel()
+    assert stats.chisquare(counts).pvalue > 1e-3

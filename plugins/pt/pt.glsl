@@ -48,7 +48,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
-            // rng_ld2: low-discrepancy for the first light and BSDF samples of the path
+            // rng_ld2: low-discrepancy pairs (stratified over the pixel's samples)
             if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls)) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);

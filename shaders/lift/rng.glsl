@@ -1,6 +1,6 @@
 // lift/rng.glsl: per-sample random numbers. PCG (O'Neill) hash for decorrelated seeds,
 // then a PCG stream; every number is a deterministic function of (pixel, frame, sample, seed).
-// rng_ld2 adds low-discrepancy pairs for the first decisions of a path (see below).
+// rng_ld2 adds low-discrepancy pairs for a path's light and BSDF samples (see below).
 #ifndef LIFT_RNG_GLSL
 #define LIFT_RNG_GLSL
 
@@ -39,26 +39,46 @@ float rng_next(inout Rng r) {
 }
 
 vec2 rng_next2(inout Rng r) { return vec2(rng_next(r), rng_next(r)); }
-
-// A low-discrepancy pair: point `sample_index` of the 4D Kronecker (R4) sequence, pair
-// `ld_pair` of it (dims 1-2, then 3-4), rotated by a random shift per pixel and pair
-// (Cranley-Patterson). Each pair is exactly uniform for every pixel (the shift is), so
-// estimators stay unbiased, and over a pixel's samples the pairs fill the square far more
-// evenly than independent numbers: for the first light and BSDF samples of a path this
-// lowers the error at equal sample count. Beyond two pairs it falls back to rng_next2.
-vec2 rng_ld2(inout Rng r) {
-    // 1 / phi^i, phi the real root of x^5 = x + 1 (Roberts' generalised golden ratio)
-    const vec4 ALPHA = vec4(0.85667488, 0.73389185, 0.62870298, 0.53859013);
-    uint pair = r.ld_pair++;
-    if (pair >= 2u) return rng_next2(r);
-    uint h = pcg_hash(r.ld_seed + pair);
-    vec2 shift = vec2(float(h >> 8u), float(pcg_hash(h) >> 8u)) * (1.0 / 16777216.0);
-    vec2 alpha = pair == 0u ? ALPHA.xy : ALPHA.zw;
-    // fract(n * alpha) in fixed point: exact for any n, where n * alpha in float is not.
-    uvec2 step_fixed = uvec2(alpha * 4294967296.0);
-    uvec2 point_fixed = step_fixed * r.sample_index;
-    return fract(vec2(point_fixed >> 8u) * (1.0 / 16777216.0) + shift);
-}
 vec3 rng_next3(inout Rng r) { return vec3(rng_next(r), rng_next(r), rng_next(r)); }
+
+// ---- Low-discrepancy pairs: Owen-scrambled Sobol points, a new scramble per pair ----
+// rng_ld2 returns pair number `ld_pair` of this pixel's sample `sample_index`: the first two
+// Sobol dimensions (a (0,2)-sequence, stratified in every elementary interval), Owen-scrambled
+// with a hash keyed on (pixel, pair), and the sample index itself scrambled per pair so that
+// different pairs are decorrelated ("padding", as in Burley 2020, "Practical Hash-based Owen
+// Scrambling"). For a random key every output is exactly uniform (x + key is uniform and the
+// permutation is a bijection), so estimators stay unbiased; over a pixel's samples each pair
+// fills the square far more evenly than independent numbers. Used for the light and BSDF
+// samples of every bounce, it lowers the error at equal sample count.
+
+// A bijection of 32-bit words in which each bit depends only on itself and the bits below it
+// (Laine and Karras 2011): applied to bit-reversed values it permutes nested intervals.
+uint lk_permute(uint x, uint key) {
+    x += key;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+
+uint owen_scramble(uint x, uint key) { return bitfieldReverse(lk_permute(bitfieldReverse(x), key)); }
+
+// Sobol's second dimension: generator matrix rows v_k = v_(k-1) ^ (v_(k-1) >> 1).
+uint sobol_dimension_1(uint index) {
+    uint x = 0u;
+    for (uint v = 0x80000000u; index != 0u; index >>= 1u, v ^= v >> 1u) {
+        if ((index & 1u) != 0u) x ^= v;
+    }
+    return x;
+}
+
+vec2 rng_ld2(inout Rng r) {
+    uint key = pcg_hash(r.ld_seed + r.ld_pair++ * 0x9e3779b9u);
+    uint index = owen_scramble(r.sample_index, key);
+    uint x = owen_scramble(bitfieldReverse(index), pcg_hash(key ^ 0xa511e9b3u));
+    uint y = owen_scramble(sobol_dimension_1(index), pcg_hash(key ^ 0x63d83595u));
+    return vec2(x >> 8u, y >> 8u) * (1.0 / 16777216.0);
+}
 
 #endif
