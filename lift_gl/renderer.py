@@ -13,10 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .error_estimate import ErrorEstimate, estimate_error
 from .gl.context import create_context, describe
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
+from .passes.common import STAT_DROPPED, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
@@ -35,9 +36,12 @@ class RenderStats:
     dropped_samples: int = 0
     render_seconds: float = 0.0  # wall time of the frames, I/O excluded
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
+    rays: int = 0  # rays traced through the BVH (with count_rays=True)
+    error: ErrorEstimate | None = None  # set by Renderer.estimate_error()
 
     def summary(self) -> str:
-        return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames), "
+        error = "" if self.error is None else f", est. rel. std. error {100 * self.error.rel_std_error:.2f}%"
+        return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames){error}, "
                 f"dropped NaN/Inf samples: {self.dropped_samples}")
 
 
@@ -45,7 +49,7 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, integrator: str = "pt",
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
-                 timers: bool = False):
+                 timers: bool = False, count_rays: bool = False):
         self.scene = scene
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
@@ -54,6 +58,8 @@ class Renderer:
         self.params = self._resolve_params(params or {})
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
+        if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
+            self.defines["LIFT_COUNT_RAYS"] = True
         self.packed = pack_scene(scene)
         self.buffers = SceneBuffers(self.ctx, self.packed)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
@@ -102,7 +108,8 @@ class Renderer:
                  "passes:"]
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}",
-                   "accumulate": "still camera: exact running mean (compensated sum)",
+                   "accumulate": "still camera: exact running mean (compensated sum), and even minus odd "
+                                 "frames for the error estimate",
                    "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
             lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(p.outputs)}: {reasons[p.name]}")
@@ -116,6 +123,8 @@ class Renderer:
     def reset(self) -> None:
         self.accumulate.reset()
         self.buffers.reset_stats()
+        for timer in (self.timers or {}).values():
+            timer.total_ns = timer.count = 0
         self.frame_index = 0
         self.stats = RenderStats()
 
@@ -163,7 +172,9 @@ class Renderer:
                 progress(self, done)
         self.ctx.finish()
         self.stats.render_seconds += time.perf_counter() - start
-        self.stats.dropped_samples = int(self.buffers.read_stats()[STAT_DROPPED])
+        counters = self.buffers.read_stats()
+        self.stats.dropped_samples = int(counters[STAT_DROPPED])
+        self.stats.rays = int(counters[STAT_RAYS_LOW]) + (int(counters[STAT_RAYS_HIGH]) << 32)
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image()
@@ -171,6 +182,12 @@ class Renderer:
     def image(self) -> np.ndarray:
         """Mean radiance so far: float32 (H, W, 3), row 0 = top."""
         return self.accumulate.read_mean()
+
+    def estimate_error(self) -> ErrorEstimate | None:
+        """The relative error of the mean so far, estimated without a reference from the
+        accumulation's two half-buffers (lift_gl/error_estimate.py); also kept in stats."""
+        self.stats.error = estimate_error(self.accumulate.read_totals(), self.accumulate.read_half_difference())
+        return self.stats.error
 
     def display(self, exposure: float = 0.0, operator: str = "aces") -> np.ndarray:
         """The mean so far tone-mapped on the GPU: uint8 sRGB (H, W, 3), row 0 = top."""

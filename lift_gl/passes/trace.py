@@ -2,7 +2,8 @@
 
 inputs:  scene buffers, camera, G-buffer visibility (plugins with primary = "gbuffer")
 outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count in a);
-         stats[0] counts samples dropped because they were NaN or infinite
+         stats[0] counts samples dropped because they were NaN or infinite;
+         stats[2..3] count the rays traced (64 bits), with LIFT_COUNT_RAYS defined
 
 The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
@@ -92,6 +93,13 @@ void main() {{
         sum += L;
         valid += 1.0;
     }}
+#ifdef LIFT_COUNT_RAYS
+    // A 64-bit count in two words: carry into stats[3] when stats[2] wraps around.
+    if (lift_rays_traced > 0u) {{
+        uint before = atomicAdd(stats[2], lift_rays_traced);
+        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
+    }}
+#endif
     imageStore(u_frame_out, pixel, vec4(sum, valid));
 }}
 """
