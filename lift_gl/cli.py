@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from .errors import LiftError
+from .report import compare
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -138,6 +139,7 @@ def main(argv=None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     _add_render(sub)
     _add_plugins(sub)
+    compare.add_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)
