@@ -21,7 +21,7 @@ class RenderProgress:
         self._start = time.perf_counter()
         total = spp if seconds is None else float(seconds)
         self.bar = tqdm(total=total, desc=desc, file=file if file is not None else sys.stderr, leave=False,
-                        delay=delay, bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix} [{elapsed}<{remaining}]")
+                        delay=delay, bar_format="{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}{postfix}]")
 
     def __call__(self, renderer, done: int) -> None:
         now = time.perf_counter()
