@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from .errors import LiftError
-from .report import compare
+from .report import bench, compare
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -134,6 +134,7 @@ def main(argv=None) -> int:
     _add_render(sub)
     _add_plugins(sub)
     compare.add_parser(sub)
+    bench.add_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)
