@@ -87,7 +87,7 @@ class Verdict:
         if not reached:
             return f"No configuration reaches {name} {self.target:.3g} within its budget."
         best = reached[0]
-        how = "(the target given)" if self.target_given else "(the highest final error: every configuration got there)"
+        how = "(the target given)" if self.target_given else "(the highest final error of any run: every run got there)"
         parts = [f"**{best.label}** reaches {name} {self.target:.3g} {how} first, in "
                  f"{best.seconds.format('.3g', ' s')}{' or less' if best.already else ''}"]
         for r in self.reaches[1:]:
@@ -100,13 +100,13 @@ class Verdict:
 
 
 def verdict(runs_by_label: dict, metric: str, target: float | None = None) -> Verdict | None:
-    """Who reaches `target` error first (default: the highest final mean error, which every
-    configuration reached), and the ratio of times with its confidence interval."""
+    """Who reaches `target` error first (default: the highest error of any run's last
+    checkpoint, which every run reached), and the ratio of times with its confidence interval."""
     if any(metric not in runs[0][0] for runs in runs_by_label.values()):
         return None
     given = target is not None
-    if target is None:
-        target = max(final_row(runs)[metric].mean for runs in runs_by_label.values())
+    if target is None:  # the worst last checkpoint of any run: every run got at least there
+        target = max(run[-1][metric] for runs in runs_by_label.values() for run in runs)
     reaches = []
     for label, runs in runs_by_label.items():
         times = [time_to_reach([r["render_seconds"] for r in run], [r[metric] for r in run], target) for run in runs]
