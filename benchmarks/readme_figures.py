@@ -5,7 +5,8 @@
 1. `lift-gl compare` on Lift's Cornell box (pbrt-v3, 128x128) against Tungsten's reference:
    pt, pt with Russian roulette from the first bounce (unbiased, cheaper and noisier paths),
    and pt with max_depth=3 (biased: light after three bounces is missing); equal time, with
-   the checkpoint overhead measured -> OUT/compare-cornell-box/ (report.md, plot, contact sheet).
+   the checkpoint overhead measured -> OUT/compare-cornell-box/ (report.md, plot, contact sheet
+   reduced to 256 colours, metrics.csv; the linear EXRs are not kept).
 2. `lift-gl bench` on the repository's scenes and the pbrt Cornell box at 64, 128 and 256
    pixels -> OUT/bench.json and OUT/bench.md.
 Until bdpt and the denoiser land, pt with other settings stands in for them.
@@ -18,6 +19,8 @@ import io
 import shutil
 import sys
 from pathlib import Path
+
+from PIL import Image
 
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
@@ -43,6 +46,9 @@ def main() -> int:
         if code:
             return code
         shutil.rmtree(out / "images", ignore_errors=True)  # linear EXRs: large, and remade by this script
+        # Noisy images compress badly: a 256-colour palette keeps the committed PNG small.
+        sheet = Image.open(out / "contact_sheet.png").convert("RGB")
+        sheet.quantize(256, method=Image.Quantize.MEDIANCUT).save(out / "contact_sheet.png", optimize=True)
     if not args.skip_bench:
         text = io.StringIO()
         with contextlib.redirect_stdout(text):

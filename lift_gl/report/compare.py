@@ -124,6 +124,9 @@ class Session:
         warm_up(renderer)
         rows, images = [], []
         start = time.perf_counter()
+        # When the denoiser lands: "every" is the renderer's own setting (each frame denoised,
+        # inside the timed frames); "final" denoises each checkpoint's image as if it were the
+        # last, and that time counts as render time. parse_configurations refuses both until then.
         for cp in run_checkpoints(renderer, self.spp_targets, self.time_targets):
             row = {"configuration": config.label, "integrator": config.integrator,
                    "params": ";".join(f"{k}={v}" for k, v in config.params.items()), "denoise": config.denoise,
@@ -248,10 +251,9 @@ def cmd_compare(args) -> int:
     plot_convergence(curves, out / "convergence", title, {v.metric: v.target for v in verdicts})
     sheet_entries = []
     for label, kept in images.items():
-        at = [k for k in kept if k[1] <= t_equal * (1 + 1e-9)] or kept[:1]
-        spp, seconds, image = at[-1]
+        spp, seconds, image = min(kept, key=lambda k: abs(math.log(k[1] / t_equal)))  # nearest on a log scale
         from .. import metrics
-        sheet_entries.append((label, f"{seconds:.2f} s, {spp} spp, relMSE {metrics.rel_mse(image, reference.image):.3g}",
+        sheet_entries.append((label, f"{seconds:.2f} s, {spp} spp\nrelMSE {metrics.rel_mse(image, reference.image):.3g}",
                               image))
     contact_sheet(reference.image, sheet_entries, out / "contact_sheet.png", args.exposure)
 

@@ -9,8 +9,8 @@ import numpy as np
 from ..metrics import REL_MSE_EPS
 from ..tonemap import to_srgb8
 
-TILE = 192  # pixels of the longer side of a tile
-CAPTION = 30
+TILE_MIN, TILE_MAX = 128, 192  # longer side of a tile: small renders are enlarged by whole factors, large ones reduced
+CAPTION = 44  # three lines of text under a tile
 
 
 def _font(size: int):
@@ -26,7 +26,8 @@ def _tile(srgb8: np.ndarray):
     from PIL import Image
 
     h, w = srgb8.shape[:2]
-    scale = TILE / max(h, w)
+    longer = max(h, w)
+    scale = TILE_MAX / longer if longer > TILE_MAX else float(max(1, -(-TILE_MIN // longer)))
     size = (max(1, round(w * scale)), max(1, round(h * scale)))
     return Image.fromarray(srgb8).resize(size, Image.NEAREST if scale >= 1 else Image.BOX)
 
@@ -62,14 +63,14 @@ def contact_sheet(reference: np.ndarray, entries: list[tuple[str, str, np.ndarra
         x = 4 + i * (tw + 4)
         sheet.paste(_tile(to_srgb8(image, exposure)), (x, 4))
         draw.text((x, th + 6), title, fill="black", font=font)
-        draw.text((x, th + 19), subtitle, fill=(70, 70, 70), font=font)
+        draw.multiline_text((x, th + 19), subtitle, fill=(70, 70, 70), font=font, spacing=2)
         if heat is not None:
             y = 4 + th + CAPTION + 4
             sheet.paste(_tile(heat), (x, y))
-            draw.text((x, y + th + 2), "relative squared error", fill=(70, 70, 70), font=font)
+            draw.text((x, y + th + 2), "rel. squared error", fill=(70, 70, 70), font=font)
         elif rows == 2:
             y = 4 + th + CAPTION + 4
-            draw.text((x, y + 4), f"heat maps: log scale,\n{vmax * 1e-4:.1e} (dark)\nto {vmax:.1e} (light)",
+            draw.text((x, y + 4), f"error maps,\nlog scale:\n{vmax * 1e-4:.1e} dark\nto {vmax:.1e} light",
                       fill="black", font=font)
     path = Path(path)
     sheet.save(path, optimize=True)

@@ -67,7 +67,7 @@ def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equa
               "the error against the reference is all noise; well above 1 means bias (a biased estimator, a short "
               "max_depth) or a reference of another scene or renderer.", "",
               "## Images at equal render time", "", "![contact sheet](contact_sheet.png)", "",
-              f"Seed 1 of each configuration at its last checkpoint within {t_equal:.3g} s of render time; beneath, "
+              f"Seed 1 of each configuration at its checkpoint nearest to {t_equal:.3g} s of render time; beneath, "
               "each pixel's relative squared error against the reference. Linear images: `images/*.exr`.", ""]
     if overhead:
         lines += ["## Checkpoint overhead", "",
