@@ -1,7 +1,7 @@
 """The error of a render without a reference, from the two half-buffers of the accumulation.
 
-Even and odd frames give two independent means of each pixel, A (of n_a samples) and B (of
-n_b samples); the render's mean is M = (n_a A + n_b B) / n with n = n_a + n_b. For
+The accumulation sends each frame to one of two halves, at random (passes/accumulate.py), so
+each pixel has two independent means, A (of n_a samples) and B (of n_b samples); the render's mean is M = (n_a A + n_b B) / n with n = n_a + n_b. For
 independent samples of variance s^2, E[(A - B)^2] = s^2 (1/n_a + 1/n_b) and Var(M) = s^2 / n,
 so
 
@@ -15,7 +15,10 @@ Var(M) / (M^2 + eps), the same normalisation as lift_gl.metrics.rel_mse: it pred
 relMSE of this render against the noise-free image of the same estimator. It sees variance
 only: a biased estimator (a short max_depth, a clamp) is not caught by it — compare against a
 reference for that (`lift-gl compare`). It assumes frames are independent, as the host's
-seeding makes them (every frame hashes its own random numbers).
+seeding makes them (every frame hashes its own random numbers). The subpixel jitter is a
+Halton sequence, not independent from frame to frame: with frames sent to the halves at
+random, each half sees a random subset of it, so at edges the estimate counts the jitter as
+Monte Carlo noise and errs on the high side.
 """
 from __future__ import annotations
 
@@ -43,14 +46,14 @@ class ErrorEstimate:
 
 
 def halves(totals: np.ndarray, difference: np.ndarray):
-    """(sum_a, n_a, sum_b, n_b) of the even (a) and odd (b) frames, from the accumulation's
-    totals and half difference, (..., 4) arrays of (rgb sums, sample count)."""
+    """(sum_a, n_a, sum_b, n_b) of the two halves, from the accumulation's totals and half
+    difference, (..., 4) arrays of (rgb sums, sample count)."""
     totals = np.asarray(totals, np.float64)
     difference = np.asarray(difference, np.float64)
-    even = (totals + difference) / 2
-    odd = (totals - difference) / 2
+    a = (totals + difference) / 2
+    b = (totals - difference) / 2
     # Counts are whole numbers; float32 storage keeps them exact below 2^24 samples.
-    return even[..., :3], np.rint(even[..., 3:4]), odd[..., :3], np.rint(odd[..., 3:4])
+    return a[..., :3], np.rint(a[..., 3:4]), b[..., :3], np.rint(b[..., 3:4])
 
 
 def variance_of_mean(totals: np.ndarray, difference: np.ndarray) -> np.ndarray:

@@ -108,8 +108,8 @@ class Renderer:
                  "passes:"]
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}",
-                   "accumulate": "still camera: exact running mean (compensated sum), and even minus odd "
-                                 "frames for the error estimate",
+                   "accumulate": "still camera: exact running mean (compensated sum), and the difference "
+                                 "of two halves of the frames for the error estimate",
                    "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
             lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(p.outputs)}: {reasons[p.name]}")

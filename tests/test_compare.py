@@ -154,9 +154,11 @@ def test_compare_equal_spp(capsys, tmp_path, cornell_reference):
 def test_compare_equal_time(capsys, tmp_path, cornell_reference):
     out = tmp_path / "cmp"
     code, stdout, err = run_cli(capsys, "compare", CORNELL, "--time", 0.25, "--seeds", 1, "--size", "24x24",
-                                "--ref", cornell_reference, "--out", out)
+                                "--ref", cornell_reference, "--flip", "--out", out)
     assert code == 0, err
     rows = read_csv(out / "metrics.csv")
+    assert all(0 < float(r["flip"]) < 1 for r in rows)
+    assert "| FLIP |" in (out / "report.md").read_text()
     render = [float(r["render_seconds"]) for r in rows]
     spp = [int(r["spp"]) for r in rows]
     assert len(rows) >= 2 and render == sorted(render) and spp == sorted(set(spp))

@@ -62,8 +62,8 @@ def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equa
         cells = [f"`{label}`", f"{f['spp'].mean:.0f}", _fmt(f["render_seconds"], ".3g"), _fmt(f["wall_seconds"], ".3g")]
         cells += [_fmt(f[m]) for m in metrics] + [_fmt(f["est_rel_mse"]), f"{ratio:.2f}", str(f["dropped_samples"])]
         lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "**est. relMSE** is the render's own estimate of its relMSE, without the reference (from even "
-              "and odd frames accumulated apart): the variance part of the error. **relMSE / est.** near 1 means "
+    lines += ["", "**est. relMSE** is the render's own estimate of its relMSE, without the reference (from two "
+              "halves of its frames accumulated apart): the variance part of the error. **relMSE / est.** near 1 means "
               "the error against the reference is all noise; well above 1 means bias (a biased estimator, a short "
               "max_depth) or a reference of another scene or renderer.", "",
               "## Images at equal render time", "", "![contact sheet](contact_sheet.png)", "",
