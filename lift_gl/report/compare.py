@@ -179,11 +179,56 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
             writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
 
 
+def _run_all(session: Session, configs: list[Configuration], reference: np.ndarray, args):
+    """Every configuration once per seed, interleaved; with --measure-overhead, a plain render
+    after each run. Returns rows per label (a list per seed), seed 1's checkpoint images per
+    label, and the overhead table."""
+    runs = {c.label: [] for c in configs}
+    images, walls, plains = {}, {c.label: [] for c in configs}, {c.label: [] for c in configs}
+    for seed in range(1, args.seeds + 1):
+        for config in configs:
+            rows, kept, wall = session.run(config, seed, reference, keep_images=seed == 1)
+            runs[config.label].append(rows)
+            walls[config.label].append(wall)
+            if seed == 1:
+                images[config.label] = kept
+            last = rows[-1]
+            print(f"{config.label} seed {seed}: {last['spp']} spp, render {last['render_seconds']:.2f} s, "
+                  f"wall {wall:.2f} s, relMSE {last['rel_mse']:.4g}, DSSIM {last['dssim']:.4g}", flush=True)
+            if last["dropped_samples"]:
+                print(f"  warning: {last['dropped_samples']} NaN/Inf samples dropped", flush=True)
+            if args.measure_overhead:  # right after the run, so both see the same machine load
+                plains[config.label].append(session.plain_render_seconds(config, seed, last["spp"]))
+    overhead = {}
+    for label, plain in plains.items():
+        if not plain:
+            continue
+        ratios = [wall / p for wall, p in zip(walls[label], plain)]
+        overhead[label] = {"spp": [run[-1]["spp"] for run in runs[label]], "plain_seconds": plain,
+                           "compare_wall_seconds": walls[label],
+                           "compare_render_seconds": [run[-1]["render_seconds"] for run in runs[label]],
+                           "checkpoints": len(runs[label][0]), "ratios": ratios,
+                           "median_ratio": float(np.median(ratios))}
+    return runs, images, overhead
+
+
+def _contact_sheet(images: dict, reference: np.ndarray, t_equal: float, path: Path, exposure: float) -> None:
+    """Seed 1 of each configuration at its checkpoint nearest to t_equal (on a log scale)."""
+    from ..metrics import rel_mse
+    from .contact_sheet import contact_sheet
+
+    entries = []
+    for label, kept in images.items():
+        spp, seconds, image = min(kept, key=lambda k: abs(math.log(k[1] / t_equal)))
+        entries.append((label, f"{seconds:.2f} s, {spp} spp\nrelMSE {rel_mse(image, reference):.3g}", image))
+    contact_sheet(reference, entries, path, exposure)
+
+
 def cmd_compare(args) -> int:
+    from ..gl.context import create_context
     from ..image_io import write_image
     from ..scene.loader import load_scene
     from . import report_md
-    from .contact_sheet import contact_sheet
     from .machine import describe_machine
     from .plots import plot_convergence
     from .summary import at_time, common_time, curve, final_row, verdict
@@ -203,40 +248,13 @@ def cmd_compare(args) -> int:
     print(f"reference: {reference.source}{' (cached)' if reference.cached else ''}", flush=True)
     image_metrics(reference.image, reference.image, args.flip)  # first-use imports stay out of the wall times
     write_image(out / "images" / "reference.exr", reference.image)
-
     started = time.strftime("%Y-%m-%d %H:%M")
-    from ..gl.context import create_context
     machine = describe_machine(create_context(args.backend))
-    runs = {c.label: [] for c in configs}
-    images, walls = {}, {c.label: [] for c in configs}
-    plains = {c.label: [] for c in configs} if args.measure_overhead else {}
-    for seed in range(1, args.seeds + 1):
-        for config in configs:
-            rows, kept, wall = session.run(config, seed, reference.image, keep_images=seed == 1)
-            runs[config.label].append(rows)
-            walls[config.label].append(wall)
-            if seed == 1:
-                images[config.label] = kept
-            last = rows[-1]
-            print(f"{config.label} seed {seed}: {last['spp']} spp, render {last['render_seconds']:.2f} s, "
-                  f"wall {wall:.2f} s, relMSE {last['rel_mse']:.4g}, DSSIM {last['dssim']:.4g}", flush=True)
-            if last["dropped_samples"]:
-                print(f"  warning: {last['dropped_samples']} NaN/Inf samples dropped", flush=True)
-            if args.measure_overhead:  # right after the run, so both see the same machine load
-                plains[config.label].append(session.plain_render_seconds(config, seed, last["spp"]))
 
-    overhead = {}
-    for label, plain in plains.items():
-        ratios = [wall / p for wall, p in zip(walls[label], plain)]
-        overhead[label] = {"spp": [run[-1]["spp"] for run in runs[label]], "plain_seconds": plain,
-                           "compare_wall_seconds": walls[label],
-                           "compare_render_seconds": [run[-1]["render_seconds"] for run in runs[label]],
-                           "checkpoints": len(runs[label][0]), "ratios": ratios,
-                           "median_ratio": float(np.median(ratios))}
+    runs, images, overhead = _run_all(session, configs, reference.image, args)
 
-    all_rows = [row for label in runs for run in runs[label] for row in run]
-    _write_csv(out / "metrics.csv", all_rows)
-
+    # ---- what the runs say ----
+    _write_csv(out / "metrics.csv", [row for label in runs for run in runs[label] for row in run])
     grid = session.spp_targets if session.mode == "spp" else session.time_targets
     curves = {label: curve(r, session.mode, grid) for label, r in runs.items()}
     finals = {label: final_row(r) for label, r in runs.items()}
@@ -245,18 +263,12 @@ def cmd_compare(args) -> int:
     t_equal = common_time(runs)
     equal_time = {m: at_time(runs, t_equal, m) for m in ("rel_mse", "dssim")}
 
-    for label, kept in images.items():
-        write_image(out / "images" / f"{next(c for c in configs if c.label == label).file_stem}.exr", kept[-1][2])
+    # ---- files ----
+    for config in configs:
+        write_image(out / "images" / f"{config.file_stem}.exr", images[config.label][-1][2])
     title = f"{Path(args.scene).name} {size[0]}x{size[1]}, {args.seeds} seed{'s' if args.seeds > 1 else ''}, 95% CI"
     plot_convergence(curves, out / "convergence", title, {v.metric: v.target for v in verdicts})
-    sheet_entries = []
-    for label, kept in images.items():
-        spp, seconds, image = min(kept, key=lambda k: abs(math.log(k[1] / t_equal)))  # nearest on a log scale
-        from .. import metrics
-        sheet_entries.append((label, f"{seconds:.2f} s, {spp} spp\nrelMSE {metrics.rel_mse(image, reference.image):.3g}",
-                              image))
-    contact_sheet(reference.image, sheet_entries, out / "contact_sheet.png", args.exposure)
-
+    _contact_sheet(images, reference.image, t_equal, out / "contact_sheet.png", args.exposure)
     summary = {"scene": str(args.scene), "size": list(size), "mode": session.mode,
                "budget": args.spp if session.mode == "spp" else args.seconds, "seeds": args.seeds,
                "configurations": [c.label for c in configs], "reference": {"source": reference.source,
