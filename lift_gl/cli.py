@@ -8,6 +8,7 @@ from pathlib import Path
 from . import scaffold
 from .app.command import add_parser as add_view_parser
 from .errors import LiftError
+from .report import bench, compare
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -60,6 +61,7 @@ def _add_render(sub):
 
 def cmd_render(args) -> int:
     from .image_io import write_image, write_srgb8
+    from .render_record import write_render_record
     from .renderer import Renderer
     from .scene.features import SceneFeatures
     from .scene.loader import load_scene
@@ -81,15 +83,17 @@ def cmd_render(args) -> int:
         write_image(args.out, image, exposure=args.exposure, tonemap="clamp")
         print(f"wrote {args.out} ({args.aov})")
         return 0
-    progress = _progress_bar(args.spp, args.seconds)
-    image = renderer.render(spp=args.spp if args.seconds is None else None, seconds=args.seconds,
-                            progress=progress)
+    spp = None if args.seconds is not None else (args.spp or 64)
+    progress = _progress_bar(spp, args.seconds)
+    image = renderer.render(spp=spp, seconds=args.seconds, progress=progress)
     if progress is not None:
         progress.close()
+    renderer.estimate_error()  # from the half-buffers: no reference needed
     if args.out.lower().endswith(".png"):
         write_srgb8(args.out, renderer.display(args.exposure, args.tonemap))
     else:
         write_image(args.out, image)
+    write_render_record(renderer, args.scene, args.out)
     print(f"{args.out}: {renderer.size[0]}x{renderer.size[1]}, {args.integrator}, {renderer.stats.summary()}")
     return 0
 
@@ -98,18 +102,9 @@ def _progress_bar(spp, seconds):
     """A progress bar on a terminal only; None elsewhere (no per-frame sync in batch runs)."""
     if not sys.stderr.isatty():
         return None
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return None
-    bar = tqdm(total=spp if seconds is None else None, unit="spp", leave=False)
+    from .progress import RenderProgress
 
-    def update(renderer, done):
-        bar.n = done
-        bar.refresh()
-
-    update.close = bar.close
-    return update
+    return RenderProgress(spp=spp, seconds=seconds)
 
 
 def _add_plugins(sub):
@@ -142,6 +137,8 @@ def main(argv=None) -> int:
     _add_plugins(sub)
     add_view_parser(sub)
     scaffold.add_parser(sub)
+    compare.add_parser(sub)
+    bench.add_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

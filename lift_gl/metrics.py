@@ -6,6 +6,7 @@ Conventions (those of the Mitsuba references in the shared refs folder and of th
 - ``ssim`` works on sRGB-encoded values clipped to [0, 1] (no tone mapping), scikit-image's
   ``structural_similarity`` with ``channel_axis=-1, data_range=1`` and its default 7x7
   uniform window; ``dssim = 1 / ssim - 1`` as the Lift paper reports it.
+- ``flip`` (optional, the ``flip-evaluator`` package) is mean HDR-FLIP on linear RGB.
 Images are H x W x C float arrays of equal shape; use ``box_downsample`` or ``resize_to``
 first when a reference has a higher resolution.
 """
@@ -73,8 +74,30 @@ def dssim(img, ref) -> float:
 
     Infinite when SSIM <= 0 (unrelated or anti-correlated images).
     """
-    s = ssim(img, ref)
+    return dssim_from_ssim(ssim(img, ref))
+
+
+def dssim_from_ssim(s: float) -> float:
+    """1 / SSIM - 1 of an SSIM already computed; infinite when SSIM <= 0."""
     return float("inf") if s <= 0.0 else 1.0 / s - 1.0
+
+
+def flip(img, ref) -> float:
+    """Mean HDR-FLIP error (NVIDIA's perceptual metric) of linear RGB images: 0 identical.
+
+    Optional: needs the ``flip-evaluator`` package (``pip install 'lift-gl[flip]'``). HDR-FLIP
+    chooses its exposure range from the reference alone, so errors of one reference compare.
+    """
+    try:
+        import flip_evaluator
+    except ImportError as exc:
+        raise ImportError("lift_gl.metrics.flip needs NVIDIA's FLIP: pip install 'lift-gl[flip]'") from exc
+    x, r = _pair(img, ref)
+    if x.ndim != 3 or x.shape[2] != 3:
+        raise ValueError(f"flip expects H x W x 3 images, got shape {x.shape}")
+    _, mean_error, _ = flip_evaluator.evaluate(np.maximum(r, 0).astype(np.float32), np.maximum(x, 0).astype(np.float32),
+                                               "HDR", applyMagma=False)
+    return float(mean_error)
 
 
 def finite_fraction(img) -> float:

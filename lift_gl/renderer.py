@@ -17,11 +17,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .error_estimate import ErrorEstimate, estimate_error
 from .errors import LiftError
 from .gl.context import create_context, describe, is_software
-from .passes.accumulate import AccumulatePass
+from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
+from .passes.common import STAT_DROPPED, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
@@ -41,9 +42,12 @@ class RenderStats:
     dropped_samples: int = 0
     render_seconds: float = 0.0  # wall time of the frames, I/O excluded
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
+    rays: int = 0  # rays traced through the BVH (with count_rays=True)
+    error: ErrorEstimate | None = None  # set by Renderer.estimate_error()
 
     def summary(self) -> str:
-        return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames), "
+        error = "" if self.error is None else f", est. rel. std. error {100 * self.error.rel_std_error:.2f}%"
+        return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames){error}, "
                 f"dropped NaN/Inf samples: {self.dropped_samples}")
 
 
@@ -51,7 +55,7 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, integrator: str = "pt",
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
-                 timers: bool = False, ctx=None):
+                 timers: bool = False, count_rays: bool = False, ctx=None):
         self.scene = scene
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
@@ -62,6 +66,8 @@ class Renderer:
         self.params = self._resolve_params(self.param_overrides)
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
+        if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
+            self.defines["LIFT_COUNT_RAYS"] = True
         self.packed = pack_scene(scene)
         self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
@@ -74,6 +80,7 @@ class Renderer:
         self._create_passes()
         self.frame_index = 0
         self.stats = RenderStats()
+        self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
 
@@ -204,7 +211,8 @@ class Renderer:
                  "passes:"]
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}" + self._trace_device(),
-                   "accumulate": "still camera: exact running mean (compensated sum)",
+                   "accumulate": "still camera: exact running mean (compensated sum), and the difference "
+                                 "of two halves of the frames for the error estimate",
                    "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
             lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(p.outputs)}: {reasons[p.name]}")
@@ -228,8 +236,11 @@ class Renderer:
             self.seed = int(seed)
         self.accumulate.reset()
         self.buffers.reset_stats()
+        for timer in (self.timers or {}).values():
+            timer.total_ns = timer.count = 0
         self.frame_index = 0
         self.stats = RenderStats()
+        self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
 
     def _timer(self) -> GpuTimer:
         return GpuTimer(self.ctx, cpu_clock=is_software(self.ctx))
@@ -242,6 +253,8 @@ class Renderer:
     def render_frame(self, samples: int | None = None) -> None:
         samples = samples or self.samples_per_frame
         jitter = frame_jitter(self.frame_index, self.seed)
+        # The accumulation's two halves (error estimate) draw from two independent streams.
+        stream = 0 if half_sign(self.accumulate.frames) > 0 else 1
         self.buffers.bind()
         if self.gbuffer is not None:
             with self._timed("gbuffer"):
@@ -249,7 +262,7 @@ class Renderer:
         uniforms = dict(self.scene_uniforms, **self.camera_uniforms,
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,
-                        u_sample_base=self.stats.spp,
+                        u_sample_base=self.stream_spp[stream], u_stream=stream,
                         u_jitter=jitter)
         with self._timed("trace"):
             self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None)
@@ -258,6 +271,7 @@ class Renderer:
         self.frame_index += 1
         self.stats.frames += 1
         self.stats.spp += samples
+        self.stream_spp[stream] += samples
 
     def render(self, spp: int | None = None, seconds: float | None = None, progress=None,
                readback: bool = True) -> np.ndarray | None:
@@ -281,7 +295,9 @@ class Renderer:
                 progress(self, done)
         self.ctx.finish()
         self.stats.render_seconds += time.perf_counter() - start
-        self.stats.dropped_samples = int(self.buffers.read_stats()[STAT_DROPPED])
+        counters = self.buffers.read_stats()
+        self.stats.dropped_samples = int(counters[STAT_DROPPED])
+        self.stats.rays = int(counters[STAT_RAYS_LOW]) + (int(counters[STAT_RAYS_HIGH]) << 32)
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image() if readback else None
@@ -289,6 +305,12 @@ class Renderer:
     def image(self) -> np.ndarray:
         """Mean radiance so far: float32 (H, W, 3), row 0 = top."""
         return self.accumulate.read_mean()
+
+    def estimate_error(self) -> ErrorEstimate | None:
+        """The relative error of the mean so far, estimated without a reference from the
+        accumulation's two half-buffers (lift_gl/error_estimate.py); also kept in stats."""
+        self.stats.error = estimate_error(self.accumulate.read_totals(), self.accumulate.read_half_difference())
+        return self.stats.error
 
     def display(self, exposure: float = 0.0, operator: str = "aces", gamma: float | None = None,
                 readback: bool = True) -> np.ndarray | None:

@@ -114,3 +114,28 @@ def test_resize_to():
         resize_to(img, (3, 3))
     with pytest.raises(ValueError, match="same integer factor"):
         resize_to(img, (2, 6))  # factors 2 and 1 differ
+
+
+def test_dssim_from_ssim_by_hand():
+    from lift_gl.metrics import dssim_from_ssim
+
+    assert dssim_from_ssim(1.0) == 0.0
+    assert dssim_from_ssim(0.5) == 1.0   # 1/0.5 - 1
+    assert dssim_from_ssim(0.8) == pytest.approx(0.25)
+    assert dssim_from_ssim(0.0) == float("inf") and dssim_from_ssim(-0.2) == float("inf")
+
+
+def test_flip_is_zero_for_identical_images_and_grows_with_the_error():
+    from lift_gl.metrics import flip
+
+    ref = _noise(6, (32, 32, 3)) * 2.0  # linear HDR values up to 2
+    assert flip(ref, ref) == 0.0
+    rng = np.random.default_rng(7)
+    errors = [flip(np.maximum(ref + s * rng.standard_normal(ref.shape).astype(np.float32), 0), ref)
+              for s in (0.02, 0.1, 0.5)]
+    assert 0 < errors[0] < errors[1] < errors[2] <= 1
+    # The same as NVIDIA's evaluator called directly on the (non-negative) linear images.
+    import flip_evaluator
+
+    test = np.maximum(ref + 0.1, 0).astype(np.float32)
+    assert flip(test, ref) == pytest.approx(flip_evaluator.evaluate(ref, test, "HDR", applyMagma=False)[1])

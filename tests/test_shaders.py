@@ -76,7 +76,7 @@ layout(std430, binding = 10) buffer Out { vec2 points[]; };
 uniform uint u_pairs;
 void main() {
     uint pixel = gl_GlobalInvocationID.x / 256u, s = gl_GlobalInvocationID.x % 256u;
-    Rng r = rng_init_pixel_sample(uvec2(pixel, 7u), 0u, 0u, s, 3u);
+    Rng r = rng_init_pixel_sample(uvec2(pixel, 7u), 0u, 0u, s, 3u, 0u);
     for (uint p = 0u; p < u_pairs; ++p) points[gl_GlobalInvocationID.x * u_pairs + p] = rng_ld2(r);
 }
 """)

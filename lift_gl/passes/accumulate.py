@@ -2,6 +2,8 @@
 
 inputs:  frame (RGBA32F: radiance sum, valid sample count)
 outputs: accumulation (sum and compensation, RGBA32F each); mean = (sum + c).rgb / (sum + c).a
+         half difference (RGBA32F): frames of half A minus frames of half B since the reset
+         (half_sign), for the error estimate without a reference (lift_gl/error_estimate.py)
 """
 from __future__ import annotations
 
@@ -13,10 +15,26 @@ from .common import groups
 SOURCE = shaders.SHADER_DIR / "passes" / "accumulate.comp"
 
 
+def half_sign(frame: int) -> float:
+    """+1 (half A) or -1 (half B) for the frame-th frame since the reset.
+
+    Not the frame's parity: the subpixel jitter follows a Halton sequence whose base-2
+    coordinate puts odd and even frames in opposite halves of the pixel, so a parity split
+    would compare two different sub-pixel integrals, and at edges the estimate would stop
+    falling. Instead each pair of frames (2k, 2k + 1) sends one frame to each half, which one
+    decided by a hashed bit of k: the halves stay equal in size and each is a random half of
+    the jitter sequence, an estimate of the whole pixel."""
+    x = ((frame // 2) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & 0xFFFFFFFFFFFFFFFF  # splitmix64
+    x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
+    x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
+    first_to_a = (x ^ (x >> 31)) & 1
+    return 1.0 if (frame % 2 == 0) == bool(first_to_a) else -1.0
+
+
 class AccumulatePass:
     name = "accumulate"
     inputs = ("frame",)
-    outputs = ("accumulation",)
+    outputs = ("accumulation", "half difference")
 
     def __init__(self, ctx, size):
         self.ctx = ctx
@@ -25,25 +43,37 @@ class AccumulatePass:
         self.sum = ctx.texture(size, 4, dtype="f4")
         self.compensation = ctx.texture(size, 4, dtype="f4")
         self._pixel_fbo = None  # made on the first read_pixel (the viewer's pixel inspector)
+        self.half_difference = ctx.texture(size, 4, dtype="f4")
+        self.frames = 0  # since the reset: picks the half a frame goes to (half_sign)
         self.reset()
 
     def reset(self) -> None:
         zeros = np.zeros((self.size[1], self.size[0], 4), np.float32).tobytes()
-        self.sum.write(zeros)
-        self.compensation.write(zeros)
+        for texture in (self.sum, self.compensation, self.half_difference):
+            texture.write(zeros)
+        self.frames = 0
 
     def run(self, frame) -> None:
         frame.bind_to_image(0, read=True, write=False)
         self.sum.bind_to_image(1, read=True, write=True)
         self.compensation.bind_to_image(2, read=True, write=True)
+        self.half_difference.bind_to_image(3, read=True, write=True)
+        self.program["u_half_sign"].value = half_sign(self.frames)
         self.program.run(*groups(*self.size))
+        self.frames += 1
+
+    def _read(self, texture) -> np.ndarray:
+        w, h = self.size
+        return np.frombuffer(texture.read(), np.float32).reshape(h, w, 4).astype(np.float64)
 
     def read_totals(self) -> np.ndarray:
         """(H, W, 4) float64 totals: rgb radiance sums and the sample count; row 0 = bottom."""
-        w, h = self.size
-        s = np.frombuffer(self.sum.read(), np.float32).reshape(h, w, 4).astype(np.float64)
-        c = np.frombuffer(self.compensation.read(), np.float32).reshape(h, w, 4).astype(np.float64)
-        return s + c
+        return self._read(self.sum) + self._read(self.compensation)
+
+    def read_half_difference(self) -> np.ndarray:
+        """(H, W, 4) float64: totals of half A minus totals of half B (rgb sums, sample
+        count); row 0 = bottom."""
+        return self._read(self.half_difference)
 
     def read_mean(self) -> np.ndarray:
         """(H, W, 3) float32 mean radiance, row 0 = top (image order)."""
@@ -65,6 +95,6 @@ class AccumulatePass:
         return (total[:3] / count if count > 0 else np.zeros(3)), count
 
     def release(self) -> None:
-        for obj in (self.program, self.sum, self.compensation, self._pixel_fbo):
+        for obj in (self.program, self.sum, self.compensation, self.half_difference, self._pixel_fbo):
             if obj is not None:
                 obj.release()

@@ -15,6 +15,7 @@ SCENE_BINDINGS = {
 STATS_BINDING = 8
 MOTION_BINDING = 9  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
+STAT_RAYS_LOW, STAT_RAYS_HIGH = 2, 3  # rays traced (LIFT_COUNT_RAYS), a 64-bit count in two words
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
 

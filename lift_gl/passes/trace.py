@@ -2,7 +2,8 @@
 
 inputs:  scene buffers, camera, G-buffer visibility (plugins with primary = "gbuffer")
 outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count in a);
-         stats[0] counts samples dropped because they were NaN or infinite
+         stats[0] counts samples dropped because they were NaN or infinite;
+         stats[2..3] count the rays traced (64 bits), with LIFT_COUNT_RAYS defined
 
 The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
@@ -28,7 +29,8 @@ uniform usampler2D u_visibility;
 uniform uint u_frame;
 uniform uint u_seed;
 uniform uint u_samples;
-uniform uint u_sample_base;  // samples per pixel accumulated before this frame
+uniform uint u_sample_base;  // samples per pixel of this frame's stream accumulated before it
+uniform uint u_stream;       // which half of the frames (error estimate) this one belongs to
 uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 
 // ---- plugin parameters ----
@@ -76,7 +78,7 @@ void main() {{
     vec3 sum = vec3(0.0);
     float valid = 0.0;
     for (uint s = 0u; s < u_samples; ++s) {{
-        Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed);
+        Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
         Ray ray;
         Hit hit;
 #ifdef PRIMARY_GBUFFER
@@ -102,6 +104,13 @@ void main() {{
         sum += L;
         valid += 1.0;
     }}
+#ifdef LIFT_COUNT_RAYS
+    // A 64-bit count in two words: carry into stats[3] when stats[2] wraps around.
+    if (lift_rays_traced > 0u) {{
+        uint before = atomicAdd(stats[2], lift_rays_traced);
+        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
+    }}
+#endif
     imageStore(u_frame_out, pixel, vec4(sum, valid));
 }}
 """

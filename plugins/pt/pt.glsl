@@ -1,10 +1,15 @@
 // pt: a unidirectional path tracer, written to read like the textbook (Veach 1997, pbrt).
 // The host calls radiance() once per sample with the camera ray and its first hit; it
 // handles pixels, seeds, accumulation and the NaN/Inf guard.
-// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival.
+// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, low_discrepancy.
 
 // Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
 // that wo.z < 0 tells the BSDF the ray is inside.
+// Two numbers for a light or BSDF sample: low-discrepancy pairs, or independent ones.
+vec2 sample_pair(inout Rng rng) {
+    return low_discrepancy ? rng_ld2(rng) : rng_next2(rng);
+}
+
 Frame shading_frame(Surface s, Material m, vec3 wo_world) {
     vec3 n = s.ns;
     if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
@@ -48,8 +53,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
-            // rng_ld2: low-discrepancy pairs (stratified over the pixel's samples)
-            if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls)) {
+            if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls)) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
@@ -62,7 +66,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 
         // ---- BSDF sampling: the next direction ----
         BsdfSample bs;
-        if (!bsdf_sample(m, wo, vec3(rng_ld2(rng), rng_next(rng)), bs)) break;
+        if (!bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs)) break;
         vec3 wi_world = to_world(frame, bs.wi);
         // A reflection that the shading normal allows but the true surface does not.
         if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wi_world, s.ng) * dot(wo_world, s.ng) <= 0.0) break;

@@ -32,6 +32,15 @@ vec3 prim_displacement(uint prim) {
 // one postponed sibling per level of the current path.
 #define LIFT_BVH_STACK 48
 
+// With LIFT_COUNT_RAYS (lift-gl bench), each invocation counts its traversals here and the
+// host adds the count to the statistics once, at the end: one atomic per pixel, not per ray.
+#ifdef LIFT_COUNT_RAYS
+uint lift_rays_traced = 0u;
+#define LIFT_COUNT_RAY() (++lift_rays_traced)
+#else
+#define LIFT_COUNT_RAY()
+#endif
+
 // Möller–Trumbore. Updates t and returns true when the hit is in (ray.tmin, t).
 // Triangles seen exactly edge-on, and zero-area ones, have det == 0 and never hit.
 bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
@@ -106,6 +115,7 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
 
 // Closest hit among triangles (BVH, nearer child first) and, with HAS_SPHERES, spheres.
 bool trace_closest(Ray ray, out Hit hit) {
+    LIFT_COUNT_RAY();
     hit.t = ray.tmax;
     hit.prim = NO_HIT;
     hit.bary = vec2(0.0);
@@ -168,6 +178,7 @@ bool trace_closest(Ray ray, out Hit hit) {
 
 // Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
 bool trace_occluded(Ray ray) {
+    LIFT_COUNT_RAY();
     float t = ray.tmax;
 #ifdef HAS_SPHERES
     for (uint s = 0u; s < u_num_spheres; ++s) {

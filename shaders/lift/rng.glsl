@@ -22,11 +22,14 @@ Rng rng_init(uvec2 pixel, uint frame, uint sample_index, uint seed) {
     return Rng(h, frame, pcg_hash(pixel.x ^ pcg_hash(pixel.y ^ pcg_hash(seed + 0x9e3779b9u))), 0u);
 }
 
-// The host's seeding: `pixel_sample` counts this pixel's samples over all frames, so that
-// rng_ld2 walks one low-discrepancy sequence across the whole accumulation.
-Rng rng_init_pixel_sample(uvec2 pixel, uint frame, uint sample_in_frame, uint pixel_sample, uint seed) {
+// The host's seeding: `pixel_sample` counts this pixel's samples in its stream over all
+// frames, so that rng_ld2 walks one low-discrepancy sequence across the accumulation.
+// Streams are independently scrambled sequences: the host gives each half of the frames (the
+// error estimate's two halves) its own, so the halves stay independent estimates.
+Rng rng_init_pixel_sample(uvec2 pixel, uint frame, uint sample_in_frame, uint pixel_sample, uint seed, uint stream) {
     Rng r = rng_init(pixel, frame, sample_in_frame, seed);
     r.sample_index = pixel_sample;
+    r.ld_seed = pcg_hash(r.ld_seed ^ pcg_hash(stream + 0x68bc21ebu));
     return r;
 }
 

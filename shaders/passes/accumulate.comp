@@ -2,15 +2,26 @@
 // count), kept in float32 with Neumaier's compensated summation, so that the mean stays
 // exact to float precision over millions of frames (a plain float sum stops growing once
 // a frame's contribution falls below half an ulp of the total).
+//
+// Beside it, the difference of the two half-buffers: frames of half A added, of half B
+// subtracted (the host picks each frame's half at random: passes/accumulate.py half_sign).
+// The halves are independent estimates of the same image, so their difference measures the
+// noise of the mean without a reference (lift_gl/error_estimate.py).
+// It is a plain float sum: it only needs two or three correct digits, and its rounding
+// error grows like sqrt(frames) ulps of a value that itself grows like sqrt(frames).
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform readonly image2D u_frame;
 layout(rgba32f, binding = 1) uniform image2D u_sum;
 layout(rgba32f, binding = 2) uniform image2D u_compensation;
+layout(rgba32f, binding = 3) uniform image2D u_half_difference;
+uniform float u_half_sign;  // +1: this frame goes to half A, -1: to half B
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(u_sum)))) return;
     precise vec4 x = imageLoad(u_frame, p);
+
+    // ---- The whole accumulation: compensated sum ----
     precise vec4 sum = imageLoad(u_sum, p);
     precise vec4 c = imageLoad(u_compensation, p);
     precise vec4 t = sum + x;
@@ -20,4 +31,7 @@ void main() {
     c += mix(lost_sum, lost_x, greaterThanEqual(abs(sum), abs(x)));
     imageStore(u_sum, p, t);
     imageStore(u_compensation, p, c);
+
+    // ---- Half A minus half B: for the error estimate ----
+    imageStore(u_half_difference, p, imageLoad(u_half_difference, p) + u_half_sign * x);
 }

@@ -1,0 +1,182 @@
+"""`lift-gl bench`: how fast each pass runs, for a set of scenes and resolutions.
+
+    lift-gl bench SCENE... [--sizes 64x64,128x128,256x256] [--integrator pt] [--frames 16]
+                  [--repeat 3] [--json FILE]
+
+For each scene: its BVH build time (no cache) and, at each size:
+- frame time: wall-clock time per frame, frames pipelined, GPU work finished (best of --repeat);
+- per pass: the CPU clock between two ctx.finish() around the pass ("sync"), and the GL timer
+  query around it ("query"). The table shows sync times: on Mesa llvmpipe timer queries miss
+  some compute work (the accumulate pass reads ~0), so both are kept in the JSON;
+- paths/s (one path per pixel sample) and rays/s: rays traced through the BVH per path,
+  counted by a shader variant with LIFT_COUNT_RAYS in separate frames (so counting does not
+  slow the timed ones); primary visibility from the raster G-buffer is not a traced ray.
+A pass that exists only with some settings (a denoiser) gets its column when it runs.
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser("bench", help="frame time per pass, paths/s, rays/s and BVH build time, as a table and JSON",
+                              description=__doc__.split("\n\n")[0])
+    p.add_argument("scenes", nargs="+", metavar="SCENE")
+    p.add_argument("--sizes", default="64x64,128x128,256x256", help="comma-separated WxH")
+    p.add_argument("--integrator", default="pt")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
+    p.add_argument("--frames", type=int, default=16, help="timed frames per measurement (default 16)")
+    p.add_argument("--repeat", type=int, default=3, help="frame time: best of this many measurements (default 3)")
+    p.add_argument("--plugins", action="append", default=[], metavar="DIR")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
+    p.add_argument("--json", type=Path, dest="json_path", help="also write the results here")
+    p.set_defaults(func=cmd_bench)
+
+
+class PassTimer:
+    """One pass timed two ways: the CPU clock between ctx.finish() calls, and a GL timer query."""
+
+    def __init__(self, ctx):
+        from ..passes.common import GpuTimer
+
+        self.ctx = ctx
+        self.query = GpuTimer(ctx)
+        self.sync_ns = 0
+        self.count = 0
+
+    def __enter__(self):
+        self.ctx.finish()
+        self._start = time.perf_counter_ns()
+        self.query.__enter__()
+        return self
+
+    def __exit__(self, *exc):
+        self.query.__exit__(*exc)
+        self.ctx.finish()
+        self.sync_ns += time.perf_counter_ns() - self._start
+        self.count += 1
+        return False
+
+    @property
+    def mean_ms(self) -> float:
+        return self.sync_ns / max(self.count, 1) / 1e6
+
+
+def bvh_build_seconds(scene) -> tuple[int, float]:
+    """Triangles and the time to build their BVH from scratch (the on-disk cache bypassed)."""
+    from ..accel.bvh import build_bvh
+
+    if not scene.meshes:
+        return 0, 0.0
+    positions = np.concatenate([m.positions[m.indices] for m in scene.meshes]).astype(np.float32)
+    start = time.perf_counter()
+    build_bvh(positions)
+    return len(positions), time.perf_counter() - start
+
+
+def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, backend="auto", plugin_dirs=()) -> dict:
+    """Timings of one scene at one size; see the module's docstring."""
+    from ..renderer import Renderer
+
+    def make(**kw):
+        r = Renderer(scene, size=size, integrator=integrator, params=params, backend=backend,
+                     plugin_dirs=plugin_dirs, **kw)
+        r.render(spp=r.samples_per_frame * 2)  # warm-up: shader JIT and first-use costs
+        r.reset()
+        return r
+
+    renderer = make()
+    spf = renderer.samples_per_frame
+    frame_seconds = []
+    for _ in range(max(repeat, 1)):
+        renderer.reset()
+        renderer.render(spp=frames * spf)
+        frame_seconds.append(renderer.stats.render_seconds / renderer.stats.frames)
+    frame_s = min(frame_seconds)
+    dropped = renderer.stats.dropped_samples
+    # Per pass, synchronised: slower in total than pipelined frames, but each pass alone.
+    renderer.reset()
+    renderer.timers = {p.name: PassTimer(renderer.ctx) for p in renderer.passes}
+    renderer.render(spp=frames * spf)
+    pass_sync = {name: t.mean_ms for name, t in renderer.timers.items() if t.count}
+    pass_query = {name: t.query.mean_ms for name, t in renderer.timers.items() if t.count}
+    renderer.release()
+
+    counting = make(count_rays=True)
+    counted_frames = max(1, min(frames, 8))
+    counting.render(spp=counted_frames * spf)
+    paths = size[0] * size[1] * counting.stats.spp
+    rays_per_path = counting.stats.rays / paths
+    counting.release()
+
+    paths_per_second = size[0] * size[1] * spf / frame_s
+    return {"size": list(size), "samples_per_frame": spf, "frames": frames, "repeat": repeat,
+            "frame_ms": 1e3 * frame_s, "frame_ms_all": [1e3 * s for s in frame_seconds],
+            "pass_ms_sync": pass_sync, "pass_ms_query": pass_query,
+            "paths_per_second": paths_per_second, "rays_per_path": rays_per_path,
+            "rays_per_second": paths_per_second * rays_per_path, "counted_paths": paths,
+            "dropped_samples": dropped}
+
+
+def table(results: list[dict]) -> str:
+    """A markdown table of the results (pass columns: those that ran, in frame order)."""
+    passes = []
+    for r in results:
+        for name in r["pass_ms_sync"]:
+            if name not in passes:
+                passes.append(name)
+    header = ["scene", "size", "triangles", "BVH build s"] + [f"{p} ms" for p in passes] + \
+             ["frame ms", "Mpaths/s", "rays/path", "Mrays/s"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for r in results:
+        cells = [r["scene_name"], "x".join(map(str, r["size"])), f"{r['triangles']:,}", f"{r['bvh_build_seconds']:.3f}"]
+        cells += [f"{r['pass_ms_sync'][p]:.2f}" if p in r["pass_ms_sync"] else "–" for p in passes]
+        cells += [f"{r['frame_ms']:.2f}", f"{r['paths_per_second'] / 1e6:.3f}", f"{r['rays_per_path']:.2f}",
+                  f"{r['rays_per_second'] / 1e6:.3f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def cmd_bench(args) -> int:
+    from ..cli import _settings, _size
+    from ..errors import LiftError
+    from ..gl.context import create_context
+    from ..scene.loader import load_scene
+    from .machine import describe_machine, machine_line
+
+    try:
+        sizes = [_size(text.strip()) for text in args.sizes.split(",")]
+    except Exception as exc:
+        raise LiftError(f"--sizes: {exc}") from None
+    if args.frames < 1 or args.repeat < 1:
+        raise LiftError("--frames and --repeat must be at least 1")
+    params = _settings(args.set, args.integrator)
+    machine = describe_machine(create_context(args.backend))
+    print(f"machine: {machine_line(machine)}", flush=True)
+    results = []
+    for path in args.scenes:
+        start = time.perf_counter()
+        scene = load_scene(path)
+        load_seconds = time.perf_counter() - start
+        triangles, build_seconds = bvh_build_seconds(scene)
+        for size in sizes:
+            case = bench_case(scene, size, args.integrator, params, args.frames, args.repeat, args.backend, args.plugins)
+            case.update(scene=str(path), scene_name=Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
+                        triangles=triangles, spheres=len(scene.spheres), load_seconds=load_seconds,
+                        bvh_build_seconds=build_seconds)
+            results.append(case)
+            print(f"{case['scene_name']} {size[0]}x{size[1]}: {case['frame_ms']:.2f} ms/frame, "
+                  f"{case['paths_per_second'] / 1e6:.3f} Mpaths/s, {case['rays_per_path']:.2f} rays/path", flush=True)
+    print()
+    print(table(results))
+    print(f"\n{args.integrator}; per-pass times: CPU clock between ctx.finish() calls (GL timer queries in the JSON); "
+          f"frame ms: best of {args.repeat} x {args.frames} pipelined frames")
+    if args.json_path:
+        args.json_path.parent.mkdir(parents=True, exist_ok=True)
+        args.json_path.write_text(json.dumps({"machine": machine, "integrator": args.integrator, "params": params,
+                                              "results": results}, indent=1))
+    return 0

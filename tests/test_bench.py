@@ -1,0 +1,69 @@
+"""`lift-gl bench`: the ray counter against an analytic count, and the command's outputs."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from lift_gl.cli import main
+from lift_gl.report.bench import bench_case
+from lift_gl.renderer import Renderer
+from lift_gl.scene import Camera, Environment, Material, Scene, Sphere
+
+# |z| below 4: two-sided p ~ 6e-5 for a binomial count this large (normal approximation).
+Z_CRIT = 4.0
+
+
+def sphere_filling_the_view():
+    """Camera 1.5 from the centre of a unit diffuse sphere: every pixel sees the sphere
+    (angular radius asin(1/1.5) = 42 degrees > the 21-degree half-diagonal of the view)."""
+    camera = Camera(position=[0.0, 0.0, 1.5], target=[0.0, 0.0, 0.0], fov_deg=30.0)
+    return Scene(camera=camera, materials=[Material("grey", "diffuse", base_color=[0.5] * 3)],
+                 spheres=[Sphere(center=[0, 0, 0], radius=1.0, material=0)],
+                 environment=Environment(radiance=[1.0] * 3), film_size=(24, 24))
+
+
+def test_ray_count_matches_pt_on_a_convex_sphere():
+    """pt on a convex diffuse sphere in a constant environment, first hit from the raster:
+    every path traces one BSDF ray (it escapes: convex), plus one shadow ray when the
+    uniformly sampled environment direction lies above the surface (probability 1/2; below
+    it the BSDF is 0 and no ray is traced). So rays = paths + Binomial(paths, 1/2)."""
+    r = Renderer(sphere_filling_the_view(), size=(24, 24), count_rays=True, seed=3)
+    r.render(spp=20)
+    paths = 24 * 24 * 20
+    assert r.stats.dropped_samples == 0
+    z = (r.stats.rays - 1.5 * paths) / (0.5 * np.sqrt(paths))
+    assert abs(z) < Z_CRIT, (r.stats.rays / paths, z)
+    r.release()
+    # Without the counter the statistics words stay 0.
+    plain = Renderer(sphere_filling_the_view(), size=(24, 24), seed=3)
+    plain.render(spp=2)
+    assert plain.stats.rays == 0
+    plain.release()
+
+
+def test_bench_case_reports_passes_and_rates():
+    result = bench_case(sphere_filling_the_view(), (16, 16), frames=3, repeat=2)
+    assert set(result["pass_ms_sync"]) == {"gbuffer", "trace", "accumulate"}
+    assert set(result["pass_ms_query"]) == set(result["pass_ms_sync"])
+    assert all(v >= 0 for v in result["pass_ms_sync"].values())
+    assert result["frame_ms"] == min(result["frame_ms_all"]) > 0
+    assert result["paths_per_second"] == pytest.approx(16 * 16 / (result["frame_ms"] / 1e3))
+    z = (result["rays_per_path"] - 1.5) / (0.5 / np.sqrt(result["counted_paths"]))
+    assert abs(z) < Z_CRIT
+    assert result["dropped_samples"] == 0
+
+
+def test_bench_command_writes_json_and_table(capsys, tmp_path):
+    out = tmp_path / "bench.json"
+    scene = REPO / "scenes" / "cornell.toml"
+    assert main(["bench", str(scene), "--sizes", "16x16,24x16", "--frames", "2", "--repeat", "1", "--json", str(out)]) == 0
+    stdout = capsys.readouterr().out
+    assert "| scene | size | triangles | BVH build s | gbuffer ms | trace ms | accumulate ms |" in stdout
+    assert "| cornell | 24x16 |" in stdout and "machine:" in stdout
+    data = json.loads(out.read_text())
+    assert [r["size"] for r in data["results"]] == [[16, 16], [24, 16]]
+    assert data["results"][0]["triangles"] > 0 and data["results"][0]["bvh_build_seconds"] > 0
+    assert "cores" in data["machine"] and "gl" in data["machine"]

@@ -1,0 +1,48 @@
+"""`lift-gl render` reports its estimated error with its time: in the summary line, in the
+FILE.json written beside the image, and in the progress bar of long renders."""
+from __future__ import annotations
+
+import io
+import json
+import re
+
+import pytest
+
+from conftest import REPO
+from lift_gl.cli import main
+from lift_gl.progress import RenderProgress
+from lift_gl.renderer import Renderer
+from lift_gl.scene.loader import load_scene
+
+CORNELL = REPO / "scenes" / "cornell.toml"
+
+
+def test_summary_line_and_record_beside_the_image(capsys, tmp_path):
+    out = tmp_path / "cornell.png"
+    assert main(["render", str(CORNELL), "--spp", "12", "--size", "24x24", "--seed", "5", "--out", str(out)]) == 0
+    line = capsys.readouterr().out
+    match = re.search(r"12 spp in ([\d.]+) s \(12 frames\), est\. rel\. std\. error ([\d.]+)%", line)
+    assert match, line
+    record = json.loads((tmp_path / "cornell.png.json").read_text())
+    assert record["spp"] == 12 and record["frames"] == 12 and record["dropped_samples"] == 0
+    assert record["size"] == [24, 24] and record["seed"] == 5 and record["integrator"] == "pt"
+    assert record["params"]["max_depth"] == 16
+    assert record["render_seconds"] == pytest.approx(float(match.group(1)), abs=0.006)
+    assert 100 * record["estimated_rel_std_error"] == pytest.approx(float(match.group(2)), abs=0.006)
+    # The same render through the API estimates the same error (determinism).
+    r = Renderer(load_scene(CORNELL), size=(24, 24), seed=5)
+    r.render(spp=12)
+    assert r.estimate_error().rel_mse == pytest.approx(record["estimated_rel_mse"], rel=1e-6)
+    r.release()
+
+
+def test_progress_bar_shows_spp_elapsed_and_estimated_error():
+    text = io.StringIO()
+    r = Renderer(load_scene(CORNELL), size=(16, 16))
+    progress = RenderProgress(spp=6, file=text, delay=0, error_every=0)
+    r.render(spp=6, progress=progress)
+    progress.close()
+    updates = text.getvalue().split("\r")
+    assert any("6 spp" in u and "est. error" in u and "100%" in u for u in updates), updates[-3:]
+    assert any("1 spp" in u and "est. error -" in u for u in updates)  # one frame: no estimate yet
+    r.release()
