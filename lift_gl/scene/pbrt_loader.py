@@ -498,16 +498,7 @@ class _Builder:
             self._mirror_world()
 
     def _mirror_world(self):
-        flip = np.diag([-1.0, 1.0, 1.0, 1.0])
-        s = self.scene
-        s.meshes = [prim.transform_mesh(m, flip) for m in s.meshes]
-        s.spheres = [prim.transform_sphere(x, flip) for x in s.spheres]
-        c = s.camera
-        c.position, c.target, c.up = (flip[:3, :3] @ v for v in (c.position, c.target, c.up))
-        if s.environment is not None:
-            s.environment.to_world = flip[:3, :3] @ s.environment.to_world
-        for light in s.distant_lights:
-            light.direction = flip[:3, :3] @ light.direction
+        prim.mirror_scene_x(self.scene)
 
     # materials and lights
     def do_MakeNamedMaterial(self, st):
@@ -663,7 +654,7 @@ class _Builder:
         elif kind in ("trianglemesh", "plymesh"):
             mesh = self._trianglemesh(st, ps) if kind == "trianglemesh" else self._plymesh(st, ps)
             mesh.material, mesh.source = self._material_index(), src
-            self.scene.meshes.append(_orient(prim.transform_mesh(mesh, self.state.ctm,
+            self.scene.meshes.append(prim.orient_to_normals(prim.transform_mesh(mesh, self.state.ctm,
                                                                  flip=self.state.reverse)))
         else:
             warn_at(st.path, st.line, f"shape '{kind}' is not supported yet; ignored")
@@ -726,18 +717,6 @@ def read_environment_image_at(path: Path, st: Statement) -> np.ndarray:
         return read_environment_image(path)
     except SceneError as e:
         raise SceneError(f"{e.message}: {path}", st.path, st.line) from None
-
-
-def _orient(mesh: Mesh) -> Mesh:
-    """With shading normals, pbrt turns each triangle's front towards them (Faceforward)."""
-    if mesh.normals is None or len(mesh.indices) == 0:
-        return mesh
-    g = prim.geometric_normals(mesh.positions, mesh.indices)
-    ns = mesh.normals[mesh.indices].sum(axis=1)
-    back = np.einsum("ij,ij->i", g, ns) < 0
-    if back.any():
-        mesh.indices[back] = mesh.indices[back][:, [0, 2, 1]]
-    return mesh
 
 
 def load_pbrt(path: Path) -> Scene:
