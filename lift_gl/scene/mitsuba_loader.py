@@ -256,6 +256,7 @@ class _Loader:
         for child in node.children:
             if child.tag == "bsdf" or (child.tag == "ref" and child.get("name") in (None, "bsdf")):
                 bsdf_node = self.lookup(child.get("id"), child) if child.tag == "ref" else child
+                p.used.add("bsdf")
             elif child.tag == "emitter":
                 emission = self._area_emission(child)
             elif child.get("name") is None and child.tag not in IGNORED_SILENTLY:
