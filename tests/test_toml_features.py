@@ -80,3 +80,13 @@ def test_bad_toml_additions_name_file_and_line(tmp_path, text, line, message):
     with pytest.raises(SceneError) as info:
         load_scene(path)
     assert info.value.line == line and message in info.value.message, str(info.value)
+
+
+def test_showcase_scene_loads_without_warnings():
+    from conftest import REPO
+    from lift_gl.scene.features import SceneFeatures
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SceneWarning)
+        scene = load_scene(REPO / "scenes" / "showcase.toml")
+    f = SceneFeatures.of(scene)
+    assert f.textures and f.environment_map and f.plastic and f.rough_plastic and f.rough_conductor and f.dielectric
