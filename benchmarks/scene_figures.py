@@ -38,6 +38,11 @@ JOBS = {
     "staircase2": ("scenes_bitterli/staircase2/scene.xml", (320, 180), 256, None),
     "living-room": ("scenes_bitterli/living-room/scene.xml", (320, 180), 256, None),
     "classroom": ("scenes_lift/classroom/scene.pbrt", (320, 180), 1024, None),
+    # Mitsuba 3's own renders (128x128, thousands of spp) of Mitsuba 3 scenes.
+    "mitsuba-cbox": ("refs/mitsuba/cbox/scene.xml", (128, 128), 256, "refs/mitsuba/cbox/reference.npy"),
+    "mitsuba-furnace": ("refs/mitsuba/furnace/scene.xml", (128, 128), 256, "refs/mitsuba/furnace/reference.npy"),
+    "mitsuba-glossy_mis": ("refs/mitsuba/glossy_mis/scene.xml", (128, 128), 256,
+                           "refs/mitsuba/glossy_mis/reference.npy"),
 }
 
 
