@@ -180,12 +180,14 @@ def test_metal_and_unsupported_features_warn(tmp_path):
     doc["materials"][0]["normalTexture"] = {"index": 0}
     doc["materials"][0]["alphaMode"] = "BLEND"
     doc["extensions"]["KHR_lights_punctual"]["lights"][0]["type"] = "point"
+    doc["extensionsUsed"].append("KHR_texture_transform")
     path = tmp_path / "q.gltf"
     path.write_text(json.dumps(doc))
     scene, messages = load_quietly(path)
     m = scene.materials[0]
     assert m.type == "conductor" and m.texture is not None  # F0 = textured base colour
-    for text in ("metallic-roughness textures", "normal maps", "alphaMode", "between 0 and 1", "'point' lights"):
+    for text in ("metallic-roughness textures", "normal maps", "alphaMode", "between 0 and 1", "'point' lights",
+                 "KHR_texture_transform is not supported"):
         assert sum(text in msg for msg in messages) == 1, (text, messages)
     assert not scene.distant_lights and scene.environment is not None
 

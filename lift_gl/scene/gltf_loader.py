@@ -9,8 +9,9 @@ Materials (metallic-roughness) become lift-gl's:
 - GGX alpha = roughness^2 in every case; emission = emissiveFactor (times
   KHR_materials_emissive_strength).
 Metallic between 0 and 1, metallic-roughness, normal and emissive textures, alpha blending
-and masking, KHR_texture_transform are reported once each and approximated (occlusion
-textures are ignored silently: a path tracer computes its own occlusion).
+and masking, and extensions other than those named here are reported once each and
+approximated or ignored (occlusion textures are ignored silently: a path tracer computes
+its own occlusion).
 The first perspective camera of the scene is used (else a camera framing the scene);
 KHR_lights_punctual directional lights become distant lights (intensity x colour as
 irradiance); point and spot lights are reported and skipped. A file with no light at all
@@ -27,6 +28,9 @@ from ..errors import SceneError
 from .loader import framing_camera, warn_at
 from .mesh_io import clean_triangles
 from .model import Camera, DistantLight, Environment, Material, Mesh, Scene, Texture
+
+SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior",
+                        "KHR_materials_transmission"}
 
 
 def read_gltf_json(path: Path) -> dict:
@@ -95,6 +99,9 @@ class _Gltf:
         self.use_normals = bool(with_normals) and all(with_normals)
         if any(with_normals) and not self.use_normals:
             self.warn("some primitives have normals and some not: all are flat-shaded")
+        for extension in self.doc.get("extensionsUsed", []):
+            if extension not in SUPPORTED_EXTENSIONS:
+                self.warn(f"extension {extension} is not supported; ignored")
 
     def warn(self, message: str) -> None:
         if message not in self.warned:
