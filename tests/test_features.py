@@ -64,3 +64,19 @@ def test_explain_lists_passes_and_features():
     camera_text = Renderer(furnace_scene(Material("d")), size=(8, 8), integrator="pt",
                            samples_per_frame=1).explain()
     assert "primary hit from gbuffer" in camera_text
+
+
+def test_every_feature_compiled_in_renders_the_same_image():
+    """Code for features a scene lacks is dead code: compiling it in (--all-features) must
+    not change a single random number or pixel, here with the new features in use."""
+    import numpy as np
+
+    from conftest import REPO
+    from lift_gl.scene.loader import load_scene
+    scene = load_scene(REPO / "scenes" / "showcase.toml")
+    images = []
+    for features in (None, SceneFeatures.everything()):
+        r = Renderer(scene, size=(24, 16), seed=4, features=features)
+        images.append(r.render(spp=2))
+        r.release()
+    assert np.array_equal(images[0], images[1])
