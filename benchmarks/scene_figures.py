@@ -73,7 +73,12 @@ def render(name: str, out: Path, shared: Path) -> None:
         r = Renderer(scene, size=size, seed=seed)
         desc = machine(r.ctx)
         start = time.perf_counter()
-        halves.append(r.render(spp=spp // 2))
+
+        def progress(renderer, done, seed=seed, start=start):
+            if done % 64 == 0:
+                print(f"{name}: seed {seed}, {done} spp, {time.perf_counter() - start:.0f} s", flush=True)
+
+        halves.append(r.render(spp=spp // 2, progress=progress))
         seconds += time.perf_counter() - start
         dropped += r.stats.dropped_samples
         r.release()
