@@ -89,6 +89,11 @@ vec2 env_map_uv(vec3 d) {
     return vec2(u < 0.0 ? u + 1.0 : u, acos(clamp(d.y, -1.0, 1.0)) * LIFT_INV_PI);
 }
 
+vec3 env_texel(int x, int y) {
+    uint i = u_env_map_offsets.x + 3u * uint(y * int(u_env_map_size.x) + x);
+    return vec3(env_word(i), env_word(i + 1u), env_word(i + 2u));
+}
+
 // Bilinear between texel centres, repeating in u, clamped in v.
 vec3 env_map_lookup(vec2 uv) {
     int w = int(u_env_map_size.x), h = int(u_env_map_size.y);
@@ -99,11 +104,8 @@ vec3 env_map_lookup(vec2 uv) {
     x0 = clamp(x0, 0, w - 1);
     int x1 = x0 + 1 == w ? 0 : x0 + 1;
     int y0 = clamp(int(p0.y), 0, h - 1), y1 = clamp(int(p0.y) + 1, 0, h - 1);
-    uint base = u_env_map_offsets.x;
-    #define LIFT_ENV_TEXEL(x, y) vec3(env_word(base + 3u * uint((y) * w + (x))), env_word(base + 3u * uint((y) * w + (x)) + 1u), env_word(base + 3u * uint((y) * w + (x)) + 2u))
-    vec3 top = mix(LIFT_ENV_TEXEL(x0, y0), LIFT_ENV_TEXEL(x1, y0), f.x);
-    vec3 bottom = mix(LIFT_ENV_TEXEL(x0, y1), LIFT_ENV_TEXEL(x1, y1), f.x);
-    #undef LIFT_ENV_TEXEL
+    vec3 top = mix(env_texel(x0, y0), env_texel(x1, y0), f.x);
+    vec3 bottom = mix(env_texel(x0, y1), env_texel(x1, y1), f.x);
     return mix(top, bottom, f.y);
 }
 
