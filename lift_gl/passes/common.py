@@ -10,10 +10,10 @@ from ..scene.pack import PackedScene, still_motion
 # Binding points declared in shaders/lift/scene_data.glsl.
 SCENE_BINDINGS = {
     "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
-    "materials": 5, "lights": 6, "spheres": 7,
+    "materials": 5, "lights": 6, "spheres": 7, "images": 9,
 }
 STATS_BINDING = 8
-MOTION_BINDING = 9  # `motion`, declared (and bound) only with HAS_MOTION
+MOTION_BINDING = 16  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
 STAT_RAYS_LOW, STAT_RAYS_HIGH = 2, 3  # rays traced (LIFT_COUNT_RAYS), a 64-bit count in two words
 NUM_STATS = 4
@@ -30,6 +30,12 @@ def set_uniforms(program, values: dict) -> None:
         if name not in program:
             continue
         member = program[name]
+        if isinstance(value, np.ndarray) and value.dtype in (np.float32, np.uint32, np.int32):
+            # Arrays and matrices as raw bytes (column-major for matrices, as GLSL reads
+            # them); an array's unused tail may have been optimised away.
+            data = np.ascontiguousarray(value).tobytes()
+            member.write(data[:member.array_length * member.element_size])
+            continue
         if isinstance(value, (list, tuple, np.ndarray)):
             value = tuple(float(v) for v in np.asarray(value).ravel()) if not isinstance(value, tuple) else value
             if len(value) == 16:
@@ -65,7 +71,8 @@ class SceneBuffers:
     def uniforms(self, environment_radiance) -> dict:
         p = self.packed
         return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres,
-                "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance)}
+                "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance),
+                **p.uniforms}
 
     def reset_stats(self) -> None:
         self.stats.write(np.zeros(NUM_STATS, np.uint32).tobytes())

@@ -1,3 +1,3 @@
-from .model import Camera, Environment, Material, Mesh, Scene, Sphere
+from .model import Camera, DistantLight, Environment, Material, Mesh, Scene, Sphere, Texture
 
-__all__ = ["Camera", "Environment", "Material", "Mesh", "Scene", "Sphere"]
+__all__ = ["Camera", "DistantLight", "Environment", "Material", "Mesh", "Scene", "Sphere", "Texture"]

@@ -20,6 +20,11 @@ class SceneFeatures:
     environment: bool = False
     emissive: bool = False  # emissive triangles or spheres (light sampling code)
     motion: bool = False  # objects that move while the shutter is open (motion blur)
+    plastic: bool = False  # diffuse base under a dielectric coat
+    rough_plastic: bool = False
+    textures: bool = False  # image textures (base colour)
+    environment_map: bool = False  # an image-based environment, importance sampled
+    distant_lights: bool = False  # directional (delta) lights
 
     @classmethod
     def of(cls, scene: Scene) -> "SceneFeatures":
@@ -31,9 +36,14 @@ class SceneFeatures:
             dielectric=any(m.type == "dielectric" for m in used),
             rough_dielectric=any(m.type == "dielectric" and m.alpha > 0 for m in used),
             spheres=bool(scene.spheres),
-            environment=scene.environment is not None and bool((scene.environment.radiance > 0).any()),
+            environment=_has_environment(scene),
             emissive=any(m.is_emissive for m in used),
             motion=scene.has_motion,
+            plastic=any(m.type == "plastic" for m in used),
+            rough_plastic=any(m.type == "plastic" and m.alpha > 0 for m in used),
+            textures=any(m.texture is not None for m in used),
+            environment_map=_has_environment(scene) and scene.environment.image is not None,
+            distant_lights=any((d.irradiance > 0).any() for d in scene.distant_lights),
         )
 
     @classmethod
@@ -45,3 +55,10 @@ class SceneFeatures:
 
     def explain(self) -> list[str]:
         return [f"{'+' if getattr(self, f.name) else '-'} {f.name}" for f in fields(self)]
+
+
+def _has_environment(scene: Scene) -> bool:
+    env = scene.environment
+    if env is None or not (env.radiance > 0).any():
+        return False
+    return env.image is None or bool((env.image > 0).any())

@@ -2,9 +2,11 @@
 
 - .toml: the native format (toml_loader, documented in scenes/README.md)
 - .pbrt: a pbrt-v3 subset (pbrt_loader)
-- .obj .ply .glb .gltf: one mesh, wrapped in a scene with a camera framing it, a grey
-  diffuse material and a constant white environment (radiance 1) to light it
-- .xml (Mitsuba): not yet
+- .xml: Mitsuba 3 (and 0.5/0.6) XML (mitsuba_loader)
+- .gltf .glb: glTF 2.0 (gltf_loader): meshes, materials, base colour textures, camera,
+  directional lights; a white sky where the file has no light
+- .obj .ply: one mesh, wrapped in a scene with a camera framing it, a grey diffuse
+  material and a constant white environment (radiance 1) to light it
 """
 from __future__ import annotations
 
@@ -37,13 +39,17 @@ def load_scene(path) -> Scene:
     elif ext == ".pbrt":
         from .pbrt_loader import load_pbrt
         scene = load_pbrt(path)
-    elif ext in (".obj", ".ply", ".glb", ".gltf"):
+    elif ext in (".glb", ".gltf"):
+        from .gltf_loader import load_gltf
+        scene = load_gltf(path)
+    elif ext in (".obj", ".ply"):
         scene = _load_single_mesh(path)
     elif ext == ".xml":
-        raise SceneError("Mitsuba XML import is not implemented yet", path)
+        from .mitsuba_loader import load_mitsuba
+        scene = load_mitsuba(path)
     else:
-        raise SceneError(f"unknown scene format '{ext}' (use .toml, .pbrt, .obj, .ply, "
-                         ".glb or .gltf)", path)
+        raise SceneError(f"unknown scene format '{ext}' (use .toml, .pbrt, .xml, .gltf, .glb, "
+                         ".obj or .ply)", path)
     scene.path = path
     return scene
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-MATERIAL_TYPES = ("diffuse", "conductor", "dielectric")
+MATERIAL_TYPES = ("diffuse", "conductor", "dielectric", "plastic")
 
 
 def _optional_vec3(v) -> np.ndarray | None:
@@ -59,7 +59,13 @@ class Material:
       complex IOR (`eta`, `k`) where given, else Schlick with F0 = `base_color`.
     - dielectric: glass with index `ior`; smooth when `alpha` is 0, else GGX rough glass;
       `base_color` tints transmission.
+    - plastic: a diffuse base of albedo `base_color` under a dielectric coat of index `ior`,
+      smooth when `alpha` is 0, else GGX-rough; `nonlinear` accounts for the colour shift
+      of light scattered inside the coat (Mitsuba's plastic option of that name).
     Any type may emit: `emission` is the radiance leaving its front side.
+    `specular` tints the specular reflection of conductors given by (`eta`, `k`) and of the
+    plastic coat. `texture` (an index into Scene.textures) multiplies `base_color` by an
+    image looked up at the surface's texture coordinates.
     """
 
     name: str
@@ -71,10 +77,14 @@ class Material:
     ior: float = 1.5
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
     source: str = ""  # "file:line" where it was defined, for error messages
+    specular: np.ndarray = field(default_factory=lambda: np.ones(3))
+    texture: int | None = None  # base colour texture: index into Scene.textures
+    nonlinear: bool = False  # plastic only
 
     def __post_init__(self):
         self.base_color = np.asarray(self.base_color, dtype=np.float64)
         self.emission = np.asarray(self.emission, dtype=np.float64)
+        self.specular = np.asarray(self.specular, dtype=np.float64)
         if self.eta is not None:
             self.eta = np.asarray(self.eta, dtype=np.float64)
         if self.k is not None:
@@ -126,13 +136,59 @@ class Sphere:
 
 
 @dataclass
+class Texture:
+    """An image for a material's base colour: uint8 RGBA (H, W, 4), row 0 = top of the image.
+
+    Texture coordinates follow OpenGL: (0, 0) is the bottom-left corner of the image, and
+    the image repeats outside [0, 1]. `srgb` images are decoded to linear before filtering.
+    """
+
+    name: str
+    pixels: np.ndarray
+    srgb: bool = True
+    source: str = ""
+
+    def __post_init__(self):
+        self.pixels = np.ascontiguousarray(self.pixels, dtype=np.uint8)
+
+
+@dataclass
 class Environment:
-    """Constant radiance arriving from every direction that escapes the scene."""
+    """Radiance arriving from every direction that escapes the scene: constant `radiance`,
+    or, with an `image`, the image times `radiance` (a scale per channel).
+
+    The image is latitude-longitude, linear RGB float32 (H, W, 3), row 0 = top. A direction
+    d in the map's own frame, d_map = inverse(to_world) @ d_world, is at
+    u = atan2(d.x, -d.z) / 2pi (wrapped to [0, 1)), v = acos(d.y) / pi (Mitsuba's convention:
+    +y is the top row, -z the left edge); texel (x, y) has its centre at ((x + .5) / W,
+    (y + .5) / H).
+    """
 
     radiance: np.ndarray
+    image: np.ndarray | None = None
+    to_world: np.ndarray = field(default_factory=lambda: np.eye(3))
+    source: str = ""
 
     def __post_init__(self):
         self.radiance = np.asarray(self.radiance, dtype=np.float64)
+        self.to_world = np.asarray(self.to_world, dtype=np.float64).reshape(3, 3)
+        if self.image is not None:
+            self.image = np.ascontiguousarray(self.image, dtype=np.float32)
+
+
+@dataclass
+class DistantLight:
+    """A directional (delta) light: `irradiance` on a surface facing it, arriving from
+    `direction` (unit, world space, pointing towards the light)."""
+
+    direction: np.ndarray
+    irradiance: np.ndarray
+    source: str = ""
+
+    def __post_init__(self):
+        d = np.asarray(self.direction, dtype=np.float64)
+        self.direction = d / np.linalg.norm(d)
+        self.irradiance = np.asarray(self.irradiance, dtype=np.float64)
 
 
 @dataclass
@@ -142,6 +198,8 @@ class Scene:
     meshes: list[Mesh] = field(default_factory=list)
     spheres: list[Sphere] = field(default_factory=list)
     environment: Environment | None = None
+    textures: list[Texture] = field(default_factory=list)
+    distant_lights: list[DistantLight] = field(default_factory=list)
     max_depth: int = 16  # path length limit the scene file asks for
     film_size: tuple[int, int] = (256, 256)  # width, height the scene file asks for
     path: Path | None = None

@@ -9,15 +9,18 @@ blend of the two, which bounds every triangle below the node at t (motion is lin
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached
+from .images import pack_images
+from .light_choice import light_uniforms
 from .model import Scene
+from .optics import internal_diffuse_reflectance
 
-MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "dielectric": 2}
+MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -43,6 +46,10 @@ class PackedScene:
     # nothing moves (has_motion False): see still_motion().
     motion: np.ndarray | None = None  # float32 (T + S + 2 N, 4)
     has_motion: bool = False
+    # Textures and the environment map (images.py), and the uniforms that describe them and
+    # the other lights (light_choice.py).
+    images: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint32))
+    uniforms: dict = field(default_factory=dict)
 
 
 def _as_float_bits(values) -> np.ndarray:
@@ -59,9 +66,16 @@ def pack_materials(scene: Scene) -> np.ndarray:
         if m.eta is not None and m.k is not None:
             out[i, 2, :3] = m.eta
             out[i, 3, :3] = m.k
+            if m.type == "conductor":
+                out[i, 0, :3] = m.specular  # tints the Fresnel reflectance
         else:
             out[i, 2, :3] = -1.0  # Schlick with F0 = base_color
         out[i, 2, 3] = m.ior
+        if m.type == "plastic":
+            out[i, 2, 0] = internal_diffuse_reflectance(m.ior)
+            out[i, 2, 1] = 1.0 if m.nonlinear else 0.0
+            out[i, 3, :3] = m.specular
+        out[i, 3, 3] = 0.0 if m.texture is None else m.texture + 1
     return out
 
 
@@ -200,6 +214,9 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
     def nonempty(a, shape):
         return a if len(a) else np.zeros(shape, np.float32)
 
+    images, uniforms = pack_images(scene)
+    uniforms.update(light_uniforms(scene, float(np.sum(light_power)), bounds))
+
     return PackedScene(
         bvh_nodes=bvh_nodes,
         tri_pos=nonempty(_pad4(positions), (1, 3, 4)),
@@ -216,4 +233,6 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
         num_lights=len(light_prims),
         motion=motion,
         has_motion=has_motion,
+        images=images,
+        uniforms=uniforms,
     )

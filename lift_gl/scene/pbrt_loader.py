@@ -29,7 +29,9 @@ from ..errors import SceneError
 from . import primitives as prim
 from .loader import warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, Environment, Material, Mesh, Scene
+from .model import Camera, DistantLight, Environment, Material, Mesh, Scene
+from .optics import ior_from_f0
+from .texture_files import FLOAT_EXTENSIONS, TextureLibrary, read_environment_image
 
 # --- tokens -------------------------------------------------------------------------------
 
@@ -239,11 +241,22 @@ def _alpha(ps: ParamSet, default_roughness: float, what: str) -> float:
     return float(np.sqrt(u * v))
 
 
-def make_material(kind: str, ps: ParamSet, name: str) -> Material:
+def _grey(rgb) -> bool:
+    rgb = np.asarray(rgb, dtype=np.float64)
+    return bool(np.ptp(rgb) <= 1e-6 * max(float(rgb.max()), 1e-30))
+
+
+def make_material(kind: str, ps: ParamSet, name: str, colour=None) -> Material:
+    """`colour(ps, param, default)` -> (rgb, texture index or None) reads a parameter that
+    may be a texture; without it, textures fall back to the default with a warning."""
+    if colour is None:
+        def colour(ps, param, default):
+            return ps.spectrum(param, default), None
     src = f"{ps.where[0]}:{ps.where[1]}"
     what = f"material '{name}' ({kind})"
     if kind == "matte":
-        m = Material(name, "diffuse", base_color=ps.spectrum("Kd", [0.5] * 3), source=src)
+        kd, tex = colour(ps, "Kd", [0.5] * 3)
+        m = Material(name, "diffuse", base_color=kd, texture=tex, source=src)
         if ps.float("sigma", 0.0) != 0.0:
             warn_at(*ps.where, f"{what}: Oren-Nayar sigma is not supported; Lambertian used")
     elif kind == "metal":
@@ -261,15 +274,38 @@ def make_material(kind: str, ps: ParamSet, name: str) -> Material:
     elif kind == "mirror":
         m = Material(name, "conductor", base_color=ps.spectrum("Kr", [0.9] * 3), alpha=0.0,
                      source=src)
+    elif kind in ("substrate", "plastic"):
+        # Both become the layered plastic: a diffuse base under a dielectric coat whose
+        # normal-incidence reflectance is Ks (the coat's index follows from it), GGX alpha
+        # from pbrt's roughness conventions. substrate (FresnelBlend) and plastic (Lambert
+        # plus a Torrance-Sparrow lobe, diffuse not attenuated) differ from it in detail.
+        default = 0.5 if kind == "substrate" else 0.25
+        kd, tex = colour(ps, "Kd", [default] * 3)
+        ks, _ = colour(ps, "Ks", [default] * 3)
+        f0 = float(np.max(ks))
+        if not _grey(ks):
+            warn_at(*ps.where, f"{what}: a coloured Ks is approximated by a coat of "
+                    f"reflectance {f0:.3g} tinted by Ks / {f0:.3g}")
+        if kind == "plastic":
+            warn_at(*ps.where, f"{what}: pbrt's plastic is approximated by a layered plastic "
+                    "(its diffuse part is attenuated by the coat)")
+        m = Material(name, "plastic", base_color=kd, texture=tex, ior=ior_from_f0(f0),
+                     specular=np.asarray(ks) / max(f0, 1e-6) if f0 > 0 else np.zeros(3),
+                     alpha=_alpha(ps, 0.1, what), source=src)
     else:
-        default = 0.25 if kind == "plastic" else 0.5
         warn_at(*ps.where, f"{what}: material type '{kind}' is not supported yet; "
                 "approximated as diffuse with its Kd")
-        m = Material(name, "diffuse", base_color=ps.spectrum("Kd", [default] * 3), source=src)
+        kd, tex = colour(ps, "Kd", [0.5] * 3)
+        m = Material(name, "diffuse", base_color=kd, texture=tex, source=src)
         ps.used.update(ps.params)  # already warned about the whole material
     ps.warn_unused(what, ignore=("type",))
     return m
 
+
+# pbrt's infinite light maps direction p (light space, +z up) to u = phi / 2pi with
+# phi = atan2(p.y, p.x), v = theta / pi, theta from +z. Environment (model.py) uses
+# Mitsuba's mapping; the map-frame direction with the same (u, v) is m = PBRT_TO_MAP @ p.
+PBRT_TO_MAP = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
 
 # --- the directive interpreter ----------------------------------------------------------
 
@@ -293,7 +329,8 @@ class _Builder:
                                                             base_color=[0.5] * 3))
         self.stack: list[tuple[str, _State]] = []
         self.named: dict[str, Material] = {}
-        self.textures: dict[str, ParamSet] = {}
+        self.textures: dict[str, tuple] = {}  # name -> (class, kind, ParamSet)
+        self.texture_files = TextureLibrary(self.scene)
         self.coord_systems: dict[str, np.ndarray] = {}
         self.camera_from_world: np.ndarray | None = None
         self.camera_params: ParamSet | None = None
@@ -461,12 +498,7 @@ class _Builder:
             self._mirror_world()
 
     def _mirror_world(self):
-        flip = np.diag([-1.0, 1.0, 1.0, 1.0])
-        s = self.scene
-        s.meshes = [prim.transform_mesh(m, flip) for m in s.meshes]
-        s.spheres = [prim.transform_sphere(x, flip) for x in s.spheres]
-        c = s.camera
-        c.position, c.target, c.up = (flip[:3, :3] @ v for v in (c.position, c.target, c.up))
+        prim.mirror_scene_x(self.scene)
 
     # materials and lights
     def do_MakeNamedMaterial(self, st):
@@ -475,7 +507,7 @@ class _Builder:
         if kind is None:
             raise SceneError(f"MakeNamedMaterial '{name}' has no \"string type\"",
                              st.path, st.line)
-        self.named[name] = make_material(kind, ps, name)
+        self.named[name] = make_material(kind, ps, name, self._colour)
 
     def do_NamedMaterial(self, st):
         name = self._positional(st, 1, str)[0]
@@ -485,11 +517,81 @@ class _Builder:
 
     def do_Material(self, st):
         kind, ps = self._kind_and_params(st)
-        self.state.material = make_material(kind, ps, f"{kind}@{st.line}")
+        self.state.material = make_material(kind, ps, f"{kind}@{st.line}", self._colour)
 
+    # textures
     def do_Texture(self, st):
-        name = self._positional(st, 1, str)[0]
-        self.textures[name] = self._params(st, 3)  # kept for the texture support to come
+        if len(st.args) < 3 or not all(isinstance(a, str) for a in st.args[:3]):
+            raise SceneError('Texture needs "name" "type" "class"', st.path, st.line)
+        name, value_type, kind = st.args[:3]
+        self.textures[name] = (value_type, kind, self._params(st, 3))
+
+    def _colour(self, ps: ParamSet, param: str, default):
+        """(rgb, texture index or None) of a parameter that may name a texture."""
+        p = ps.params.get(param)
+        if p is None or p.type != "texture":
+            return ps.spectrum(param, default), None
+        ps.used.add(param)
+        name = p.values[0] if p.values else None
+        if name not in self.textures:
+            warn_at(*ps.where, f"parameter '{param}': unknown texture {name!r}; using "
+                    f"{np.round(default, 3).tolist()}")
+            return np.asarray(default, dtype=np.float64), None
+        return self._texture(name, default)
+
+    def _texture(self, name: str, default):
+        value_type, kind, tps = self.textures[name]
+        where = tps.where
+        if kind == "constant":
+            return tps.spectrum("value", default), None
+        if kind == "scale":
+            a, ta = self._texture_operand(tps, "tex1", default)
+            b, tb = self._texture_operand(tps, "tex2", [1, 1, 1])
+            if ta is not None and tb is not None:
+                warn_at(*where, f"texture '{name}': the product of two image textures is not "
+                        "supported; using the first")
+            return a * b, ta if ta is not None else tb
+        if kind != "imagemap":
+            key = f"texture-{kind}"
+            if key not in self.warned:
+                self.warned.add(key)
+                warn_at(*where, f"texture '{name}': '{kind}' textures are not supported; "
+                        f"using {np.round(default, 3).tolist()}")
+            tps.used.update(tps.params)
+            return np.asarray(default, dtype=np.float64), None
+        filename = tps.string("filename")
+        if filename is None:
+            raise SceneError(f"imagemap texture '{name}' needs \"string filename\"", *where)
+        path = self.root.parent / filename
+        srgb = tps.bool("gamma", path.suffix.lower() not in FLOAT_EXTENSIONS)
+        scale = tps.float("scale", 1.0)
+        if tps.bool("invert", False):
+            warn_at(*where, f"texture '{name}': invert is not supported; ignored")
+        if (tps.float("uscale", 1.0), tps.float("vscale", 1.0), tps.float("udelta", 0.0),
+                tps.float("vdelta", 0.0)) != (1.0, 1.0, 0.0, 0.0):
+            warn_at(*where, f"texture '{name}': uscale/vscale/udelta/vdelta are not "
+                    "supported; ignored")
+        if tps.string("mapping", "uv") != "uv" or tps.string("wrap", "repeat") != "repeat":
+            warn_at(*where, f"texture '{name}': only uv mapping with repeat wrapping is "
+                    "supported")
+        # Filtering: lift-gl filters bilinearly and antialiases by accumulating jittered
+        # samples; pbrt's trilinear / EWA choices do not apply.
+        tps.used.update({"trilinear", "maxanisotropy", "filter"})
+        tps.warn_unused(f"texture '{name}'")
+        index = self.texture_files.load(path, srgb, where)
+        if index is None:
+            return np.asarray(default, dtype=np.float64), None
+        return np.full(3, scale), index
+
+    def _texture_operand(self, tps: ParamSet, param: str, default):
+        p = tps.params.get(param)
+        if p is not None and p.type == "texture":
+            tps.used.add(param)
+            name = p.values[0] if p.values else None
+            if name in self.textures:
+                return self._texture(name, default)
+            warn_at(*tps.where, f"parameter '{param}': unknown texture {name!r}")
+        return tps.spectrum(param, default), None
 
     def do_AreaLightSource(self, st):
         kind, ps = self._kind_and_params(st)
@@ -504,13 +606,29 @@ class _Builder:
 
     def do_LightSource(self, st):
         kind, ps = self._kind_and_params(st)
+        scale = ps.spectrum("scale", [1, 1, 1])
+        linear = self.state.ctm[:3, :3]
         if kind == "infinite":
-            if ps.string("mapname") is not None:
-                warn_at(st.path, st.line, "environment maps are not supported yet; using "
-                        "the constant radiance L only")
-            radiance = ps.spectrum("L", [1, 1, 1]) * ps.spectrum("scale", [1, 1, 1])
-            self.scene.environment = Environment(radiance)
+            if self.scene.environment is not None:
+                warn_at(st.path, st.line, "a second infinite light replaces the first")
+            radiance = ps.spectrum("L", [1, 1, 1]) * scale
+            mapname = ps.string("mapname")
+            image = None
+            if mapname is not None:
+                image = read_environment_image_at(self.root.parent / mapname, st)
+            self.scene.environment = Environment(radiance, image=image, to_world=linear @ PBRT_TO_MAP.T,
+                                                 source=f"{st.path}:{st.line}")
             ps.warn_unused("LightSource 'infinite'", ignore=("samples", "nsamples"))
+        elif kind == "distant":
+            source, target = ps.floats("from", 3, ("point",)), ps.floats("to", 3, ("point",))
+            source = np.zeros(3) if source is None else source[0]
+            target = np.array([0.0, 0.0, 1.0]) if target is None else target[0]
+            direction = linear @ (source - target)  # towards the light
+            if not np.linalg.norm(direction) > 0:
+                raise SceneError("distant light: 'from' equals 'to'", st.path, st.line)
+            self.scene.distant_lights.append(DistantLight(direction, ps.spectrum("L", [1, 1, 1]) * scale,
+                                                          source=f"{st.path}:{st.line}"))
+            ps.warn_unused("LightSource 'distant'")
         else:
             warn_at(st.path, st.line, f"light source '{kind}' is not supported yet; ignored")
 
@@ -536,7 +654,7 @@ class _Builder:
         elif kind in ("trianglemesh", "plymesh"):
             mesh = self._trianglemesh(st, ps) if kind == "trianglemesh" else self._plymesh(st, ps)
             mesh.material, mesh.source = self._material_index(), src
-            self.scene.meshes.append(_orient(prim.transform_mesh(mesh, self.state.ctm,
+            self.scene.meshes.append(prim.orient_to_normals(prim.transform_mesh(mesh, self.state.ctm,
                                                                  flip=self.state.reverse)))
         else:
             warn_at(st.path, st.line, f"shape '{kind}' is not supported yet; ignored")
@@ -593,16 +711,12 @@ class _Builder:
     do_Import = do_Include
 
 
-def _orient(mesh: Mesh) -> Mesh:
-    """With shading normals, pbrt turns each triangle's front towards them (Faceforward)."""
-    if mesh.normals is None or len(mesh.indices) == 0:
-        return mesh
-    g = prim.geometric_normals(mesh.positions, mesh.indices)
-    ns = mesh.normals[mesh.indices].sum(axis=1)
-    back = np.einsum("ij,ij->i", g, ns) < 0
-    if back.any():
-        mesh.indices[back] = mesh.indices[back][:, [0, 2, 1]]
-    return mesh
+def read_environment_image_at(path: Path, st: Statement) -> np.ndarray:
+    """The map, with errors pointing at the directive (and naming the map file)."""
+    try:
+        return read_environment_image(path)
+    except SceneError as e:
+        raise SceneError(f"{e.message}: {path}", st.path, st.line) from None
 
 
 def load_pbrt(path: Path) -> Scene:

@@ -138,3 +138,49 @@ def geometric_normals(positions: np.ndarray, indices: np.ndarray) -> np.ndarray:
     """Unnormalised geometric normal of every triangle (the front-side direction)."""
     p = positions[indices]
     return np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+
+
+def orient_to_normals(mesh: Mesh) -> Mesh:
+    """Turn each triangle's front (winding) towards its vertices' shading normals, as pbrt
+    (Faceforward) and Mitsuba (one-sided emitters in the shading frame) do."""
+    if mesh.normals is None or len(mesh.indices) == 0:
+        return mesh
+    g = geometric_normals(mesh.positions, mesh.indices)
+    ns = mesh.normals[mesh.indices].sum(axis=1)
+    back = np.einsum("ij,ij->i", g, ns) < 0
+    if back.any():
+        mesh.indices[back] = mesh.indices[back][:, [0, 2, 1]]
+    return mesh
+
+
+def smooth_normals(positions: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Vertex normals: the normals of the triangles around each vertex, weighted by the
+    triangle's angle at that vertex (shared vertices only: a seam in the index buffer stays
+    a crease)."""
+    p = positions.astype(np.float64)[indices]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    out = np.zeros((len(positions), 3))
+    for corner in range(3):
+        a = p[:, (corner + 1) % 3] - p[:, corner]
+        b = p[:, (corner + 2) % 3] - p[:, corner]
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+        angle = np.arccos(np.clip(cos, -1.0, 1.0))
+        np.add.at(out, indices[:, corner], n * angle[:, None])
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.divide(out, length, out=np.zeros_like(out), where=length > 0)
+
+
+def mirror_scene_x(scene) -> None:
+    """Mirror everything in x (geometry, camera, lights), in place: loaders use it when a
+    file's camera shows the image mirrored relative to lift-gl's camera convention."""
+    flip = np.diag([-1.0, 1.0, 1.0, 1.0])
+    scene.meshes = [transform_mesh(m, flip) for m in scene.meshes]
+    scene.spheres = [transform_sphere(x, flip) for x in scene.spheres]
+    c = scene.camera
+    c.position, c.target, c.up = (flip[:3, :3] @ v for v in (c.position, c.target, c.up))
+    if scene.environment is not None:
+        scene.environment.to_world = flip[:3, :3] @ scene.environment.to_world
+    for light in scene.distant_lights:
+        light.direction = flip[:3, :3] @ light.direction

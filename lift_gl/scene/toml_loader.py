@@ -15,7 +15,8 @@ from ..errors import SceneError
 from . import primitives as prim
 from .loader import framing_camera, warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, Environment, Material, Scene
+from .model import Camera, DistantLight, Environment, Material, Scene
+from .texture_files import TextureLibrary, read_environment_image
 
 # RGB complex indices of refraction (eta, k) at roughly 650/550/450 nm.
 METALS = {
@@ -27,12 +28,13 @@ METALS = {
 }
 METALS["aluminum"] = METALS["aluminium"]
 
-TOP_KEYS = {"camera", "film", "integrator", "environment", "materials", "objects"}
+TOP_KEYS = {"camera", "film", "integrator", "environment", "materials", "objects", "lights"}
 CAMERA_KEYS = {"position", "target", "up", "fov", "aperture", "focus_distance", "shutter"}
 MATERIAL_KEYS = {
-    "diffuse": {"type", "color", "emission"},
-    "conductor": {"type", "color", "emission", "roughness", "alpha", "eta", "k", "metal"},
+    "diffuse": {"type", "color", "emission", "texture"},
+    "conductor": {"type", "color", "emission", "roughness", "alpha", "eta", "k", "metal", "texture"},
     "dielectric": {"type", "color", "emission", "roughness", "alpha", "ior"},
+    "plastic": {"type", "color", "emission", "roughness", "alpha", "ior", "nonlinear", "texture"},
 }
 OBJECT_KEYS = {
     "mesh": {"file"},
@@ -157,6 +159,14 @@ class _Reader:
                        f"not {_show(v)}")
         return v
 
+    def boolean(self, key, default=False):
+        if key not in self.data:
+            return default
+        v = self.data[key]
+        if not isinstance(v, bool):
+            self.error(key, f"'{key}' in {self.label} must be true or false, not {_show(v)}")
+        return v
+
     def string(self, key, default=None):
         if key not in self.data:
             return default
@@ -237,13 +247,17 @@ def load_toml(path: Path) -> Scene:
         r.check_keys({"max_depth"})
         scene.max_depth = r.integer("max_depth", scene.max_depth)
     if "environment" in doc:
-        r = ctx.reader(doc["environment"], ("environment",))
-        r.check_keys({"radiance"})
-        scene.environment = Environment(r.vec3("radiance", [1, 1, 1], scalar_ok=True,
-                                               nonnegative=True))
+        scene.environment = _read_environment(ctx, doc["environment"])
+    lights = doc.get("lights", [])
+    if not isinstance(lights, list):
+        raise SceneError("'lights' must be an array of tables: write [[lights]]", path,
+                         ctx.smap.line((), None, "lights"))
+    for i, light in enumerate(lights):
+        scene.distant_lights.append(_read_light(ctx, i, light))
     materials = ctx.reader(doc.get("materials", {}), ("materials",))
+    textures = TextureLibrary(scene)
     for name, table in materials.data.items():
-        scene.materials.append(_read_material(ctx, name, table))
+        scene.materials.append(_read_material(ctx, name, table, textures))
     objects = doc.get("objects", [])
     if not isinstance(objects, list):
         raise SceneError("'objects' must be an array of tables: write [[objects]]", path,
@@ -320,7 +334,40 @@ def _read_motion(r):
     return m.vec3("translate")
 
 
-def _read_material(ctx, name, data) -> Material:
+def _read_environment(ctx, data) -> Environment:
+    r = ctx.reader(data, ("environment",))
+    r.check_keys({"radiance", "map", "rotate"})
+    radiance = r.vec3("radiance", [1, 1, 1], scalar_ok=True, nonnegative=True)
+    file = r.string("map")
+    if file is None:
+        if r.has("rotate"):
+            r.error("rotate", "'rotate' turns an environment map: give 'map' too")
+        return Environment(radiance, source=f"{ctx.path}:{r.line()}")
+    try:
+        image = read_environment_image(ctx.path.parent / file)
+    except SceneError as e:
+        r.error("map", f"{e.message}: {ctx.path.parent / file}")
+    to_world = prim.euler_matrix(r.vec3("rotate", [0, 0, 0]))[:3, :3]
+    return Environment(radiance, image=image, to_world=to_world, source=f"{ctx.path}:{r.line()}")
+
+
+def _read_light(ctx, i, data) -> DistantLight:
+    r = ctx.reader(data, ("lights",), i, label=f"light #{i + 1}")
+    kind = r.string("type", "distant")
+    if kind != "distant":
+        r.error("type", f"unknown light type '{kind}' (lights are 'distant'; area lights are "
+                "objects with an emissive material)")
+    r.check_keys({"type", "direction", "irradiance"})
+    if not r.has("direction"):
+        r.error(None, f"light #{i + 1} needs a 'direction' (towards the light)")
+    direction = r.vec3("direction")
+    if not np.linalg.norm(direction) > 0:
+        r.error("direction", "'direction' must not be zero")
+    return DistantLight(direction, r.vec3("irradiance", [1, 1, 1], scalar_ok=True, nonnegative=True),
+                        source=f"{ctx.path}:{r.line()}")
+
+
+def _read_material(ctx, name, data, textures) -> Material:
     r = ctx.reader(data, ("materials", name), label=f"material '{name}'")
     kind = r.string("type", "diffuse")
     if kind not in MATERIAL_KEYS:
@@ -333,6 +380,9 @@ def _read_material(ctx, name, data) -> Material:
                  base_color=r.vec3("color", [0.8, 0.8, 0.8] if kind == "diffuse" else [1, 1, 1],
                                    scalar_ok=True, nonnegative=True),
                  emission=r.vec3("emission", [0, 0, 0], scalar_ok=True, nonnegative=True))
+    if r.has("texture"):
+        m.texture = textures.load(ctx.path.parent / r.string("texture"), srgb=True,
+                                  where=(ctx.path, r.line("texture")))
     if kind == "diffuse":
         return m
     if r.has("roughness") and r.has("alpha"):
@@ -341,8 +391,10 @@ def _read_material(ctx, name, data) -> Material:
         m.alpha = r.number("roughness", minimum=0.0) ** 2  # perceptual roughness
     else:
         m.alpha = r.number("alpha", 0.0, minimum=0.0)
-    if kind == "dielectric":
+    if kind in ("dielectric", "plastic"):
         m.ior = r.number("ior", 1.5, positive=True)
+        if kind == "plastic":
+            m.nonlinear = r.boolean("nonlinear", False)
         return m
     if r.has("metal"):
         metal = r.string("metal").lower()

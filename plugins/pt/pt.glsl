@@ -45,19 +45,20 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #endif
         if (depth >= max_depth) break;
 
-        Material m = materials[s.material];
+        Material m = material_at(s.material, s.uv);  // textures applied
         Frame frame = shading_frame(s, m, wo_world);
         vec3 wo = to_local(frame, wo_world);
 
         // ---- Next event estimation: one light sample, weighted against BSDF sampling ----
-#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
+#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
             if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls)) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
-                    float w = power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
+                    // A delta light (distant) can't be found by BSDF sampling: no MIS.
+                    float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
                     L += throughput * f * ls.radiance * (w / ls.pdf);
                 }
             }

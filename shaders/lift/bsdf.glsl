@@ -19,13 +19,17 @@
 //   HAS_ROUGH_CONDUCTOR    GGX rough conductors; implies HAS_CONDUCTOR
 //   HAS_DIELECTRIC         smooth glass
 //   HAS_ROUGH_DIELECTRIC   GGX rough glass (Walter et al. 2007); implies HAS_DIELECTRIC
+//   HAS_PLASTIC            a diffuse base under a smooth dielectric coat
+//   HAS_ROUGH_PLASTIC      ... under a GGX-rough coat; implies HAS_PLASTIC
 // A material whose code is not compiled reflects nothing (bsdf_sample returns false).
 //
 // Material fields used (lift/scene_data.glsl): color_type.rgb = diffuse albedo / Schlick F0 /
-// transmission tint, color_type.w = MAT_*; emission_alpha.w = GGX alpha (0 = smooth; a
-// rough lobe uses max(alpha, BSDF_MIN_ALPHA)); eta_ior.rgb, k_pad.rgb = conductor complex
-// index (eta.r < 0: Schlick with F0 = colour); eta_ior.w = dielectric index of refraction
-// (inside over outside; the normal points outside).
+// transmission tint / tint of a conductor given by eta and k, color_type.w = MAT_*;
+// emission_alpha.w = GGX alpha (0 = smooth; a rough lobe uses max(alpha, BSDF_MIN_ALPHA));
+// eta_ior.rgb, k_pad.rgb = conductor complex index (eta.r < 0: Schlick with F0 = colour);
+// eta_ior.w = dielectric index of refraction (inside over outside; the normal points
+// outside). Plastic: see its section. A material's textures are applied before these
+// functions see it (material_at in lift/textures.glsl).
 #ifndef LIFT_BSDF_GLSL
 #define LIFT_BSDF_GLSL
 
@@ -34,6 +38,9 @@
 #endif
 #if defined(HAS_ROUGH_DIELECTRIC) && !defined(HAS_DIELECTRIC)
 #define HAS_DIELECTRIC
+#endif
+#if defined(HAS_ROUGH_PLASTIC) && !defined(HAS_PLASTIC)
+#define HAS_PLASTIC
 #endif
 
 // Included whatever the defines: the assembler inlines an #include once, even inside an
@@ -90,7 +97,7 @@ bool diffuse_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
 #ifdef HAS_CONDUCTOR
 vec3 conductor_fresnel(Material m, float cos_theta) {
     if (m.eta_ior.r < 0.0) return fresnel_schlick(cos_theta, m.color_type.rgb);
-    return fresnel_conductor(cos_theta, m.eta_ior.rgb, m.k_pad.rgb);
+    return m.color_type.rgb * fresnel_conductor(cos_theta, m.eta_ior.rgb, m.k_pad.rgb);
 }
 
 // ---- Smooth conductor: a mirror ----
@@ -281,6 +288,121 @@ bool dielectric_rough_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
 #endif  // HAS_ROUGH_DIELECTRIC
 #endif  // HAS_DIELECTRIC
 
+
+// ================================ Plastic ============================================
+#ifdef HAS_PLASTIC
+// A diffuse base of albedo Rd under a dielectric coat of index ior (Mitsuba's plastic and
+// roughplastic; pbrt's substrate is imported as this). Fields: color_type.rgb = Rd;
+// eta_ior.w = ior; eta_ior.x = Fdr, the fraction of diffuse light inside the coat that the
+// coat reflects back down (computed by the host: lift_gl/scene/optics.py); eta_ior.y = 1
+// for "nonlinear"; k_pad.rgb = specular tint; emission_alpha.w = GGX alpha (0: smooth).
+//
+//   f = tint F(wo.h) D G2 / (4 cos_o cos_i)              specular (smooth coat: a mirror
+//                                                          of weight tint F(cos_o), a delta)
+//     + (1 - F(cos_o)) (1 - F(cos_i)) / ior^2 Rd' / pi   diffuse, light crossing the coat twice
+//   Rd' = Rd / (1 - Fdr), or Rd / (1 - Rd Fdr) with nonlinear (inter-reflections under the
+//   coat darken and saturate the base).
+// With Rd = 1 the smooth coat conserves energy exactly: the integral of
+// (1 - F(cos_i)) cos_i / pi over the hemisphere is ior^2 (1 - Fdr). For the rough coat the
+// transmittance through the coat is approximated by the smooth one's (Mitsuba tabulates the
+// rough one): at grazing angles the rough coat reflects less than F(cos_o), so energy is
+// lost there (a white base, alpha 0.3, cos_o 0.1: albedo 0.58), and near normal incidence
+// slightly more (a gain below 4e-4, tests/test_plastic_bsdf.py).
+// Sampling: the specular lobe with probability P = clamp(F(cos_o) s / (F(cos_o) s +
+// (1 - F(cos_o)) d), 0.1, 0.9) (s, d: mean tint and albedo), else a cosine-weighted
+// direction. For the smooth coat bsdf_eval and bsdf_pdf cover the diffuse part only, and a
+// mirror sample is a delta with BsdfSample.pdf = P.
+
+vec3 plastic_base_albedo(Material m) {
+    vec3 rd = m.color_type.rgb;
+    float fdr = m.eta_ior.x;
+    return m.eta_ior.y > 0.5 ? rd / max(vec3(1.0) - rd * fdr, vec3(1e-6)) : rd / max(1.0 - fdr, 1e-6);
+}
+
+float plastic_specular_probability(Material m, float F_o) {
+    float s = F_o * dot(m.k_pad.rgb, vec3(1.0 / 3.0));
+    float d = (1.0 - F_o) * dot(m.color_type.rgb, vec3(1.0 / 3.0));
+    return clamp(s / max(s + d, 1e-12), 0.1, 0.9);
+}
+
+// The diffuse part, times cos_i.
+vec3 plastic_diffuse_eval(Material m, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    float ior = m.eta_ior.w;
+    float t = (1.0 - fresnel_dielectric(wo.z, ior)) * (1.0 - fresnel_dielectric(wi.z, ior)) / (ior * ior);
+    return plastic_base_albedo(m) * (t * LIFT_INV_PI * wi.z);
+}
+
+#ifdef HAS_ROUGH_PLASTIC
+// The specular part of the rough coat, times cos_i, and the density of its VNDF sampling.
+vec3 plastic_specular_eval(Material m, vec3 wo, vec3 wi, float alpha) {
+    vec3 h = normalize(wo + wi);
+    float F = fresnel_dielectric(dot(wo, h), m.eta_ior.w);
+    return m.k_pad.rgb * (F * ggx_D(h, alpha) * ggx_G2(wo, wi, alpha) / (4.0 * wo.z));
+}
+
+float plastic_specular_pdf(vec3 wo, vec3 wi, float alpha) {
+    vec3 h = normalize(wo + wi);
+    return ggx_G1(wo, alpha) * ggx_D(h, alpha) / (4.0 * wo.z);
+}
+#endif
+
+vec3 plastic_eval(Material m, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    vec3 f = plastic_diffuse_eval(m, wo, wi);
+#ifdef HAS_ROUGH_PLASTIC
+    if (bsdf_alpha(m) > 0.0) f += plastic_specular_eval(m, wo, wi, max(bsdf_alpha(m), BSDF_MIN_ALPHA));
+#endif
+    return f;
+}
+
+float plastic_pdf(Material m, vec3 wo, vec3 wi) {
+    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
+    float P = plastic_specular_probability(m, fresnel_dielectric(wo.z, m.eta_ior.w));
+    float pdf = (1.0 - P) * pdf_cosine_hemisphere(wi);
+#ifdef HAS_ROUGH_PLASTIC
+    if (bsdf_alpha(m) > 0.0) pdf += P * plastic_specular_pdf(wo, wi, max(bsdf_alpha(m), BSDF_MIN_ALPHA));
+#endif
+    return pdf;
+}
+
+bool plastic_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    if (wo.z <= 0.0) return false;
+    float F_o = fresnel_dielectric(wo.z, m.eta_ior.w);
+    float P = plastic_specular_probability(m, F_o);
+    float alpha = bsdf_alpha(m);
+    vec3 wi;
+    if (u.z < P) {
+        // ---- Specular: reflection off the coat ----
+        if (alpha <= 0.0) {
+            s.wi = bsdf_reflect_z(wo);
+            s.weight = m.k_pad.rgb * (F_o / P);
+            s.pdf = P;
+            s.is_delta = true;
+            return true;
+        }
+#ifdef HAS_ROUGH_PLASTIC
+        vec3 h = ggx_sample_visible(wo, max(alpha, BSDF_MIN_ALPHA), u.xy);
+        float wo_h = dot(wo, h);
+        if (wo_h <= 0.0) return false;
+        wi = 2.0 * wo_h * h - wo;
+#else
+        return false;  // a rough coat that this shader was not built for
+#endif
+    } else {
+        // ---- Diffuse: the base, seen through the coat ----
+        wi = sample_cosine_hemisphere(u.xy);
+    }
+    if (wi.z <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = plastic_pdf(m, wo, wi);
+    if (!(s.pdf > 0.0)) return false;
+    s.weight = plastic_eval(m, wo, wi) / s.pdf;  // one-sample MIS over the two lobes
+    return true;
+}
+#endif  // HAS_PLASTIC
+
 // ================================ Dispatch ===========================================
 vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
     int type = bsdf_type(m);
@@ -290,6 +412,9 @@ vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
 #endif
 #ifdef HAS_ROUGH_DIELECTRIC
     if (type == MAT_DIELECTRIC && bsdf_alpha(m) > 0.0) return dielectric_rough_eval(m, wo, wi);
+#endif
+#ifdef HAS_PLASTIC
+    if (type == MAT_PLASTIC) return plastic_eval(m, wo, wi);
 #endif
     return vec3(0.0);  // delta lobes, or a material not compiled in
 }
@@ -302,6 +427,9 @@ float bsdf_pdf(Material m, vec3 wo, vec3 wi) {
 #endif
 #ifdef HAS_ROUGH_DIELECTRIC
     if (type == MAT_DIELECTRIC && bsdf_alpha(m) > 0.0) return dielectric_rough_pdf(m, wo, wi);
+#endif
+#ifdef HAS_PLASTIC
+    if (type == MAT_PLASTIC) return plastic_pdf(m, wo, wi);
 #endif
     return 0.0;
 }
@@ -331,6 +459,11 @@ bool bsdf_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
         ok = dielectric_smooth_sample(m, wo, u.z, s);
     }
 #endif
+#ifdef HAS_PLASTIC
+    else if (type == MAT_PLASTIC) {
+        ok = plastic_sample(m, wo, u, s);
+    }
+#endif
     // The last guard: a sample with a non-finite or negative weight is dropped, not returned.
     if (ok && (any(isnan(s.weight)) || any(isinf(s.weight)) || any(lessThan(s.weight, vec3(0.0)))
                || isnan(s.pdf) || isinf(s.pdf) || !(s.pdf > 0.0))) ok = false;
@@ -345,7 +478,7 @@ vec3 bsdf_albedo(Material m) {
 #ifdef HAS_CONDUCTOR
     if (type == MAT_CONDUCTOR) return conductor_fresnel(m, 1.0);
 #endif
-    return m.color_type.rgb;  // diffuse albedo; glass: its transmission tint
+    return m.color_type.rgb;  // diffuse albedo (plastic: of its base); glass: its transmission tint
 }
 
 #endif

@@ -12,5 +12,6 @@
 #include "lift/camera.glsl"
 #include "lift/surface.glsl"
 #include "lift/bsdf.glsl"
+#include "lift/textures.glsl"
 #include "lift/lights.glsl"
 #endif

@@ -1,6 +1,10 @@
-// lift/lights.glsl: next event estimation. Emissive primitives are picked in proportion to
-// their power (the CDF in `lights`), then a point uniformly on the picked one; the constant
-// environment is sampled uniformly over the sphere. Every sampler has its pdf beside it.
+// lift/lights.glsl: next event estimation. sample_light picks a kind of light (the
+// environment, the distant lights or the emissive primitives) with the probabilities the
+// host computed (lift_gl/scene/light_choice.py), then one light of that kind: emissive
+// primitives in proportion to their power (the CDF in `lights`), a point uniformly on the
+// picked one; the environment uniformly over the sphere, or, with an environment map,
+// by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
+// Every sampler has its pdf beside it.
 #ifndef LIFT_LIGHTS_GLSL
 #define LIFT_LIGHTS_GLSL
 #include "lift/surface.glsl"
@@ -9,20 +13,39 @@
 struct LightSample {
     vec3 wi;        // world direction towards the light
     float dist;     // distance to the light point (1e30 for the environment)
-    vec3 radiance;  // radiance arriving along -wi
-    float pdf;      // solid-angle pdf of this direction, light choice included
+    vec3 radiance;  // radiance arriving along -wi (a distant light: irradiance)
+    float pdf;      // solid-angle pdf of this direction, light choice included; for a delta
+                    // light (is_delta) the discrete probability of choosing it
+    bool is_delta;  // a distant light: no MIS (BSDF sampling can never find it)
 };
 
-// Probability of choosing the environment rather than an emissive primitive.
-float env_choice_probability() {
-#if defined(HAS_ENVIRONMENT) && defined(HAS_EMISSIVE)
-    return u_num_lights > 0u ? 0.5 : 1.0;
-#elif defined(HAS_ENVIRONMENT)
-    return 1.0;
-#else
-    return 0.0;
+// Unnormalised weights of choosing the environment (x), the distant lights (y) or the
+// emissive primitives (z); only the kinds compiled in take part.
+uniform vec4 u_light_weights;
+
+#define LIFT_MAX_DISTANT 4
+uniform uint u_num_distant;
+uniform vec4 u_distant_dir[LIFT_MAX_DISTANT];         // xyz: unit direction towards the light; w: cumulative choice probability
+uniform vec4 u_distant_irradiance[LIFT_MAX_DISTANT];  // rgb: irradiance facing the light; w: choice probability
+
+// Probabilities of the three kinds (environment, distant, emissive primitives).
+vec3 light_kind_probabilities() {
+    vec3 w = vec3(0.0);
+#ifdef HAS_ENVIRONMENT
+    w.x = u_light_weights.x;
 #endif
+#ifdef HAS_DISTANT_LIGHTS
+    w.y = u_num_distant > 0u ? u_light_weights.y : 0.0;
+#endif
+#ifdef HAS_EMISSIVE
+    w.z = u_num_lights > 0u ? u_light_weights.z : 0.0;
+#endif
+    float total = w.x + w.y + w.z;
+    return total > 0.0 ? w / total : vec3(0.0);
 }
+
+// Probability of choosing the environment rather than another kind of light.
+float env_choice_probability() { return light_kind_probabilities().x; }
 
 uint pick_light(float u) {
     // Binary search of the first entry whose cumulative probability exceeds u.
@@ -34,25 +57,142 @@ uint pick_light(float u) {
     return lo;
 }
 
+#ifdef HAS_ENVIRONMENT_MAP
+// ---- Environment map: piecewise-constant 2D distribution over the lat-long image ----
+// Layout and conventions: lift_gl/scene/images.py and envmap.py.
+uniform uvec2 u_env_map_size;     // width, height; 0: no map (constant u_env_radiance)
+uniform uvec4 u_env_map_offsets;  // words of: texels (RGB float), marginal pdf + cdf, conditional pdfs, conditional cdfs
+uniform mat3 u_env_to_world;      // the map's frame to world (orthonormal)
+uniform mat3 u_env_from_world;
+
+float env_word(uint i) { return uintBitsToFloat(images[i]); }
+
+// The last i in [0, n - 1] with cdf[i] <= u, for u in [0, 1) and cdf[n] = 1: then
+// cdf[i] <= u < cdf[i + 1], so the chosen cell never has zero probability.
+uint env_search_cdf(uint cdf, uint n, float u) {
+    uint lo = 0u, hi = n - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi + 1u) >> 1u;
+        if (env_word(cdf + mid) <= u) lo = mid; else hi = mid - 1u;
+    }
+    return lo;
+}
+
+vec3 env_map_direction(vec2 uv) {
+    float phi = 2.0 * LIFT_PI * uv.x, theta = LIFT_PI * uv.y;
+    float s = sin(theta);
+    return vec3(s * sin(phi), cos(theta), -s * cos(phi));
+}
+
+vec2 env_map_uv(vec3 d) {
+    float u = atan(d.x, -d.z) * (0.5 * LIFT_INV_PI);
+    return vec2(u < 0.0 ? u + 1.0 : u, acos(clamp(d.y, -1.0, 1.0)) * LIFT_INV_PI);
+}
+
+vec3 env_texel(int x, int y) {
+    uint i = u_env_map_offsets.x + 3u * uint(y * int(u_env_map_size.x) + x);
+    return vec3(env_word(i), env_word(i + 1u), env_word(i + 2u));
+}
+
+// Bilinear between texel centres, repeating in u, clamped in v.
+vec3 env_map_lookup(vec2 uv) {
+    int w = int(u_env_map_size.x), h = int(u_env_map_size.y);
+    vec2 p = uv * vec2(w, h) - 0.5;
+    vec2 p0 = floor(p);
+    vec2 f = p - p0;
+    int x0 = int(mod(p0.x, float(w)));
+    x0 = clamp(x0, 0, w - 1);
+    int x1 = x0 + 1 == w ? 0 : x0 + 1;
+    int y0 = clamp(int(p0.y), 0, h - 1), y1 = clamp(int(p0.y) + 1, 0, h - 1);
+    vec3 top = mix(env_texel(x0, y0), env_texel(x1, y0), f.x);
+    vec3 bottom = mix(env_texel(x0, y1), env_texel(x1, y1), f.x);
+    return mix(top, bottom, f.y);
+}
+
+// Density over (u, v) in [0, 1]^2 of the cell holding uv.
+float env_map_pdf_uv(vec2 uv) {
+    uint w = u_env_map_size.x, h = u_env_map_size.y;
+    uint x = min(uint(uv.x * float(w)), w - 1u), y = min(uint(uv.y * float(h)), h - 1u);
+    return env_word(u_env_map_offsets.y + y) * env_word(u_env_map_offsets.z + y * w + x);
+}
+
+// A direction (world) with its solid-angle pdf (the map's choice only, not the kind's).
+bool sample_env_map(vec2 u, out vec3 wi, out float pdf) {
+    uint w = u_env_map_size.x, h = u_env_map_size.y;
+    uint marginal_cdf = u_env_map_offsets.y + h;
+    uint y = env_search_cdf(marginal_cdf, h, u.x);
+    float c0 = env_word(marginal_cdf + y), c1 = env_word(marginal_cdf + y + 1u);
+    float dv = clamp((u.x - c0) / (c1 - c0), 0.0, 1.0);
+    uint row_cdf = u_env_map_offsets.w + y * (w + 1u);
+    uint x = env_search_cdf(row_cdf, w, u.y);
+    float d0 = env_word(row_cdf + x), d1 = env_word(row_cdf + x + 1u);
+    float du = clamp((u.y - d0) / (d1 - d0), 0.0, 1.0);
+    vec2 uv = vec2((float(x) + du) / float(w), (float(y) + dv) / float(h));
+    float sin_theta = sin(LIFT_PI * uv.y);
+    float pdf_uv = env_word(u_env_map_offsets.y + y) * env_word(u_env_map_offsets.z + y * w + x);
+    if (!(sin_theta > 0.0) || !(pdf_uv > 0.0)) return false;
+    wi = normalize(u_env_to_world * env_map_direction(uv));
+    pdf = pdf_uv / (2.0 * LIFT_PI * LIFT_PI * sin_theta);
+    return true;
+}
+
+// Solid-angle pdf with which sample_env_map produces the world direction wi.
+float env_map_pdf(vec3 wi) {
+    vec3 d = normalize(u_env_from_world * wi);
+    float sin_theta = sqrt(max(0.0, d.x * d.x + d.z * d.z));
+    if (!(sin_theta > 0.0)) return 0.0;
+    return env_map_pdf_uv(env_map_uv(d)) / (2.0 * LIFT_PI * LIFT_PI * sin_theta);
+}
+#endif
+
+vec3 env_radiance(vec3 wi);
+
 bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     ls.pdf = 0.0;
-    float p_env = env_choice_probability();
+    ls.is_delta = false;
+    vec3 kind = light_kind_probabilities();
 #ifdef HAS_ENVIRONMENT
-    if (u.x < p_env) {
-        ls.wi = sample_uniform_sphere(u.yz);
+    // ---- The environment ----
+    if (u.x < kind.x) {
         ls.dist = 1e30;
+#ifdef HAS_ENVIRONMENT_MAP
+        if (u_env_map_size.x > 0u) {
+            float pdf;
+            if (!sample_env_map(u.yz, ls.wi, pdf)) return false;
+            ls.radiance = env_radiance(ls.wi);
+            ls.pdf = kind.x * pdf;
+            return ls.pdf > 0.0 && ls.pdf < 1e30;
+        }
+#endif
+        ls.wi = sample_uniform_sphere(u.yz);
         ls.radiance = u_env_radiance;
-        ls.pdf = p_env * pdf_uniform_sphere(ls.wi);
+        ls.pdf = kind.x * pdf_uniform_sphere(ls.wi);
         return true;
     }
-    u.x = (u.x - p_env) / (1.0 - p_env);
 #endif
+    u.x -= kind.x;
+#ifdef HAS_DISTANT_LIGHTS
+    // ---- A distant light: a delta in direction ----
+    if (u.x < kind.y) {
+        float v = u.x / kind.y;
+        uint k = 0u;
+        while (k + 1u < u_num_distant && v >= u_distant_dir[k].w) ++k;
+        ls.wi = u_distant_dir[k].xyz;
+        ls.dist = 1e30;
+        ls.radiance = u_distant_irradiance[k].rgb;
+        ls.pdf = kind.y * u_distant_irradiance[k].w;
+        ls.is_delta = true;
+        return ls.pdf > 0.0;
+    }
+#endif
+    u.x -= kind.y;
 #ifdef HAS_EMISSIVE
-    if (u_num_lights == 0u) return false;
-    uint index = pick_light(u.x);
+    // ---- An emissive primitive ----
+    if (u_num_lights == 0u || !(kind.z > 0.0)) return false;
+    uint index = pick_light(clamp(u.x / kind.z, 0.0, 1.0));
     vec4 light = lights[index];
     uint prim = floatBitsToUint(light.x);
-    float select_pdf = light.z * (1.0 - p_env);
+    float select_pdf = light.z * kind.z;
     vec3 point, n;
     uint material;
     if (prim < u_num_triangles) {
@@ -93,20 +233,27 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
 float light_pdf(vec3 p, Surface light, vec3 wi, float dist) {
     float cos_light = abs(dot(wi, light.ng));
     if (light.light_select_pdf <= 0.0 || cos_light <= 0.0) return 0.0;
-    return (1.0 - env_choice_probability()) * light.light_select_pdf * dist * dist / (light.area * cos_light);
+    return light_kind_probabilities().z * light.light_select_pdf * dist * dist / (light.area * cos_light);
 }
 
 // Solid-angle pdf with which sample_light produces the escaping direction wi.
 float env_light_pdf(vec3 wi) {
 #ifdef HAS_ENVIRONMENT
+#ifdef HAS_ENVIRONMENT_MAP
+    if (u_env_map_size.x > 0u) return env_choice_probability() * env_map_pdf(wi);
+#endif
     return env_choice_probability() * pdf_uniform_sphere(wi);
 #else
     return 0.0;
 #endif
 }
 
+// Radiance arriving from the environment along -wi (wi: world, towards the environment).
 vec3 env_radiance(vec3 wi) {
 #ifdef HAS_ENVIRONMENT
+#ifdef HAS_ENVIRONMENT_MAP
+    if (u_env_map_size.x > 0u) return u_env_radiance * env_map_lookup(env_map_uv(normalize(u_env_from_world * wi)));
+#endif
     return u_env_radiance;
 #else
     return vec3(0.0);

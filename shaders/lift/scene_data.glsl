@@ -7,6 +7,7 @@
 #define MAT_DIFFUSE 0
 #define MAT_CONDUCTOR 1
 #define MAT_DIELECTRIC 2
+#define MAT_PLASTIC 3
 
 // Two vec4 per node: (bmin.xyz, first), (bmax.xyz, count); first and count are uint bits.
 // count == 0: interior node, children are nodes `first` and `first + 1`.
@@ -23,10 +24,11 @@ layout(std430, binding = 3) readonly buffer TriUVs { vec4 tri_uv[]; };
 layout(std430, binding = 4) readonly buffer TriInfo { uvec2 tri_info[]; };
 
 struct Material {
-    vec4 color_type;      // rgb: albedo / F0 / transmission tint; w: MAT_* as float
+    vec4 color_type;      // rgb: albedo / F0 / transmission tint / conductor tint; w: MAT_* as float
     vec4 emission_alpha;  // rgb: emitted radiance; w: GGX alpha (0 = smooth)
     vec4 eta_ior;         // rgb: conductor eta (all < 0: use Schlick with F0 = colour); w: dielectric IOR
-    vec4 k_pad;           // rgb: conductor k
+                          // plastic: x internal diffuse reflectance of the coat, y nonlinear (0/1)
+    vec4 k_pad;           // rgb: conductor k / plastic specular tint; w: base colour texture + 1 (0: none)
 };
 layout(std430, binding = 5) readonly buffer Materials { Material materials[]; };
 
@@ -46,11 +48,17 @@ layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 // from shutter open to shutter close; then, from row u_num_triangles + u_num_spheres, two
 // vec4 per BVH node: its box at shutter close (bmin.xyz), (bmax.xyz). Motion is a
 // translation, so normals, areas and light selection probabilities do not change.
-layout(std430, binding = 9) readonly buffer Motion { vec4 motion[]; };
+layout(std430, binding = 16) readonly buffer Motion { vec4 motion[]; };
 #endif
 
 // Counters the host reads back: [0] samples dropped as NaN/Inf.
 layout(std430, binding = 8) buffer Stats { uint stats[]; };
+
+#if defined(HAS_TEXTURES) || defined(HAS_ENVIRONMENT_MAP)
+// Textures and the environment map as 32-bit words (lift_gl/scene/images.py has the layout;
+// lift/textures.glsl and lift/lights.glsl read it).
+layout(std430, binding = 9) readonly buffer Images { uint images[]; };
+#endif
 
 uniform uint u_num_triangles;
 uniform uint u_num_spheres;

@@ -4,6 +4,7 @@
 #define LIFT_SURFACE_GLSL
 #include "lift/bvh.glsl"
 #include "lift/frame.glsl"
+#include "lift/textures.glsl"
 
 struct Surface {
     vec3 p;                  // world position
@@ -48,7 +49,7 @@ Surface surface_at(Ray ray, Hit hit) {
         s.ng = normalize(p - cr.xyz);
         s.p = cr.xyz + cr.w * s.ng;  // re-project onto the sphere
         s.ns = s.ng;
-        s.uv = vec2(atan(s.ng.z, s.ng.x) * 0.15915494 + 0.5, acos(clamp(s.ng.y, -1.0, 1.0)) * 0.31830989);
+        s.uv = sphere_uv(s.ng);
         s.material = floatBitsToUint(spheres[2u * k + 1u].x);
         s.light_select_pdf = uintBitsToFloat(floatBitsToUint(spheres[2u * k + 1u].y));
         s.area = 4.0 * 3.14159265 * cr.w * cr.w;

@@ -2,6 +2,7 @@
 // normal facing the camera with view depth, and albedo (the denoiser's guide).
 #include "lift/scene_data.glsl"
 #include "lift/bsdf.glsl"
+#include "lift/textures.glsl"
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
 flat in uint v_prim;
@@ -17,5 +18,7 @@ void main() {
     vec3 n = length(v_normal) > 0.0 ? normalize(v_normal) : vec3(0.0, 0.0, 1.0);
     if (dot(n, u_cam_pos - v_world) < 0.0) n = -n;
     o_normal_depth = vec4(n, dot(v_world - u_cam_pos, u_cam_forward));
-    o_albedo = vec4(bsdf_albedo(materials[material]), 1.0);
+    uint i = 3u * v_prim;
+    vec2 uv = (1.0 - v_bary.x - v_bary.y) * tri_uv[i].xy + v_bary.x * tri_uv[i + 1u].xy + v_bary.y * tri_uv[i + 2u].xy;
+    o_albedo = vec4(bsdf_albedo(material_at(material, uv)), 1.0);
 }

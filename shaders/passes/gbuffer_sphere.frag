@@ -1,5 +1,6 @@
 #include "lift/scene_data.glsl"
 #include "lift/bsdf.glsl"
+#include "lift/textures.glsl"
 uniform mat4 u_view_proj;
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
@@ -28,5 +29,5 @@ void main() {
     vec3 n = normalize(p - cr.xyz);
     if (dot(n, -d) < 0.0) n = -n;
     o_normal_depth = vec4(n, dot(p - u_cam_pos, u_cam_forward));
-    o_albedo = vec4(bsdf_albedo(materials[material]), 1.0);
+    o_albedo = vec4(bsdf_albedo(material_at(material, sphere_uv(normalize(p - cr.xyz)))), 1.0);
 }
