@@ -16,7 +16,7 @@ import numpy as np
 from .gl.context import create_context, describe
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
+from .passes.common import STAT_DROPPED, STAT_DROPPED_SPLATS, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
@@ -33,12 +33,14 @@ class RenderStats:
     frames: int = 0
     spp: int = 0
     dropped_samples: int = 0
+    dropped_splats: int = 0  # plugins with splats = true: splats dropped as NaN/Inf
     render_seconds: float = 0.0  # wall time of the frames, I/O excluded
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
 
     def summary(self) -> str:
         return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames), "
-                f"dropped NaN/Inf samples: {self.dropped_samples}")
+                f"dropped NaN/Inf samples: {self.dropped_samples}"
+                + (f", splats: {self.dropped_splats}" if self.dropped_splats else ""))
 
 
 class Renderer:
@@ -163,7 +165,9 @@ class Renderer:
                 progress(self, done)
         self.ctx.finish()
         self.stats.render_seconds += time.perf_counter() - start
-        self.stats.dropped_samples = int(self.buffers.read_stats()[STAT_DROPPED])
+        counters = self.buffers.read_stats()
+        self.stats.dropped_samples = int(counters[STAT_DROPPED])
+        self.stats.dropped_splats = int(counters[STAT_DROPPED_SPLATS])
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image()

@@ -12,6 +12,7 @@ SCENE_BINDINGS = {
 }
 STATS_BINDING = 8
 STAT_DROPPED = 0
+STAT_DROPPED_SPLATS = 1  # splats dropped as NaN/Inf (plugins with splats = true)
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
 
@@ -51,8 +52,12 @@ class SceneBuffers:
 
     def uniforms(self, environment_radiance) -> dict:
         p = self.packed
+        centre = (p.bounds[0] + p.bounds[1]) / 2
+        radius = float(np.linalg.norm(p.bounds[1] - p.bounds[0])) / 2
         return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres,
-                "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance)}
+                "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance),
+                # bounding sphere, for light leaving the environment (shaders/lift/emission.glsl)
+                "u_scene_center": tuple(float(x) for x in centre), "u_scene_radius": max(radius, 1e-6)}
 
     def reset_stats(self) -> None:
         self.stats.write(np.zeros(NUM_STATS, np.uint32).tobytes())

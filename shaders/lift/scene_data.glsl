@@ -39,7 +39,7 @@ layout(std430, binding = 6) readonly buffer Lights { vec4 lights[]; };
 // light selection probability, 0, 0).
 layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 
-// Counters the host reads back: [0] samples dropped as NaN/Inf.
+// Counters the host reads back: [0] samples dropped as NaN/Inf, [1] splats dropped as NaN/Inf.
 layout(std430, binding = 8) buffer Stats { uint stats[]; };
 
 uniform uint u_num_triangles;
