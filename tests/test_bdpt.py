@@ -146,6 +146,17 @@ def test_bdpt_converges_to_tungsten_on_the_pbrt_cornell_box(pbrt_cornell_bdpt):
     assert metrics.ssim(mean, ref) >= metrics.ssim(a, b)
 
 
+# ---------------------------------------------------------------- repeatability
+def test_same_seed_repeats_to_float_rounding():
+    """Splats are float atomics, summed in whatever order the threads run: a seed fixes every
+    random number, and the image to a few ulps (bit for bit where no splat lands)."""
+    scene = load_scene(CORNELL)
+    a, b = renders(scene, "bdpt", 2, [7, 7])
+    c = renders(scene, "bdpt", 2, [8])[0]
+    assert np.all(np.abs(a - b) <= 1e-5 * np.abs(a) + 1e-7)
+    assert np.mean(np.any(a != c, axis=-1)) > 0.5
+
+
 # ---------------------------------------------------------------- command line and scenes
 def test_cli_renders_with_bdpt_and_lists_it(tmp_path, capsys):
     out = tmp_path / "bdpt.npy"
