@@ -95,9 +95,17 @@ float vertex_pdf(int i, vec3 wo, vec3 wi) {
 }
 
 // Whether nothing lies between vertex i and the point at distance dist along dir (1e30: the
-// environment). The ray starts on dir's side of the surface and stops just short of the end.
+// environment). The ray starts offset off the surface on dir's side, aims from there at the
+// end point and stops just short of it (see spawn_shadow_ray in lift/surface.glsl).
 bool vertex_sees(int i, vec3 dir, float dist) {
+    vec3 p = bdpt_path[i].p;
     vec3 n = dot(dir, bdpt_path[i].ng) >= 0.0 ? bdpt_path[i].ng : -bdpt_path[i].ng;
-    Ray r = Ray(offset_ray_origin(bdpt_path[i].p, n), dir, 0.0, dist >= 1e30 ? 1e30 : dist * (1.0 - 1e-4));
+    Ray r = Ray(offset_ray_origin(p, n), dir, 0.0, 1e30);
+    if (dist < 1e30) {
+        vec3 to_end = p + dir * dist - r.origin;
+        float len = length(to_end);
+        if (len > 0.0) r.dir = to_end / len;
+        r.tmax = len * (1.0 - 1e-4);
+    }
     return !trace_occluded(r);
 }
