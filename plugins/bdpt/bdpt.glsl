@@ -60,16 +60,15 @@ vec3 strategy_light_sample(int t, inout Rng rng) {
         cos_light_over_d2 = dot(light.n, -wi) / dist2;
         if (cos_light_over_d2 <= 0.0) return vec3(0.0);  // the back of a one-sided emitter
     }
-    vec3 f = vertex_f(z, v.wo, wi, false);
-    vec3 contribution = v.beta * f * light.radiance * (cos_light_over_d2 / light.pdf);
+    VertexScatter at_z = vertex_scatter(z, v.wo, wi, false);
+    vec3 contribution = v.beta * at_z.f * light.radiance * (cos_light_over_d2 / light.pdf);
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(z, wi, dist)) return vec3(0.0);
 
-    float to_light = vertex_pdf(z, v.wo, wi);  // the camera subpath going on to the light
-    float qs_rev = to_light * cos_light_over_d2;
+    float qs_rev = at_z.pdf_out * cos_light_over_d2;  // the camera subpath going on to the light
     float cos_z = abs(dot(v.ng, wi));
     float pt_rev = light.is_env ? pdf_env_emission_pos() * cos_z
                                 : pdf_emission_dir(light.n, -wi) * cos_z / (dist * dist);
-    float pt_minus_rev = area_density(vertex_pdf(z, wi, v.wo), v.p, z - 1);
+    float pt_minus_rev = area_density(at_z.pdf_back, v.p, z - 1);
     return contribution * mis_weight(1, t, pt_rev, pt_minus_rev, qs_rev, 0.0, light.pdf);
 }
 
@@ -84,14 +83,14 @@ void strategy_light_tracing(int s) {
     float dist2 = dot(to_camera, to_camera);
     float dist = sqrt(dist2);
     vec3 wi = to_camera / dist;
-    vec3 f = vertex_f(y, v.wo, wi, true);
+    VertexScatter at_y = vertex_scatter(y, v.wo, wi, true);
     // W_e cos / d^2: the camera's importance and its half of the geometry term.
     float importance = camera_importance(-wi) * dot(-wi, u_cam_forward) / dist2;
-    vec3 contribution = v.beta * f * importance;
+    vec3 contribution = v.beta * at_y.f * importance;
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(y, wi, dist)) return;
 
     float qs_rev = camera_pdf_dir(-wi) * abs(dot(v.ng, wi)) / dist2;  // a camera ray reaching y
-    float qs_minus_rev = area_density(vertex_pdf(y, wi, v.wo), v.p, y - 1);
+    float qs_minus_rev = area_density(at_y.pdf_back, v.p, y - 1);
     splat(pixel_pos, contribution * mis_weight(s, 1, 0.0, 0.0, qs_rev, qs_minus_rev, 0.0));
 }
 
@@ -105,15 +104,15 @@ vec3 strategy_connect(int s, int t) {
     if (!(dist2 > 0.0)) return vec3(0.0);
     float dist = sqrt(dist2);
     vec3 wi = d / dist;  // from z_{t-1} towards y_{s-1}
-    vec3 wo_z = bdpt_path[z].wo, wo_y = bdpt_path[y].wo;
-    vec3 contribution = bdpt_path[z].beta * vertex_f(z, wo_z, wi, false)
-                      * vertex_f(y, wo_y, -wi, true) * bdpt_path[y].beta / dist2;
+    VertexScatter at_z = vertex_scatter(z, bdpt_path[z].wo, wi, false);
+    VertexScatter at_y = vertex_scatter(y, bdpt_path[y].wo, -wi, true);
+    vec3 contribution = bdpt_path[z].beta * at_z.f * at_y.f * bdpt_path[y].beta / dist2;
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(z, wi, dist)) return vec3(0.0);
 
-    float pt_rev = area_density(vertex_pdf(y, wo_y, -wi), bdpt_path[y].p, z);
-    float pt_minus_rev = area_density(vertex_pdf(z, wi, wo_z), bdpt_path[z].p, z - 1);
-    float qs_rev = area_density(vertex_pdf(z, wo_z, wi), bdpt_path[z].p, y);
-    float qs_minus_rev = area_density(vertex_pdf(y, -wi, wo_y), bdpt_path[y].p, y - 1);
+    float pt_rev = area_density(at_y.pdf_out, bdpt_path[y].p, z);
+    float pt_minus_rev = area_density(at_z.pdf_back, bdpt_path[z].p, z - 1);
+    float qs_rev = area_density(at_z.pdf_out, bdpt_path[z].p, y);
+    float qs_minus_rev = area_density(at_y.pdf_back, bdpt_path[y].p, y - 1);
     return contribution * mis_weight(s, t, pt_rev, pt_minus_rev, qs_rev, qs_minus_rev, 0.0);
 }
 

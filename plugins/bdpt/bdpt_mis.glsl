@@ -8,7 +8,10 @@
 // the caller computes them for this path and passes them in. For s = 1 the light vertex was
 // sampled afresh by sample_light_point, whose density the caller passes as light_pdf.
 
-float mis_term(float ratio) { return ratio > 0.0 ? pow(ratio, mis_power) : 0.0; }
+float mis_term(float ratio) {
+    if (mis_power == 2.0) return ratio * ratio;  // the default: spare the pow
+    return ratio > 0.0 ? pow(ratio, mis_power) : 0.0;
+}
 
 // A zero density belongs to a delta lobe; it cancels between numerator and denominator.
 float nonzero(float pdf) { return pdf != 0.0 ? pdf : 1.0; }

@@ -75,23 +75,26 @@ float adjoint_shading_normal(int i, vec3 wo, vec3 wi) {
     return denominator > 0.0 ? abs(dot(wo, ns)) * abs(dot(wi, ng)) / denominator : 0.0;
 }
 
-// f(wo, wi) |cos(wi, ns)| at surface vertex i; world directions. `importance`: the adjoint
-// BSDF, for a vertex of the light subpath (wo then points back towards the light).
-vec3 vertex_f(int i, vec3 wo, vec3 wi, bool importance) {
-    if (vertex_blocks(i, wo, wi)) return vec3(0.0);
+// What a join needs of surface vertex i for world directions wo (towards the previous vertex
+// of its own subpath) and wi (towards the vertex it is joined to): the BSDF, and the two
+// densities MIS compares. One frame and one material fetch serve all three.
+struct VertexScatter {
+    vec3 f;         // f(wo, wi) |cos(wi, ns)|; `importance`: the adjoint, for light subpaths
+    float pdf_out;  // solid-angle density of bsdf_sample at i picking wi, coming from wo
+    float pdf_back; // ... picking wo, coming from wi (the subpath walked the other way)
+};
+
+VertexScatter vertex_scatter(int i, vec3 wo, vec3 wi, bool importance) {
+    VertexScatter v = VertexScatter(vec3(0.0), 0.0, 0.0);
+    if (vertex_blocks(i, wo, wi)) return v;
     Material m = materials[bdpt_path[i].material];
     Frame frame = frame_from_normal(bdpt_path[i].ns);
     vec3 wo_local = to_local(frame, wo), wi_local = to_local(frame, wi);
-    vec3 f = bsdf_eval(m, wo_local, wi_local);
-    if (importance) f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(i, wo, wi);
-    return f;
-}
-
-// Solid-angle density with which bsdf_sample at vertex i, coming from wo, picks wi.
-float vertex_pdf(int i, vec3 wo, vec3 wi) {
-    if (vertex_blocks(i, wo, wi)) return 0.0;
-    Frame frame = frame_from_normal(bdpt_path[i].ns);
-    return bsdf_pdf(materials[bdpt_path[i].material], to_local(frame, wo), to_local(frame, wi));
+    v.f = bsdf_eval(m, wo_local, wi_local);
+    if (importance) v.f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(i, wo, wi);
+    v.pdf_out = bsdf_pdf(m, wo_local, wi_local);
+    v.pdf_back = bsdf_pdf(m, wi_local, wo_local);
+    return v;
 }
 
 // Whether nothing lies between vertex i and the point at distance dist along dir (1e30: the
