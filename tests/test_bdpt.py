@@ -20,7 +20,7 @@ from lift_gl import metrics
 from lift_gl.cli import main
 from lift_gl.errors import SceneError
 from lift_gl.renderer import Renderer
-from lift_gl.scene import Material
+from lift_gl.scene import Environment, Material
 from lift_gl.scene.features import SceneFeatures
 from lift_gl.scene.loader import load_scene
 
@@ -43,13 +43,17 @@ def renders(scene, integrator, spp, seeds, size=SIZE, features=None, **params):
 
 # ---------------------------------------------------------------- PT and BDPT agree
 # mis_power 2 is Veach's power heuristic (the default), 1 the balance heuristic: both unbiased.
-@pytest.mark.parametrize("path, mis_power", [(CORNELL, 2.0), (CORNELL_DIFFUSE, 2.0), (CORNELL_DIFFUSE, 1.0)],
-                         ids=["cornell-glass-gold", "cornell-diffuse-smooth", "cornell-diffuse-smooth-balance"])
-def test_pt_and_bdpt_agree(path, mis_power):
+# With a sky, light subpaths start on emitters or on the sky's disk, half the time each.
+@pytest.mark.parametrize("path, sky, mis_power", [(CORNELL, None, 2.0), (CORNELL_DIFFUSE, None, 2.0),
+                                                  (CORNELL_DIFFUSE, (0.6, 0.7, 1.0), 1.0)],
+                         ids=["cornell-glass-gold", "cornell-diffuse-smooth", "cornell-diffuse-smooth-sky-balance"])
+def test_pt_and_bdpt_agree(path, sky, mis_power):
     scene = load_scene(path)
+    if sky is not None:
+        scene.environment = Environment(sky)  # the box's open front lets it in
     pt = renders(scene, "pt", 16, range(1, RUNS + 1))
     bdpt = renders(scene, "bdpt", 4, range(101, RUNS + 101), mis_power=mis_power)
-    assert_same_image(pt, bdpt, block=8, label=f"{path.name} pt vs bdpt (mis_power {mis_power})")
+    assert_same_image(pt, bdpt, block=8, label=f"{path.name}, sky {sky}: pt vs bdpt (mis_power {mis_power})")
 
 
 # ---------------------------------------------------------------- each strategy alone
