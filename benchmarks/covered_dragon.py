@@ -1,12 +1,13 @@
 """PT against BDPT at equal time on the Covered Dragon (scenes/covered_dragon.toml).
 
-    python benchmarks/covered_dragon.py reference --minutes 30 [--size 128] [--out out/covered_dragon]
+    python benchmarks/covered_dragon.py reference --minutes 30 [--seed 1001] [--size 128] [--out out/covered_dragon]
     python benchmarks/covered_dragon.py compare --seconds 30 [--size 128] [--out out/covered_dragon]
 
-`reference` renders a long BDPT image as two independent halves (seeds 1001 and 1002, one
+`reference` renders a long BDPT image as two independent halves (seeds S and S + 1, one
 after the other in slices, each saved as it goes), so that the reference's own noise can be
 measured: for the mean of the halves, relMSE noise = mean((a - b)^2 / (ref^2 + eps)) / 4.
-Run it in the background; `compare` uses whatever it has saved so far.
+Run it in the background; `compare` uses whatever it has saved so far. Runs with other seeds
+add to the same reference: the halves of every run are pooled, weighted by their samples.
 
 `compare` renders with pt and with bdpt for the same wall time (slices of about one second
 taken in turn, so that both see the same load on a shared machine), then reports each
@@ -33,7 +34,6 @@ from lift_gl.renderer import Renderer
 
 REPO = Path(__file__).resolve().parent.parent
 SCENE = REPO / "scenes" / "covered_dragon.toml"
-HALF_SEEDS = (1001, 1002)
 
 
 def machine(renderer) -> str:
@@ -49,24 +49,36 @@ def save_npy(path: Path, image) -> None:
 def reference(args) -> None:
     scene = load_scene(SCENE)
     size = (args.size, args.size)
-    halves = [Renderer(scene, size=size, integrator="bdpt", seed=s) for s in HALF_SEEDS]
+    halves = [Renderer(scene, size=size, integrator="bdpt", seed=args.seed + k) for k in range(2)]
+    tag = f"reference_s{args.seed}"
     end = time.perf_counter() + 60 * args.minutes
     while time.perf_counter() < end:
-        for k, r in enumerate(halves):
-            image = r.render(spp=args.chunk)
-            save_npy(args.out / f"reference_half{k}.npy", image)
-        info = {"integrator": "bdpt", "size": args.size, "spp_per_half": [r.stats.spp for r in halves],
-                "seconds": [r.stats.render_seconds for r in halves], "machine": machine(halves[0]),
+        images = [r.render(spp=args.chunk) for r in halves]
+        for k, image in enumerate(images):
+            save_npy(args.out / f"{tag}_half{k}.npy", image)
+        info = {"integrator": "bdpt", "size": args.size, "seeds": [args.seed, args.seed + 1],
+                "spp_per_half": halves[0].stats.spp, "seconds": [r.stats.render_seconds for r in halves],
+                "machine": machine(halves[0]),
                 "dropped": [(r.stats.dropped_samples, r.stats.dropped_splats) for r in halves]}
-        (args.out / "reference.json").write_text(json.dumps(info, indent=1))
-        print(f"reference: {info['spp_per_half']} spp per half", flush=True)
+        (args.out / f"{tag}.json").write_text(json.dumps(info, indent=1))
+        print(f"{tag}: {info['spp_per_half']} spp per half", flush=True)
 
 
 def load_reference(out: Path):
-    a, b = (np.load(out / f"reference_half{k}.npy").astype(np.float64) for k in range(2))
+    """The pooled reference, its own relMSE noise, and what it is made of."""
+    runs = [json.loads(path.read_text()) for path in sorted(out.glob("reference_s*.json"))]
+    if not runs:
+        raise SystemExit(f"no reference in {out}: run the reference command first")
+    weights = np.array([run["spp_per_half"] for run in runs], np.float64)
+    halves = []
+    for k in range(2):
+        parts = [np.load(out / f"reference_s{run['seeds'][0]}_half{k}.npy").astype(np.float64) for run in runs]
+        halves.append(sum(w * part for w, part in zip(weights, parts)) / weights.sum())
+    a, b = halves
     ref = (a + b) / 2
     noise = float(np.mean((a - b) ** 2 / (ref ** 2 + REL_MSE_EPS)) / 4)
-    return ref, noise, json.loads((out / "reference.json").read_text())
+    info = {"spp": int(2 * weights.sum()), "runs": runs}
+    return ref, noise, info
 
 
 def compare(args) -> None:
@@ -96,7 +108,7 @@ def compare(args) -> None:
               f"(less the reference's noise {raw - ref_noise:.4f})  mean / reference mean "
               f"{rows[name]['mean_over_reference_mean']:.3f}", flush=True)
     ratio = rows["pt"]["rel_mse_less_reference_noise"] / rows["bdpt"]["rel_mse_less_reference_noise"]
-    print(f"relMSE pt / bdpt at equal time: {ratio:.1f}  (reference: {ref_info['spp_per_half']} spp per half, "
+    print(f"relMSE pt / bdpt at equal time: {ratio:.1f}  (reference: bdpt, {ref_info['spp']} spp, "
           f"its own relMSE noise {ref_noise:.5f})")
     side_by_side = np.concatenate([renderers["pt"].display(), np.full((size[1], 4, 3), 255, np.uint8),
                                    renderers["bdpt"].display()], axis=1)
@@ -116,6 +128,7 @@ def main() -> None:
         p.add_argument("--out", type=Path, default=REPO / "out" / "covered_dragon")
     sub.choices["reference"].add_argument("--minutes", type=float, default=30.0)
     sub.choices["reference"].add_argument("--chunk", type=int, default=8, help="spp per half between saves")
+    sub.choices["reference"].add_argument("--seed", type=int, default=1001, help="the halves use seed and seed + 1")
     sub.choices["compare"].add_argument("--seconds", type=float, default=30.0)
     sub.choices["compare"].add_argument("--slice", type=float, default=1.0, help="seconds each takes in turn")
     sub.choices["compare"].add_argument("--seed", type=int, default=7)
