@@ -18,14 +18,16 @@ FLOAT_ATOMICS = "GL_NV_shader_atomic_float"
 RESOLVE_SOURCE = shaders.SHADER_DIR / "passes" / "splat_resolve.comp"
 
 
-def splat_defines(ctx, force_cas: bool = False) -> dict:
+def splat_defines(ctx) -> dict:
     """The defines a shader that calls splat() needs on this context."""
-    if not force_cas and FLOAT_ATOMICS in ctx.extensions:
+    if FLOAT_ATOMICS in ctx.extensions:
         return {"LIFT_SPLATS": True}
     return {"LIFT_SPLATS": True, "LIFT_SPLATS_CAS": True}
 
 
 class SplatBuffer:
+    """The per-pixel sums (cleared) and the pass that adds them to a frame."""
+
     def __init__(self, ctx, size):
         self.ctx = ctx
         self.size = size
