@@ -8,6 +8,8 @@ documentation and parameter table (`lift-gl plugins` prints it):
     language = "glsl"          # or "opencl" (later)
     entry = "pt.glsl"          # defines: vec3 radiance(Ray ray, Hit hit, inout Rng rng)
     primary = "gbuffer"        # first hit from the raster G-buffer, or "camera": traced rays
+    splats = false             # optional: true gives the shader splat(pixel_pos, value), which
+                               # adds to any pixel of this frame (light tracing, BDPT's t = 1)
     [params.max_depth]
     type = "int"  default = 16  min = 0  max = 1000  help = "longest path, in bounces"
 
@@ -30,7 +32,7 @@ GLSL_TYPES = {"int": "int", "float": "float", "bool": "bool", "color": "vec3"}
 LANGUAGES = ("glsl", "opencl")
 PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "params"}
+_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params"}
 _PARAM_KEYS = {"type", "default", "min", "max", "help"}
 
 
@@ -85,6 +87,7 @@ class Plugin:
     primary: str
     folder: Path
     params: dict[str, Param] = field(default_factory=dict)
+    splats: bool = False  # the host gives the shader a splat buffer (lift/splat.glsl)
 
     @property
     def manifest(self) -> Path:
@@ -138,6 +141,9 @@ def load_manifest(folder: Path) -> Plugin:
     primary = data.get("primary", "gbuffer")
     if primary not in PRIMARY_MODES:
         fail(f"primary {primary!r} is not one of {', '.join(PRIMARY_MODES)}", r"^\s*primary\s*=")
+    splats = data.get("splats", False)
+    if not isinstance(splats, bool):
+        fail(f"splats must be true or false, not {splats!r}", r"^\s*splats\s*=")
     if not (Path(folder) / data["entry"]).is_file():
         fail(f"entry file {data['entry']!r} not found in {folder}", r"^\s*entry\s*=")
 
@@ -163,7 +169,8 @@ def load_manifest(folder: Path) -> Plugin:
             fail(exc.message, header)
         params[pname] = param
     return Plugin(name=name, description=data.get("description", ""), language=language,
-                  entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params)
+                  entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
+                  splats=splats)
 
 
 def search_path(extra_dirs=()) -> list[Path]:

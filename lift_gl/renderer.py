@@ -22,7 +22,7 @@ from .errors import LiftError
 from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers
+from .passes.common import STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
@@ -40,6 +40,7 @@ class RenderStats:
     frames: int = 0
     spp: int = 0
     dropped_samples: int = 0
+    dropped_splats: int = 0  # plugins with splats = true: splats dropped as NaN/Inf
     render_seconds: float = 0.0  # wall time of the frames, I/O excluded
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
     rays: int = 0  # rays traced through the BVH (with count_rays=True)
@@ -48,7 +49,8 @@ class RenderStats:
     def summary(self) -> str:
         error = "" if self.error is None else f", est. rel. std. error {100 * self.error.rel_std_error:.2f}%"
         return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames){error}, "
-                f"dropped NaN/Inf samples: {self.dropped_samples}")
+                f"dropped NaN/Inf samples: {self.dropped_samples}"
+                + (f", splats: {self.dropped_splats}" if self.dropped_splats else ""))
 
 
 class Renderer:
@@ -298,6 +300,7 @@ class Renderer:
         counters = self.buffers.read_stats()
         self.stats.dropped_samples = int(counters[STAT_DROPPED])
         self.stats.rays = int(counters[STAT_RAYS_LOW]) + (int(counters[STAT_RAYS_HIGH]) << 32)
+        self.stats.dropped_splats = int(counters[STAT_DROPPED_SPLATS])
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image() if readback else None

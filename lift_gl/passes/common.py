@@ -15,6 +15,7 @@ SCENE_BINDINGS = {
 STATS_BINDING = 8
 MOTION_BINDING = 16  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
+STAT_DROPPED_SPLATS = 1  # splats dropped as NaN/Inf (plugins with splats = true)
 STAT_RAYS_LOW, STAT_RAYS_HIGH = 2, 3  # rays traced (LIFT_COUNT_RAYS), a 64-bit count in two words
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
@@ -70,9 +71,14 @@ class SceneBuffers:
 
     def uniforms(self, environment_radiance) -> dict:
         p = self.packed
+        centre = (p.bounds[0] + p.bounds[1]) / 2
+        radius = float(np.linalg.norm(p.bounds[1] - p.bounds[0])) / 2
         return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres,
                 "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance),
-                **p.uniforms}
+                **p.uniforms,
+
+                # bounding sphere, for light leaving the environment (shaders/lift/emission.glsl)
+                "u_scene_center": tuple(float(x) for x in centre), "u_scene_radius": max(radius, 1e-6)}
 
     def reset_stats(self) -> None:
         self.stats.write(np.zeros(NUM_STATS, np.uint32).tobytes())

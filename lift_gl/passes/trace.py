@@ -4,6 +4,8 @@ inputs:  scene buffers, camera, G-buffer visibility (plugins with primary = "gbu
 outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count in a);
          stats[0] counts samples dropped because they were NaN or infinite;
          stats[2..3] count the rays traced (64 bits), with LIFT_COUNT_RAYS defined
+         with `splats = true` in the manifest, the frame also receives the splats
+         (passes/splat.py), and stats[1] counts splats dropped as NaN or infinite
 
 The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
@@ -18,10 +20,15 @@ import moderngl
 from .. import shaders
 from ..plugins import GLSL_TYPES, Plugin
 from .common import LOCAL_SIZE, groups, set_uniforms
+from .splat import SplatBuffer, splat_defines
 
 MAIN_TEMPLATE = """
+#if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
+#extension GL_NV_shader_atomic_float : require
+#endif
 layout(local_size_x = {local}, local_size_y = {local}) in;
 #include "lift/host.glsl"
+#include "lift/splat.glsl"
 layout(rgba32f, binding = 0) uniform writeonly image2D u_frame_out;
 #ifdef PRIMARY_GBUFFER
 uniform usampler2D u_visibility;
@@ -141,6 +148,11 @@ class TracePass:
         defines = dict(defines)
         if plugin.primary == "gbuffer":
             defines["PRIMARY_GBUFFER"] = True
+        self.splats = None
+        if plugin.splats:
+            defines.update(splat_defines(ctx))
+            self.splats = SplatBuffer(ctx, size)
+            self.outputs = ("frame (with splats)",)
         self.source = shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} host main>")
         self.program = shaders.compile_compute(ctx, self.source)
@@ -152,8 +164,14 @@ class TracePass:
             visibility.use(location=0)
             self.program["u_visibility"].value = 0
         self.frame.bind_to_image(0, read=False, write=True)
+        if self.splats is not None:
+            self.splats.bind()
         self.program.run(*groups(*self.size))
+        if self.splats is not None:
+            self.splats.add_to(self.frame)
 
     def release(self) -> None:
         self.program.release()
         self.frame.release()
+        if self.splats is not None:
+            self.splats.release()

@@ -79,10 +79,18 @@ Ray spawn_ray(Surface s, vec3 dir) {
     return Ray(offset_ray_origin(s.p, n), dir, 0.0, 1e30);
 }
 
-// A shadow ray from s towards a point at distance dist along dir; stops just short of it.
+// A shadow ray from s towards a point at distance dist along dir (1e30: the environment);
+// stops just short of it. The offset origin is not on the line from s.p along dir, and on
+// a short ray at a grazing angle (a light 0.1 above a surface) that line meets the target's
+// plane well before dist: so the ray aims from its own origin at the target itself.
 Ray spawn_shadow_ray(Surface s, vec3 dir, float dist) {
     Ray r = spawn_ray(s, dir);
-    r.tmax = dist * (1.0 - 1e-4);
+    if (dist < 1e30) {
+        vec3 to_target = s.p + dir * dist - r.origin;
+        float len = length(to_target);
+        if (len > 0.0) r.dir = to_target / len;
+        r.tmax = len * (1.0 - 1e-4);
+    }
     return r;
 }
 
