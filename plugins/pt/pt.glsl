@@ -1,7 +1,14 @@
 // pt: a unidirectional path tracer, written to read like the textbook (Veach 1997, pbrt).
 // The host calls radiance() once per sample with the camera ray and its first hit; it
 // handles pixels, seeds, accumulation and the NaN/Inf guard.
-// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival.
+// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, min_bounce, only_bounce.
+//
+// Bounce k is the light that reached the camera after k scatterings: bounce 0 is the
+// emitters seen directly, bounce 1 direct light, 2 the first indirect bounce, and so on.
+// Emission found at path vertex `depth` is bounce `depth`; the light sample taken at
+// vertex `depth` is bounce `depth + 1`. Only bounces in [first_bounce, last_bounce] are
+// added to L, but the path is sampled the same way whatever the window, so the images of
+// the single bounces of one seed add up to the full image.
 
 // Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
 // that wo.z < 0 tells the BSDF the ray is inside.
@@ -17,13 +24,16 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     float bsdf_pdf_prev = 0.0;   // solid-angle pdf of the direction that led here
     bool specular_prev = true;   // camera rays and delta lobes: no MIS for what they hit
     vec3 p_prev = ray.origin;
+    int first_bounce = only_bounce >= 0 ? only_bounce : min_bounce;
+    int last_bounce = only_bounce >= 0 ? min(only_bounce, max_depth) : max_depth;
 
     for (int depth = 0; ; ++depth) {
+        bool counted = depth >= first_bounce;  // light that ends its path here is bounce `depth`
         // ---- Escaped: the environment ----
         if (hit.prim == NO_HIT) {
 #ifdef HAS_ENVIRONMENT
             float w = specular_prev ? 1.0 : power_heuristic(bsdf_pdf_prev, env_light_pdf(ray.dir));
-            L += throughput * env_radiance(ray.dir) * w;
+            if (counted) L += throughput * env_radiance(ray.dir) * w;
 #endif
             break;
         }
@@ -33,12 +43,12 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         // ---- Emission found by the path ----
 #ifdef HAS_EMISSIVE
         vec3 Le = surface_emission(s, wo_world);
-        if (any(greaterThan(Le, vec3(0.0)))) {
+        if (counted && any(greaterThan(Le, vec3(0.0)))) {
             float w = specular_prev ? 1.0 : power_heuristic(bsdf_pdf_prev, light_pdf(p_prev, s, ray.dir, hit.t));
             L += throughput * Le * w;
         }
 #endif
-        if (depth >= max_depth) break;
+        if (depth >= last_bounce) break;
 
         Material m = materials[s.material];
         Frame frame = shading_frame(s, m, wo_world);
@@ -48,8 +58,10 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
-            // rng_ld2: low-discrepancy for the first light and BSDF samples of the path
-            if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls)) {
+            // rng_ld2: low-discrepancy for the first light and BSDF samples of the path.
+            // The light is sampled even where its bounce (depth + 1) is not counted, so that
+            // every window draws the same random numbers; only the shadow ray is saved.
+            if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls) && depth + 1 >= first_bounce) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
