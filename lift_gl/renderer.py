@@ -24,7 +24,7 @@ from .passes.trace import TracePass, param_uniforms
 from .plugins import find_plugin
 from .scene.features import SceneFeatures
 from .scene.model import Scene
-from .scene.pack import pack_scene
+from .scene.pack import pack_materials, pack_scene
 
 AOVS = ("albedo", "normal", "depth")
 
@@ -54,6 +54,7 @@ class Renderer:
         self.ctx = ctx if ctx is not None else create_context(backend)
         self.plugin = find_plugin(integrator, plugin_dirs)
         self.params = self._resolve_params(params or {})
+        self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
         self.packed = pack_scene(scene)
@@ -104,6 +105,36 @@ class Renderer:
         """
         self.scene = dataclasses.replace(self.scene, camera=camera)
         self.camera_uniforms = camera_uniforms(camera, self.size)
+        self.reset()
+
+    def update_scene(self, scene: Scene, geometry: bool = True) -> None:
+        """Show an edited scene (the viewer's live edits, lift_gl/scene/edit.py); the camera
+        stays the one on screen, accumulation restarts.
+
+        geometry=False (colours, roughness, emission): the materials buffer is rewritten, and
+        the emitter table rebuilt when emission changed. geometry=True (objects moved or
+        resized): the scene is re-packed and its BVH rebuilt. Either way only buffers whose
+        contents changed are uploaded, and shaders are recompiled only when the scene's
+        features change (a first rough material, a first emitter...).
+        """
+        materials = pack_materials(scene)
+        old = self.packed.materials
+        emission_changed = materials.shape != old.shape or not np.array_equal(materials[:, 1, :3], old[:, 1, :3])
+        if geometry or emission_changed:
+            packed = pack_scene(scene)
+        else:
+            packed = dataclasses.replace(self.packed, materials=materials)
+        self.scene = dataclasses.replace(scene, camera=self.scene.camera)
+        self.packed = packed
+        self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
+        env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
+        self.scene_uniforms = self.buffers.uniforms(env)
+        features = self._fixed_features or SceneFeatures.of(scene)
+        if features != self.features:
+            self.features, self.defines = features, features.defines()
+            for p in self.passes:
+                p.release()
+            self._create_passes()
         self.reset()
 
     def resize(self, size: tuple[int, int]) -> None:
