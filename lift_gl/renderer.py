@@ -19,8 +19,10 @@ from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
 from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
+from .passes.reduced_trace import ReducedTracePass, block_offset
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
+from .passes.upsample import UpsamplePass
 from .plugins import find_plugin
 from .scene.features import SceneFeatures
 from .scene.model import Scene
@@ -75,6 +77,10 @@ class Renderer:
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                     self.packed.num_spheres) if uses_gbuffer else None)
         self.trace = TracePass(self.ctx, self.size, self.plugin, self.defines)
+        # A plugin with a [reduced] estimate (hybrid): traced at reduced resolution, upsampled into the frame.
+        reduced = self.plugin.reduced is not None
+        self.reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self.defines) if reduced else None
+        self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
         self.accumulate = AccumulatePass(self.ctx, self.size)
         self.tonemap = None  # created on the first display() call: headless float output needs none
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
@@ -154,17 +160,26 @@ class Renderer:
 
     @property
     def passes(self) -> list:
-        return [p for p in (self.gbuffer, self.trace, self.accumulate, self.tonemap) if p is not None]
+        return [p for p in (self.gbuffer, self.trace, self.reduced, self.upsample, self.accumulate, self.tonemap)
+                if p is not None]
 
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
                  f"scene: {self.packed.num_triangles} triangles, {self.packed.num_spheres} spheres, "
                  f"{self.packed.num_lights} emitters, BVH depth {self.packed.bvh_depth}",
                  f"integrator: {self.plugin.name} ({self.plugin.folder}), primary hit from {self.plugin.primary}",
-                 f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}",
-                 "passes:"]
+                 f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}"]
+        if self.plugin.biased:
+            lines.append(f"BIASED: {self.plugin.biased}")
+        lines.append("passes:")
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}",
+                   "reduced": f"runs {self.plugin.reduced.function}() for 1 pixel in "
+                              f"{self._reduced_setting('scale')}x{self._reduced_setting('scale')} "
+                              "(the plugin's [reduced] table)" if self.plugin.reduced else "",
+                   "upsample": "joint bilateral upsampling of the reduced estimate, guided by normal and depth "
+                               f"(normal_power {self._reduced_setting('normal_power')}, depth_sigma "
+                               f"{self._reduced_setting('depth_sigma')}), added to the frame" if self.plugin.reduced else "",
                    "accumulate": "still camera: exact running mean (compensated sum)",
                    "tonemap": "a display image was asked for (PNG or screen)"}
         for p in self.passes:
@@ -181,6 +196,9 @@ class Renderer:
         self.buffers.reset_stats()
         self.frame_index = 0
         self.stats = RenderStats()
+
+    def _reduced_setting(self, name: str):
+        return self.plugin.reduced.value(name, self.params)
 
     def _timer(self) -> GpuTimer:
         return GpuTimer(self.ctx, cpu_clock=is_software(self.ctx))
@@ -204,6 +222,14 @@ class Renderer:
                         u_jitter=jitter)
         with self._timed("trace"):
             self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None)
+        if self.reduced is not None:
+            scale = int(self._reduced_setting("scale"))
+            offset = block_offset(self.frame_index, scale)
+            with self._timed("reduced"):
+                self.reduced.run(uniforms, self.gbuffer.visibility, scale, offset)
+            with self._timed("upsample"):
+                self.upsample.run(self.trace.frame, self.reduced.reduced, self.gbuffer, scale, offset,
+                                  self._reduced_setting("normal_power"), self._reduced_setting("depth_sigma"))
         with self._timed("accumulate"):
             self.accumulate.run(self.trace.frame)
         self.frame_index += 1
