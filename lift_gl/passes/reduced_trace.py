@@ -3,7 +3,8 @@ every scale x scale block (a hybrid plugin's indirect light).
 
 inputs:  scene buffers, camera, G-buffer visibility (the full-resolution first hits)
 outputs: reduced (RGBA32F, ceil(W / scale) x ceil(H / scale): the estimate divided by the
-         first hit's albedo, summed over this frame's samples, in rgb; their count in a)
+         first hit's albedo, summed over this frame's samples, in rgb; their count in a;
+         0 samples where the first hit is black or missing: no information to spread)
 
 Block b is represented by full-resolution pixel b * scale + offset, where the offset is the
 same for the whole frame and walks over the block from frame to frame (`block_offset`), so
@@ -80,6 +81,12 @@ void main() {{
     Hit first = reduced_gbuffer_hit(pixel, ray);
     vec3 albedo = vec3(0.0);
     if (first.prim != NO_HIT) albedo = bsdf_albedo(materials[surface_at(ray, first).material]);
+    if (max(albedo.r, max(albedo.g, albedo.b)) <= 1e-6) {{
+        // Black (an emitter's face, the background): it tells its neighbours nothing about
+        // their indirect light, so it must not count as zero in their filter.
+        imageStore(u_reduced_out, block, vec4(0.0));
+        return;
+    }}
     for (uint s = 0u; s < u_samples; ++s) {{
         // Another seed than the full-resolution pass's: the two estimates stay independent.
         Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x5bd1e995u);
