@@ -14,7 +14,7 @@ A pytest plugin (registered by lift-gl's `pytest11` entry point; or write
 - `pytest --update-golden` writes the image as the new golden (and passes); a missing golden
   fails with a message saying so.
 - On failure, beside the golden: `NAME.actual.exr` (the image, linear), `NAME.actual.png`
-  (tone-mapped) and `NAME.diff.png` (FLIP's error map when flip= was asked for, else the
+  (tone-mapped) and `NAME.diff.png` (`NAME.LABEL.*` with label=) (FLIP's error map when flip= was asked for, else the
   per-pixel relative squared error); the message gives every metric and those paths.
 
 Thresholds (any of them; relmse=0.01 when none is given): `relmse` the largest relMSE on
@@ -98,6 +98,7 @@ def _relative_error_map(image, reference) -> np.ndarray:
 
 # ---- the assertion ----------------------------------------------------------------------------
 def _as_image(value, what: str) -> np.ndarray:
+    __tracebackhide__ = True
     image = read_image(value) if isinstance(value, (str, Path)) else np.asarray(value, dtype=np.float64)
     if image.ndim != 3 or image.shape[2] != 3:
         raise AssertionError(f"{what} must be an H x W x 3 image, not shape {image.shape}")
@@ -105,13 +106,16 @@ def _as_image(value, what: str) -> np.ndarray:
 
 
 def assert_image_close(image, golden, ssim: float | None = None, flip: float | None = None,
-                       relmse: float | None = None, *, update: bool | None = None) -> dict:
+                       relmse: float | None = None, *, update: bool | None = None, label: str | None = None) -> dict:
     """Assert that `image` (H x W x 3 linear RGB, or a file) is close to the `golden` image
     file (or array: then nothing is written on failure or update). Returns the metrics.
 
     `update`: write `image` as the golden instead of comparing; None follows pytest's
     --update-golden. A grading test of students' images passes update=False, so that only
-    the reference solution's test makes goldens."""
+    the reference solution's test makes goldens. `label` goes into the names of the images
+    saved on failure (NAME.LABEL.actual.png...), so that several submissions compared with
+    one golden keep their own."""
+    __tracebackhide__ = True  # pytest shows the caller's line, not this function's body
     image = _as_image(image, "the image")
     golden_path = Path(golden) if isinstance(golden, (str, Path)) else None
     if golden_path is not None and (_state["update"] if update is None else update):
@@ -146,17 +150,17 @@ def assert_image_close(image, golden, ssim: float | None = None, flip: float | N
         return values
     message = "image differs from the golden image: " + "; ".join(failures)
     if golden_path is not None:
-        saved = _save_failure(golden_path, image, reference, with_flip=flip is not None and values != {})
+        saved = _save_failure(golden_path, image, reference, with_flip=flip is not None and values != {}, label=label)
         message += "\n  saved: " + ", ".join(str(p) for p in saved)
     message += "\n  metrics: " + ", ".join(f"{k} {v:.5g}" for k, v in values.items())
     raise AssertionError(message)
 
 
-def _save_failure(golden_path: Path, image, reference, with_flip: bool) -> list[Path]:
+def _save_failure(golden_path: Path, image, reference, with_flip: bool, label: str | None) -> list[Path]:
     from .image_io import write_srgb8
     from .tonemap import to_srgb8
 
-    stem = golden_path.parent / golden_path.stem
+    stem = golden_path.parent / (golden_path.stem + (f".{label}" if label else ""))
     actual_exr, actual_png, diff_png = (Path(f"{stem}.actual.exr"), Path(f"{stem}.actual.png"), Path(f"{stem}.diff.png"))
     safe = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0)
     write_image(actual_exr, image.astype(np.float32))

@@ -6,6 +6,10 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -19,6 +23,7 @@ from lift_gl.renderer import Renderer
 from lift_gl.scene import edit
 from lift_gl.scene.diff import scene_differences
 from lift_gl.scene.edit import ObjectRef
+from test_viewer_window import display  # noqa: F401  (the Xvfb fixture)
 
 CORNELL = REPO / "scenes" / "cornell.toml"
 LIGHT = ObjectRef("mesh", 5)
@@ -129,3 +134,18 @@ def test_light_and_material_edits_reach_both_sides_of_the_split_view_and_save(se
     # Another scene: the editor starts over.
     assert session.open_scene(REPO / "scenes" / "furnace.toml")
     assert session.editor.selected is None and session.editor.emitters() == []
+
+
+def test_the_edit_panel_draws_in_a_real_window(display, tmp_path):
+    """`lift-gl view --panels edit` under Xvfb: the panel is drawn (its rectangle is in the
+    screenshot's JSON) and nothing went to the error log."""
+    env = dict(os.environ, DISPLAY=display)
+    out = tmp_path / "edit.png"
+    cmd = [sys.executable, "-m", "lift_gl", "view", str(CORNELL), "--size", "480x320", "--scale", "0.25",
+           "--panels", "edit,help", "--frames", "1", "--screenshot", str(out)]
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    report = json.loads(out.with_suffix(".json").read_text())
+    assert "Edit" in report["panels"] and report["errors"] == []
+    x, y, w, h = report["panels"]["Edit"]
+    assert w > 100 and h > 100

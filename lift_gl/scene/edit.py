@@ -13,12 +13,14 @@ have their vertices transformed.
 from __future__ import annotations
 
 import copy
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import LiftError
+from .loader import SceneWarning
 from .model import Material, Mesh, Scene, Sphere
 
 MATERIALS, LIGHTS, GEOMETRY = "materials", "lights", "geometry"
@@ -91,7 +93,9 @@ def _rebuild(scene: Scene, ref: ObjectRef, table: dict) -> None:
 
     obj = object_of(scene, ref)
     table["material"] = scene.materials[obj.material].name
-    built = build_object(table, scene, scene.path or Path("edited.toml"))
+    with warnings.catch_warnings():  # the table's warnings (unknown keys) were given at load time
+        warnings.simplefilter("ignore", SceneWarning)
+        built = build_object(table, scene, scene.path or Path("edited.toml"))
     built.material = obj.material  # by index: material names need not be unique in memory
     (scene.meshes if ref.kind == "mesh" else scene.spheres)[ref.index] = built
 
