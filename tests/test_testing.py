@@ -84,23 +84,24 @@ def test_a_golden_of_twice_the_resolution_is_box_filtered_and_nan_fails():
 def test_noise_from_one_seed_to_another_passes_a_threshold_calibrated_on_other_seeds():
     """docs/grading.md's recipe: the threshold is the largest relMSE among K renders of the
     reference solution with other seeds, times a margin; another seed must pass it and a
-    biased image (25 % too bright) must not."""
+    biased image (10 % too bright) must not. The white furnace (no fireflies: relMSE over
+    its pixels is close to normal, a few % spread) keeps the margin of 1.5 far from chance."""
     from lift_gl import load_scene
     from lift_gl.renderer import Renderer
 
     from conftest import REPO
 
-    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    scene = load_scene(REPO / "scenes" / "furnace.toml")
 
-    def render(seed, **params):
-        r = Renderer(scene, size=(32, 32), seed=seed, params=params)
-        image = r.render(spp=64)
+    def render(seed, spp=16):
+        r = Renderer(scene, size=(32, 32), seed=seed)
+        image = r.render(spp=spp)
         r.release()
         return image
 
-    golden = Renderer(scene, size=(32, 32), seed=99).render(spp=512)
+    golden = render(99, spp=1024)
     spread = [image_metrics(render(seed), golden, ssim=False)["relmse"] for seed in range(4)]
     threshold = 1.5 * max(spread)
     assert_image_close(render(10), golden, relmse=threshold)
     with pytest.raises(AssertionError):
-        assert_image_close(1.25 * render(10), golden, relmse=threshold)
+        assert_image_close(1.1 * render(10), golden, relmse=threshold)
