@@ -193,10 +193,10 @@ def load_manifest(folder: Path) -> Plugin:
         fail("'biased' must be a string saying why the plugin is biased", r"^\s*biased\s*=")
     return Plugin(name=name, description=data.get("description", ""), language=language,
                   entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
-                  biased=biased, reduced=_reduced(data, params, primary, fail))
+                  biased=biased, reduced=_reduced(data, params, primary, language, fail))
 
 
-def _reduced(data: dict, params: dict, primary: str, fail) -> ReducedPass | None:
+def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> ReducedPass | None:
     """The [reduced] table: checked against the parameters it names."""
     if "reduced" not in data:
         return None
@@ -209,6 +209,8 @@ def _reduced(data: dict, params: dict, primary: str, fail) -> ReducedPass | None
         fail(f"[reduced]: unknown keys {sorted(unknown)} (known: {', '.join(_REDUCED_KEYS)})", header)
     if primary != "gbuffer":
         fail("[reduced] needs primary = \"gbuffer\" (it is guided by the G-buffer's normals and depth)", header)
+    if language != "glsl":
+        fail("[reduced] is for GLSL plugins (the reduced pass compiles the plugin's GLSL)", header)
     function = table.get("function")
     if not isinstance(function, str) or not _IDENT.match(function):
         fail("[reduced] needs 'function', the name of a GLSL function vec3 f(Ray, Hit, inout Rng)", header)

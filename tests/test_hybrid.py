@@ -100,6 +100,7 @@ scale = "k"
     (REDUCED_MANIFEST.replace('scale = "k"', "scale = 0"), "positive int"),
     (REDUCED_MANIFEST.replace('function = "indirect"', 'function = "2x"'), "needs 'function'"),
     (REDUCED_MANIFEST + "blur = 3\n", "unknown keys"),
+    (REDUCED_MANIFEST.replace('entry = "mine.glsl"', 'entry = "mine.glsl"\nlanguage = "opencl"'), "GLSL plugins"),
 ])
 def test_bad_reduced_tables_name_the_manifest_and_line(tmp_path, bad, words):
     (tmp_path / "plugin.toml").write_text(bad)

@@ -104,10 +104,13 @@ class SceneEditor:
             return ObjectRef("sphere", prim - packed.num_triangles)
         # Triangles are in BVH order on the GPU: find the mesh that holds these corners.
         corners = packed.tri_pos[prim, :, :3]
+        shutter_open = self.scene.camera.shutter[0]
         for i, mesh in enumerate(self.scene.meshes):
             if not len(mesh.indices):
                 continue
             tris = mesh.positions[mesh.indices]
+            if mesh.velocity is not None and shutter_open:  # packed where it is when the shutter opens
+                tris = (tris + (mesh.velocity * shutter_open)[None, None, :]).astype(np.float32)
             if np.any(np.all(tris == corners[None], axis=(1, 2))):
                 return ObjectRef("mesh", i)
         return None
