@@ -1,14 +1,7 @@
 // pt: a unidirectional path tracer, written to read like the textbook (Veach 1997, pbrt).
 // The host calls radiance() once per sample with the camera ray and its first hit; it
 // handles pixels, seeds, accumulation and the NaN/Inf guard.
-// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, min_bounce, only_bounce.
-//
-// Bounce k is the light that reached the camera after k scatterings: bounce 0 is the
-// emitters seen directly, bounce 1 direct light, 2 the first indirect bounce, and so on.
-// Emission found at path vertex `depth` is bounce `depth`; the light sample taken at
-// vertex `depth` is bounce `depth + 1`. Only bounces in [first_bounce, last_bounce] are
-// added to L, but the path is sampled the same way whatever the window, so the images of
-// the single bounces of one seed add up to the full image.
+// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival.
 
 // Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
 // that wo.z < 0 tells the BSDF the ray is inside.
@@ -18,6 +11,13 @@ Frame shading_frame(Surface s, Material m, vec3 wo_world) {
     return frame_from_normal(n);
 }
 
+// The bounce window (parameters min_bounce and only_bounce). Bounce k is the light that
+// reached the camera after k scatterings: bounce 0 is the emitters seen directly, bounce 1
+// direct light, 2 the first indirect bounce, and so on.
+// Emission found at path vertex `depth` is bounce `depth`; the light sample taken at
+// vertex `depth` is bounce `depth + 1`. Only bounces in [first_bounce, last_bounce] are
+// added to L, but the path is sampled the same way whatever the window, so the images of
+// the single bounces of one seed add up to the full image.
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     vec3 L = vec3(0.0);
     vec3 throughput = vec3(1.0);
