@@ -121,6 +121,8 @@ def cmd_plugins(args) -> int:
         print(f"{name}  [{plugin.language}, primary={plugin.primary}]  {plugin.folder}")
         if plugin.description:
             print(f"    {plugin.description}")
+        if plugin.biased:
+            print(f"    BIASED: {plugin.biased}")
         for p in plugin.params.values():
             bounds = "" if p.min is None and p.max is None else f" in [{p.min}, {p.max}]"
             print(f"    --set {name}.{p.name}=...  ({p.type}, default {p.default}{bounds}) {p.help}")

@@ -10,8 +10,15 @@ documentation and parameter table (`lift-gl plugins` prints it):
     primary = "gbuffer"        # first hit from the raster G-buffer, or "camera": traced rays
     splats = false             # optional: true gives the shader splat(pixel_pos, value), which
                                # adds to any pixel of this frame (light tracing, BDPT's t = 1)
+    biased = "why"             # optional: the plugin does not converge to the true image, and why
     [params.max_depth]
     type = "int"  default = 16  min = 0  max = 1000  help = "longest path, in bounces"
+    [reduced]                  # optional: a second estimate at reduced resolution, upsampled
+    function = "indirect_radiance"  # vec3 indirect_radiance(Ray ray, Hit hit, inout Rng rng)
+    scale = "indirect_scale"   # resolution divisor: a number, or the name of an int parameter
+    normal_power = 32.0        # joint bilateral upsampling: normal weight max(0, n.n')^power
+    depth_sigma = 0.05         # ... and depth weight exp(-|z - z'| / (depth_sigma z))
+                               # (both also a number or a parameter's name)
 
 Plugins are found in the built-in `plugins/` folder, in folders named by `--plugins`, and in
 the folders of the `LIFT_GL_PLUGIN_PATH` environment variable (separated by `os.pathsep`).
@@ -32,8 +39,10 @@ GLSL_TYPES = {"int": "int", "float": "float", "bool": "bool", "color": "vec3"}
 LANGUAGES = ("glsl", "opencl")
 PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params"}
+_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced"}
 _PARAM_KEYS = {"type", "default", "min", "max", "help"}
+_REDUCED_KEYS = {"function": None, "scale": "int", "normal_power": "float", "depth_sigma": "float"}
+REDUCED_DEFAULTS = {"scale": 2, "normal_power": 32.0, "depth_sigma": 0.05}
 
 
 @dataclass
@@ -79,6 +88,21 @@ class Param:
 
 
 @dataclass
+class ReducedPass:
+    """A plugin's estimate run at 1/scale of the resolution and upsampled (passes/reduced_trace.py,
+    passes/upsample.py). Each setting is a number or the name of a parameter."""
+
+    function: str
+    scale: object = REDUCED_DEFAULTS["scale"]
+    normal_power: object = REDUCED_DEFAULTS["normal_power"]
+    depth_sigma: object = REDUCED_DEFAULTS["depth_sigma"]
+
+    def value(self, setting: str, params: dict):
+        spec = getattr(self, setting)
+        return params[spec] if isinstance(spec, str) else spec
+
+
+@dataclass
 class Plugin:
     name: str
     description: str
@@ -88,6 +112,8 @@ class Plugin:
     folder: Path
     params: dict[str, Param] = field(default_factory=dict)
     splats: bool = False  # the host gives the shader a splat buffer (lift/splat.glsl)
+    biased: str = ""  # why the plugin does not converge to the true image ("": it does)
+    reduced: ReducedPass | None = None
 
     @property
     def manifest(self) -> Path:
@@ -168,9 +194,43 @@ def load_manifest(folder: Path) -> Plugin:
         except PluginError as exc:
             fail(exc.message, header)
         params[pname] = param
+    biased = data.get("biased", "")
+    if not isinstance(biased, str):
+        fail("'biased' must be a string saying why the plugin is biased", r"^\s*biased\s*=")
     return Plugin(name=name, description=data.get("description", ""), language=language,
                   entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
-                  splats=splats)
+                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail))
+
+
+def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> ReducedPass | None:
+    """The [reduced] table: checked against the parameters it names."""
+    if "reduced" not in data:
+        return None
+    header = r"^\s*\[reduced\]"
+    table = data["reduced"]
+    if not isinstance(table, dict):
+        fail("'reduced' must be a table: [reduced]", r"^\s*reduced\s*=")
+    unknown = set(table) - set(_REDUCED_KEYS)
+    if unknown:
+        fail(f"[reduced]: unknown keys {sorted(unknown)} (known: {', '.join(_REDUCED_KEYS)})", header)
+    if primary != "gbuffer":
+        fail("[reduced] needs primary = \"gbuffer\" (it is guided by the G-buffer's normals and depth)", header)
+    if language != "glsl":
+        fail("[reduced] is for GLSL plugins (the reduced pass compiles the plugin's GLSL)", header)
+    function = table.get("function")
+    if not isinstance(function, str) or not _IDENT.match(function):
+        fail("[reduced] needs 'function', the name of a GLSL function vec3 f(Ray, Hit, inout Rng)", header)
+    for key, kind in _REDUCED_KEYS.items():
+        if kind is None or key not in table:
+            continue
+        spec = table[key]
+        if isinstance(spec, str):
+            if spec not in params or params[spec].type != kind:
+                fail(f"[reduced] {key} = {spec!r} must name an {kind} parameter", header)
+        elif isinstance(spec, bool) or not isinstance(spec, (int, float)) or spec <= 0 \
+                or (kind == "int" and not isinstance(spec, int)):
+            fail(f"[reduced] {key} must be a positive {kind} or a parameter's name, not {spec!r}", header)
+    return ReducedPass(function=function, **{k: table[k] for k in REDUCED_DEFAULTS if k in table})
 
 
 def search_path(extra_dirs=()) -> list[Path]:

@@ -24,12 +24,14 @@ from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
 from .passes.common import STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
+from .passes.reduced_trace import ReducedTracePass, block_offset
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
+from .passes.upsample import UpsamplePass
 from .plugins import Plugin, find_plugin, load_manifest
 from .scene.features import SceneFeatures
 from .scene.model import Scene
-from .scene.pack import pack_scene
+from .scene.pack import pack_materials, pack_scene
 from .watch import FileWatcher
 
 AOVS = ("albedo", "normal", "depth")
@@ -66,6 +68,7 @@ class Renderer:
         self.plugin = find_plugin(integrator, plugin_dirs)
         self.param_overrides = dict(params or {})  # what the caller set; survives a reload
         self.params = self._resolve_params(self.param_overrides)
+        self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
         if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
@@ -92,6 +95,10 @@ class Renderer:
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                     self.packed.num_spheres) if uses_gbuffer else None)
         self.trace = self._create_trace(self.plugin)
+        # A plugin with a [reduced] estimate (hybrid): traced at reduced resolution, upsampled into the frame.
+        reduced = self.plugin.reduced is not None
+        self.reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self.defines) if reduced else None
+        self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
         self.accumulate = AccumulatePass(self.ctx, self.size)
         self.tonemap = None  # created on the first display() call: headless float output needs none
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
@@ -123,6 +130,36 @@ class Renderer:
         """
         self.scene = dataclasses.replace(self.scene, camera=camera)
         self.camera_uniforms = camera_uniforms(camera, self.size)
+        self.reset()
+
+    def update_scene(self, scene: Scene, geometry: bool = True) -> None:
+        """Show an edited scene (the viewer's live edits, lift_gl/scene/edit.py); the camera
+        stays the one on screen, accumulation restarts.
+
+        geometry=False (colours, roughness, emission): the materials buffer is rewritten, and
+        the emitter table rebuilt when emission changed. geometry=True (objects moved or
+        resized): the scene is re-packed and its BVH rebuilt. Either way only buffers whose
+        contents changed are uploaded, and shaders are recompiled only when the scene's
+        features change (a first rough material, a first emitter...).
+        """
+        materials = pack_materials(scene)
+        old = self.packed.materials
+        emission_changed = materials.shape != old.shape or not np.array_equal(materials[:, 1, :3], old[:, 1, :3])
+        if geometry or emission_changed:
+            packed = pack_scene(scene)
+        else:
+            packed = dataclasses.replace(self.packed, materials=materials)
+        self.scene = dataclasses.replace(scene, camera=self.scene.camera)
+        self.packed = packed
+        self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
+        env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
+        self.scene_uniforms = self.buffers.uniforms(env)
+        features = self._fixed_features or SceneFeatures.of(scene)
+        if features != self.features:
+            self.features, self.defines = features, features.defines()
+            for p in self.passes:
+                p.release()
+            self._create_passes()
         self.reset()
 
     def resize(self, size: tuple[int, int]) -> None:
@@ -178,6 +215,12 @@ class Renderer:
         elif plugin.primary == "camera" and self.gbuffer is not None:
             self.gbuffer.release()  # the plugin now traces its own camera rays
             self.gbuffer = None
+        for stale in (getattr(self, "reduced", None), getattr(self, "upsample", None)):
+            if stale is not None:
+                stale.release()
+        reduced = plugin.reduced is not None  # a [reduced] plugin (hybrid) brings its two passes
+        self.reduced = ReducedTracePass(self.ctx, self.size, plugin, self.defines) if reduced else None
+        self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
         self.samples_per_frame = self._samples_per_frame_asked or (1 if plugin.primary == "gbuffer" else 4)
         if self.timers is not None:
             for p in self.passes:
@@ -202,17 +245,26 @@ class Renderer:
 
     @property
     def passes(self) -> list:
-        return [p for p in (self.gbuffer, self.trace, self.accumulate, self.tonemap) if p is not None]
+        return [p for p in (self.gbuffer, self.trace, self.reduced, self.upsample, self.accumulate, self.tonemap)
+                if p is not None]
 
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
                  f"scene: {self.packed.num_triangles} triangles, {self.packed.num_spheres} spheres, "
                  f"{self.packed.num_lights} emitters, BVH depth {self.packed.bvh_depth}",
                  f"integrator: {self.plugin.name} ({self.plugin.folder}), primary hit from {self.plugin.primary}",
-                 f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}",
-                 "passes:"]
+                 f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}"]
+        if self.plugin.biased:
+            lines.append(f"BIASED: {self.plugin.biased}")
+        lines.append("passes:")
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}" + self._trace_device(),
+                   "reduced": f"runs {self.plugin.reduced.function}() for 1 pixel in "
+                              f"{self._reduced_setting('scale')}x{self._reduced_setting('scale')} "
+                              "(the plugin's [reduced] table)" if self.plugin.reduced else "",
+                   "upsample": "joint bilateral upsampling of the reduced estimate, guided by normal and depth "
+                               f"(normal_power {self._reduced_setting('normal_power')}, depth_sigma "
+                               f"{self._reduced_setting('depth_sigma')}), added to the frame" if self.plugin.reduced else "",
                    "accumulate": "still camera: exact running mean (compensated sum), and the difference "
                                  "of two halves of the frames for the error estimate",
                    "tonemap": "a display image was asked for (PNG or screen)"}
@@ -244,6 +296,9 @@ class Renderer:
         self.stats = RenderStats()
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
 
+    def _reduced_setting(self, name: str):
+        return self.plugin.reduced.value(name, self.params)
+
     def _timer(self) -> GpuTimer:
         return GpuTimer(self.ctx, cpu_clock=is_software(self.ctx))
 
@@ -268,6 +323,14 @@ class Renderer:
                         u_jitter=jitter)
         with self._timed("trace"):
             self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None)
+        if self.reduced is not None:
+            scale = int(self._reduced_setting("scale"))
+            offset = block_offset(self.frame_index, scale)
+            with self._timed("reduced"):
+                self.reduced.run(uniforms, self.gbuffer.visibility, scale, offset)
+            with self._timed("upsample"):
+                self.upsample.run(self.trace.frame, self.reduced.reduced, self.gbuffer, scale, offset,
+                                  self._reduced_setting("normal_power"), self._reduced_setting("depth_sigma"))
         with self._timed("accumulate"):
             self.accumulate.run(self.trace.frame)
         self.frame_index += 1

@@ -13,7 +13,7 @@ from pathlib import Path
 from ..errors import LiftError
 
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent.parent / "scenes" / "cornell.toml"
-PANELS = ("settings", "statistics", "help")
+PANELS = ("settings", "statistics", "help", "edit")
 
 
 def _panels(text: str) -> tuple:

@@ -26,6 +26,7 @@ from ..scene.loader import load_scene, scene_bounds
 from .aov_view import AOV_VIEWS, aov_to_display
 from .bookmarks import Bookmark, bookmarks_path, load_bookmarks, save_bookmarks
 from .camera_controller import CameraController
+from .scene_editor import SceneEditor
 
 MAX_ERRORS = 20
 RELOAD_POLL_S = 0.5  # how often the plugin's files are checked for changes
@@ -130,6 +131,7 @@ class ViewSession:
         self.scene = load_scene(self.scene_path)
         self.renderer = self._make_renderer(integrator, params or {})
         self._adopt_scene()
+        self.editor = SceneEditor(self)  # live edits of lights and materials (Edit panel, F4)
 
     # ---- construction -------------------------------------------------------------------
     def _make_renderer(self, integrator: str, params: dict, scene=None) -> Renderer:
@@ -178,6 +180,7 @@ class ViewSession:
         self.scene, self.scene_path, self.renderer = scene, path, renderer
         self.clear_reference()
         self._adopt_scene()
+        self.editor = SceneEditor(self)
         self._restarted()
         return True
 
@@ -212,6 +215,18 @@ class ViewSession:
     def set_param(self, name: str, value, renderer: Renderer | None = None) -> bool:
         try:
             (renderer or self.renderer).set_params(**{name: value})
+        except LiftError as exc:
+            self.errors.add(exc)
+            return False
+        self._restarted()
+        return True
+
+    def scene_edited(self, geometry: bool) -> bool:
+        """self.scene was edited (app/scene_editor.py): every renderer takes it, accumulation
+        restarts. geometry: objects moved or resized (re-pack, BVH), else materials only."""
+        try:
+            for r in self.renderers:
+                r.update_scene(self.scene, geometry=geometry)
         except LiftError as exc:
             self.errors.add(exc)
             return False

@@ -22,7 +22,7 @@ from ..errors import LiftError
 from ..gl.context import is_software
 from ..image_io import write_srgb8
 from .aov_view import AOV_VIEWS
-from .image_view import ImageView, fit_rect
+from .image_view import ImageView, fit_rect, window_to_pixel
 from .imgui_renderer import ImguiRenderer
 from .panels import UiState, make_panels
 from .session import Resolution, ViewSession
@@ -96,8 +96,8 @@ class ViewerWindow:
         self.ui = UiState(window_size=tuple(self.wnd.buffer_size), inspector=options.inspector)
         self.panels = make_panels()
         for panel in self.panels:
-            if panel.key in ("F1", "F2", "H"):
-                panel.visible = {"F1": "settings", "F2": "statistics", "H": "help"}[panel.key] in options.panels
+            if panel.key in ("F1", "F2", "F4", "H"):
+                panel.visible = {"F1": "settings", "F2": "statistics", "F4": "edit", "H": "help"}[panel.key] in options.panels
 
         software = is_software(self.ctx)
         resolution = Resolution(
@@ -147,7 +147,7 @@ class ViewerWindow:
         if action != keys.ACTION_PRESS or imgui.get_io().want_capture_keyboard:
             return
         s = self.session
-        toggles = {keys.F1: "F1", keys.F2: "F2", keys.H: "H"}
+        toggles = {keys.F1: "F1", keys.F2: "F2", keys.F4: "F4", keys.H: "H"}
         if key in toggles:
             for panel in self.panels:
                 if panel.key == toggles[key]:
@@ -180,18 +180,34 @@ class ViewerWindow:
         self.gui.mouse_position_event(x, y, dx, dy)
         self.ui.mouse = self._mouse_in_pixels(x, y)
 
+    def _edit_panel_open(self) -> bool:
+        return any(panel.key == "F4" and panel.visible for panel in self.panels)
+
+    def _render_pixel(self, x, y):
+        return window_to_pixel(self._mouse_in_pixels(x, y), self.ui.image_rect, self.session.renderer.size)
+
     def on_mouse_press(self, x, y, button):
         self.gui.mouse_press_event(x, y, button)
         self._drag = not imgui.get_io().want_capture_mouse
+        # With the Edit panel open a click selects what is under it, and dragging a light moves it.
+        if self._drag and button == 1 and self._edit_panel_open():
+            pixel = self._render_pixel(x, y)
+            if pixel is not None and self.session.editor.press(pixel):
+                self._drag = False
 
     def on_mouse_release(self, x, y, button):
         self.gui.mouse_release_event(x, y, button)
         self._drag = False
+        self.session.editor.release()
 
     def on_mouse_drag(self, x, y, dx, dy):
         self.gui.mouse_drag_event(x, y, dx, dy)
         self.ui.mouse = self._mouse_in_pixels(x, y)
-        if self._drag and self.session.controller.look(dx, dy):
+        if self.session.editor.dragging:
+            pixel = self._render_pixel(x, y)
+            if pixel is not None:
+                self.session.editor.drag(pixel)
+        elif self._drag and self.session.controller.look(dx, dy):
             self._camera_moved()
 
     def on_mouse_scroll(self, x_offset, y_offset):
@@ -238,6 +254,7 @@ class ViewerWindow:
             self.session.apply_camera()
         elif self.session.moving and now - self._last_motion > MOVING_HOLD_S:
             self.session.set_moving(False)
+        self.session.editor.apply_pending()  # a light dragged with the mouse: once a frame
         self.session.step()
         self.session.update_display()
 

@@ -52,6 +52,7 @@ class SceneBuffers:
     they read `motion`. A still scene compiled with every feature gets still_motion()."""
 
     def __init__(self, ctx, packed: PackedScene, motion: bool | None = None):
+        self.ctx = ctx
         self.packed = packed
         self.buffers = {name: ctx.buffer(np.ascontiguousarray(getattr(packed, name)).tobytes())
                         for name in SCENE_BINDINGS}
@@ -61,6 +62,34 @@ class SceneBuffers:
             self.motion = ctx.buffer(np.ascontiguousarray(rows).tobytes())
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()
+
+    def upload(self, packed: PackedScene) -> list[str]:
+        """Take an edited scene's arrays: rewrite the buffers whose contents changed (in place
+        when the size is the same) and return their names. The motion buffer follows only
+        if the scene moves."""
+        written = []
+        for name in SCENE_BINDINGS:
+            new = np.ascontiguousarray(getattr(packed, name))
+            old = getattr(self.packed, name)
+            if new.shape == old.shape and np.array_equal(new, old):
+                continue
+            written.append(name)
+            data = new.tobytes()
+            if len(data) == self.buffers[name].size:
+                self.buffers[name].write(data)
+            else:
+                self.buffers[name].release()
+                self.buffers[name] = self.ctx.buffer(data)
+        if self.motion is not None:
+            rows = packed.motion if packed.has_motion else still_motion(packed)
+            data = np.ascontiguousarray(rows).tobytes()
+            if len(data) == self.motion.size:
+                self.motion.write(data)
+            else:
+                self.motion.release()
+                self.motion = self.ctx.buffer(data)
+        self.packed = packed
+        return written
 
     def bind(self) -> None:
         for name, binding in SCENE_BINDINGS.items():

@@ -109,6 +109,9 @@ class Mesh:
     # Linear motion: world units per unit of scene time. The positions above are where the
     # mesh is at time 0; at time t it is translated by t * velocity. None: it stays put.
     velocity: np.ndarray | None = None
+    # The [[objects]] table of a .toml scene this was built from (None for other formats):
+    # the scene editor edits it and rebuilds the object, the writer saves it back.
+    authored: dict | None = None
 
     def __post_init__(self):
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float32).reshape(-1, 3)
@@ -129,6 +132,7 @@ class Sphere:
     material: int
     source: str = ""
     velocity: np.ndarray | None = None  # as Mesh.velocity: `center` is at time 0
+    authored: dict | None = None  # as Mesh.authored
 
     def __post_init__(self):
         self.center = np.asarray(self.center, dtype=np.float64)

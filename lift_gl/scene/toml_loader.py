@@ -5,6 +5,7 @@ and `key =` lines; every error and warning then names file:line.
 """
 from __future__ import annotations
 
+import copy
 import re
 import tomllib
 from pathlib import Path
@@ -439,6 +440,7 @@ def _read_object(ctx, i, data, scene):
                         material, source)
         s = prim.transform_sphere(s, m)
         s.velocity = velocity
+        s.authored = copy.deepcopy(data)
         scene.spheres.append(s)
         return
     if kind == "mesh":
@@ -468,7 +470,17 @@ def _read_object(ctx, i, data, scene):
     mesh.name, mesh.source = name, source
     mesh = prim.transform_mesh(mesh, m)
     mesh.velocity = velocity
+    mesh.authored = copy.deepcopy(data)
     scene.meshes.append(mesh)
+
+
+def build_object(table: dict, scene: Scene, path):
+    """The mesh or sphere that one [[objects]] table describes, built as load_toml builds it
+    (the scene editor rebuilds an edited object with it). Materials are found by name in
+    `scene`; relative mesh files are relative to `path`, the scene file."""
+    built = Scene(camera=scene.camera, materials=scene.materials)
+    _read_object(_Context(Path(path), SourceMap("")), 0, table, built)
+    return (built.meshes + built.spheres)[0]
 
 
 def _material_index(r, scene) -> int:

@@ -16,19 +16,29 @@ Frame shading_frame(Surface s, Material m, vec3 wo_world) {
     return frame_from_normal(n);
 }
 
+// The bounce window (parameters min_bounce and only_bounce). Bounce k is the light that
+// reached the camera after k scatterings: bounce 0 is the emitters seen directly, bounce 1
+// direct light, 2 the first indirect bounce, and so on.
+// Emission found at path vertex `depth` is bounce `depth`; the light sample taken at
+// vertex `depth` is bounce `depth + 1`. Only bounces in [first_bounce, last_bounce] are
+// added to L, but the path is sampled the same way whatever the window, so the images of
+// the single bounces of one seed add up to the full image.
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     vec3 L = vec3(0.0);
     vec3 throughput = vec3(1.0);
     float bsdf_pdf_prev = 0.0;   // solid-angle pdf of the direction that led here
     bool specular_prev = true;   // camera rays and delta lobes: no MIS for what they hit
     vec3 p_prev = ray.origin;
+    int first_bounce = only_bounce >= 0 ? only_bounce : min_bounce;
+    int last_bounce = only_bounce >= 0 ? min(only_bounce, max_depth) : max_depth;
 
     for (int depth = 0; ; ++depth) {
+        bool counted = depth >= first_bounce;  // light that ends its path here is bounce `depth`
         // ---- Escaped: the environment ----
         if (hit.prim == NO_HIT) {
 #ifdef HAS_ENVIRONMENT
             float w = specular_prev ? 1.0 : power_heuristic(bsdf_pdf_prev, env_light_pdf(ray.dir));
-            L += throughput * env_radiance(ray.dir) * w;
+            if (counted) L += throughput * env_radiance(ray.dir) * w;
 #endif
             break;
         }
@@ -38,12 +48,12 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         // ---- Emission found by the path ----
 #ifdef HAS_EMISSIVE
         vec3 Le = surface_emission(s, wo_world);
-        if (any(greaterThan(Le, vec3(0.0)))) {
+        if (counted && any(greaterThan(Le, vec3(0.0)))) {
             float w = specular_prev ? 1.0 : power_heuristic(bsdf_pdf_prev, light_pdf(p_prev, s, ray.dir, hit.t));
             L += throughput * Le * w;
         }
 #endif
-        if (depth >= max_depth) break;
+        if (depth >= last_bounce) break;
 
         Material m = material_at(s.material, s.uv);  // textures applied
         Frame frame = shading_frame(s, m, wo_world);
@@ -53,7 +63,9 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
-            if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls)) {
+            // The light is sampled even where its bounce (depth + 1) is not counted, so that
+            // every window draws the same random numbers; only the shadow ray is saved.
+            if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls) && depth + 1 >= first_bounce) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {

@@ -63,10 +63,12 @@ class Panel:
 
 def make_panels() -> list[Panel]:
     from .convergence import ConvergencePanel
+    from .edit import EditPanel
     from .errors import ErrorsPanel
     from .help import HelpOverlay
     from .inspector import PixelInspector
     from .settings import SettingsPanel
     from .statistics import StatisticsPanel
 
-    return [SettingsPanel(), StatisticsPanel(), ConvergencePanel(), ErrorsPanel(), HelpOverlay(), PixelInspector()]
+    return [SettingsPanel(), StatisticsPanel(), ConvergencePanel(), ErrorsPanel(), HelpOverlay(), PixelInspector(),
+            EditPanel()]

@@ -7,6 +7,7 @@ from . import Panel, UiState
 
 KEYS = (
     ("F1 / F2", "settings / statistics panel"),
+    ("F4", "edit panel: lights and materials; click selects, drag moves a light"),
     ("H", "this help"),
     ("W A S D", "fly forward, left, back, right"),
     ("Q / E", "down / up"),
