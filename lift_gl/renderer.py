@@ -55,10 +55,11 @@ class Renderer:
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
         self.packed = pack_scene(scene)
+        self.camera = self.packed.to_gpu_camera(scene.camera)  # rebased as the scene is (pack.py)
         self.buffers = SceneBuffers(self.ctx, self.packed)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
-        self.camera_uniforms = camera_uniforms(scene.camera, self.size)
+        self.camera_uniforms = camera_uniforms(self.camera, self.size)
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.samples_per_frame = samples_per_frame or (1 if uses_gbuffer else 4)
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
@@ -130,7 +131,7 @@ class Renderer:
         self.buffers.bind()
         if self.gbuffer is not None:
             with self._timed("gbuffer"):
-                self.gbuffer.run(self.scene.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms)
+                self.gbuffer.run(self.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms)
         uniforms = dict(self.scene_uniforms, **self.camera_uniforms,
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,
@@ -187,7 +188,7 @@ class Renderer:
             self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                        self.packed.num_spheres)
         self.buffers.bind()
-        self.gbuffer.run(self.scene.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms)
+        self.gbuffer.run(self.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms)
         w, h = self.size
         if name == "albedo":
             data = np.frombuffer(self.gbuffer.albedo.read(), np.float16).reshape(h, w, 4)[..., :3]

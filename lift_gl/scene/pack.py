@@ -1,16 +1,21 @@
 """Flatten a Scene into the arrays that shaders/lift/scene_data.glsl declares.
 
-Triangles of all meshes are concatenated in world space and reordered into BVH leaf order.
+Triangles of all meshes are concatenated and reordered into BVH leaf order.
+
+Coordinates are rebased before they are rounded to float32: the GPU sees world space minus
+`origin` (the centre of the scene's bounds, kept in float64), so a scene far from the world
+origin (1e5 away) keeps the precision it has at the origin. Cameras must be rebased with
+`to_gpu_camera` too.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..accel.bvh import build_bvh
 from ..accel.cache import build_bvh_cached
-from .model import Scene
+from .model import Camera, Scene
 
 MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "dielectric": 2}
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -27,11 +32,17 @@ class PackedScene:
     lights: np.ndarray  # float32 (L, 4)
     spheres: np.ndarray  # float32 (S, 2, 4)
     bvh_depth: int
-    bounds: np.ndarray  # (2, 3) world bounds of everything
+    bounds: np.ndarray  # (2, 3) bounds of everything, rebased (GPU coordinates)
     # Real counts: the arrays above hold one dummy row when empty (GL needs non-empty buffers).
     num_triangles: int
     num_spheres: int
     num_lights: int
+    origin: np.ndarray = None  # float64 (3,): world position of the GPU coordinates' zero
+
+    def to_gpu_camera(self, camera: Camera) -> Camera:
+        """The camera in the rebased coordinates the GPU uses."""
+        origin = self.origin if self.origin is not None else np.zeros(3)
+        return replace(camera, position=camera.position - origin, target=camera.target - origin)
 
 
 def _as_float_bits(values) -> np.ndarray:
@@ -54,13 +65,24 @@ def pack_materials(scene: Scene) -> np.ndarray:
     return out
 
 
-def _triangles(scene: Scene):
+def scene_origin(scene: Scene) -> np.ndarray:
+    """The centre of the scene's bounds in float64 (zero for an empty scene)."""
+    lo = [m.positions.min(axis=0) for m in scene.meshes if len(m.positions)]
+    hi = [m.positions.max(axis=0) for m in scene.meshes if len(m.positions)]
+    lo += [s.center - s.radius for s in scene.spheres]
+    hi += [s.center + s.radius for s in scene.spheres]
+    if not lo:
+        return np.zeros(3)
+    return 0.5 * (np.min(lo, axis=0) + np.max(hi, axis=0))
+
+
+def _triangles(scene: Scene, origin: np.ndarray):
     if not scene.meshes:
         return (np.zeros((0, 3, 3), np.float32), np.zeros((0, 3, 3), np.float32),
                 np.zeros((0, 3, 2), np.float32), np.zeros(0, np.uint32))
     pos, nrm, uvs, mat = [], [], [], []
     for mesh in scene.meshes:
-        corners = mesh.positions[mesh.indices]
+        corners = mesh.positions[mesh.indices] - origin  # float64 until here
         pos.append(corners)
         if mesh.normals is not None:
             nrm.append(mesh.normals[mesh.indices])
@@ -81,8 +103,10 @@ def _pad4(a: np.ndarray) -> np.ndarray:
     return out
 
 
-def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
-    positions, normals, uvs, material_ids = _triangles(scene)
+def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:
+    """`origin`: the world point that becomes the GPU's zero; default: the scene's centre."""
+    origin = scene_origin(scene) if origin is None else np.asarray(origin, dtype=np.float64)
+    positions, normals, uvs, material_ids = _triangles(scene, origin)
     bvh = build_bvh_cached(positions, cache_dir=cache_dir) if len(positions) else build_bvh(positions)
     order = bvh.order
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
@@ -124,7 +148,7 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
 
     spheres = np.zeros((max(S, 1), 2, 4), np.float32)
     for i, s in enumerate(scene.spheres):
-        spheres[i, 0, :3] = s.center
+        spheres[i, 0, :3] = s.center - origin
         spheres[i, 0, 3] = s.radius
         spheres[i, 1, 0] = _as_float_bits([s.material])[0]
         spheres[i, 1, 1] = prim_select_pdf[T + i:T + i + 1].view(np.uint32).view(np.float32)[0]
@@ -132,8 +156,8 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
     lo = [positions.reshape(-1, 3).min(0)] if T else []
     hi = [positions.reshape(-1, 3).max(0)] if T else []
     for s in scene.spheres:
-        lo.append(s.center - s.radius)
-        hi.append(s.center + s.radius)
+        lo.append(s.center - origin - s.radius)
+        hi.append(s.center - origin + s.radius)
     bounds = np.array([np.min(lo, axis=0), np.max(hi, axis=0)]) if lo else np.array([[-1.0] * 3, [1.0] * 3])
 
     def nonempty(a, shape):
@@ -153,4 +177,5 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
         num_triangles=T,
         num_spheres=S,
         num_lights=len(light_prims),
+        origin=origin,
     )
