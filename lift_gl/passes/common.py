@@ -51,10 +51,8 @@ class SceneBuffers:
 
     def uniforms(self, environment_radiance) -> dict:
         p = self.packed
-        scale = float(np.abs(p.bounds).max()) if p.num_triangles or p.num_spheres else 1.0
         return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres,
-                "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance),
-                "u_scene_scale": max(scale, 1e-30)}
+                "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance)}
 
     def reset_stats(self) -> None:
         self.stats.write(np.zeros(NUM_STATS, np.uint32).tobytes())

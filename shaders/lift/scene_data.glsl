@@ -46,6 +46,5 @@ uniform uint u_num_triangles;
 uniform uint u_num_spheres;
 uniform uint u_num_lights;
 uniform vec3 u_env_radiance;   // constant environment (HAS_ENVIRONMENT)
-uniform float u_scene_scale;   // largest |coordinate| of the (rebased) scene; 0: unset, use 1
 
 #endif
