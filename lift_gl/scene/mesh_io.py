@@ -37,7 +37,10 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
     import trimesh  # heavy import, only when a mesh file is actually read
 
     try:
-        tm = trimesh.load(str(path), force="mesh", process=False)
+        # Not force="mesh": that route drops the normals stored in the file.
+        tm = trimesh.load(str(path), process=False)
+        if isinstance(tm, trimesh.Scene):  # several meshes (glTF): one, in world space
+            tm = tm.to_mesh() if tm.geometry else None
     except Exception as e:  # trimesh raises many kinds; all mean "unreadable"
         fail(f"cannot read mesh file ({type(e).__name__}: {e})")
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
