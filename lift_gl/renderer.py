@@ -16,7 +16,7 @@ import numpy as np
 from .gl.context import create_context, describe
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, GpuTimer, SceneBuffers
+from .passes.common import STAT_DROPPED, STAT_LOOP_LIMITED, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
@@ -33,12 +33,17 @@ class RenderStats:
     frames: int = 0
     spp: int = 0
     dropped_samples: int = 0
+    loop_limited: int = 0  # pixel-frames whose paths the driver's loop limit cut short
     render_seconds: float = 0.0  # wall time of the frames, I/O excluded
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
 
     def summary(self) -> str:
-        return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames), "
+        text = (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames), "
                 f"dropped NaN/Inf samples: {self.dropped_samples}")
+        if self.loop_limited:
+            text += (f"; WARNING: in {self.loop_limited} pixel-frames the GL driver's loop limit "
+                     "cut paths short (the image is too dark there: lower max_depth, or use a GPU)")
+        return text
 
 
 class Renderer:
@@ -164,7 +169,9 @@ class Renderer:
                 progress(self, done)
         self.ctx.finish()
         self.stats.render_seconds += time.perf_counter() - start
-        self.stats.dropped_samples = int(self.buffers.read_stats()[STAT_DROPPED])
+        counters = self.buffers.read_stats()
+        self.stats.dropped_samples = int(counters[STAT_DROPPED])
+        self.stats.loop_limited = int(counters[STAT_LOOP_LIMITED])
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image()

@@ -12,6 +12,7 @@ SCENE_BINDINGS = {
 }
 STATS_BINDING = 8
 STAT_DROPPED = 0
+STAT_LOOP_LIMITED = 1  # pixel-frames cut short by the driver's loop limit (passes/trace.py)
 NUM_STATS = 4
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
 

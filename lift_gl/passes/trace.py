@@ -2,7 +2,13 @@
 
 inputs:  scene buffers, camera, G-buffer visibility (plugins with primary = "gbuffer")
 outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count in a);
-         stats[0] counts samples dropped because they were NaN or infinite
+         stats[0] counts samples dropped because they were NaN or infinite;
+         stats[1] counts pixel-frames whose paths the driver's loop limit cut short
+
+Mesa's llvmpipe ends every loop of a shader invocation once 65535 loop iterations have run
+in it, all loops together (BVH traversal steps, bounces, the sample loop), and says nothing:
+a path of 1000 bounces through a deep BVH silently loses its tail. A probe loop after the
+samples cannot run once that budget is spent, which is how the host notices and counts it.
 
 The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
@@ -92,6 +98,11 @@ void main() {{
         sum += L;
         valid += 1.0;
     }}
+    // ---- the driver's loop budget (see lift_gl/passes/trace.py) ----
+    // (A loop's first iteration always runs: the probe needs two to tell.)
+    uint probe = 0u;
+    for (uint i = 0u; i < u_samples + 1u; ++i) probe += 1u;
+    if (probe < u_samples + 1u) atomicAdd(stats[1], 1u);  // kept, but counted and reported
     imageStore(u_frame_out, pixel, vec4(sum, valid));
 }}
 """

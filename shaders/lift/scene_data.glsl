@@ -39,7 +39,8 @@ layout(std430, binding = 6) readonly buffer Lights { vec4 lights[]; };
 // light selection probability, 0, 0).
 layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 
-// Counters the host reads back: [0] samples dropped as NaN/Inf.
+// Counters the host reads back: [0] samples dropped as NaN/Inf, [1] pixel-frames whose
+// paths the driver's loop limit cut short (lift_gl/passes/trace.py).
 layout(std430, binding = 8) buffer Stats { uint stats[]; };
 
 uniform uint u_num_triangles;

@@ -96,14 +96,30 @@ Ray spawn_ray(Surface s, vec3 dir) {
 // A shadow ray from s towards a point at distance dist along dir; stops just short of it.
 // It is aimed from the offset origin at the point itself, so that the offset cannot carry
 // its end through the light's surface (a light met at a grazing angle, or a large offset).
+// Written in units of dist so that nothing overflows for the environment (dist = 1e30).
 Ray spawn_shadow_ray(Surface s, vec3 dir, float dist) {
     Ray r = spawn_ray(s, dir);
-    vec3 to_target = (s.p + dir * dist) - r.origin;
+    vec3 to_target = dir + (s.p - r.origin) / dist;  // (target - origin) / dist
     float len = length(to_target);
-    if (len > 0.0) r.dir = to_target / len;
-    r.tmax = len * (1.0 - 1e-4);
+    r.dir = to_target / len;
+    r.tmax = dist * len * (1.0 - 1e-4);
     return r;
 }
+
+// The shading normal of an opaque surface seen from wo (world space, away from it): s.ns
+// turned to wo's side of the geometric surface. Where wo is still below that shading
+// hemisphere (interpolated or authored normals tilted away from the viewer) the BSDF would
+// be zero and the surface black: the geometric normal is used there instead.
+vec3 facing_shading_normal(Surface s, vec3 wo) {
+    float side = dot(wo, s.ng) >= 0.0 ? 1.0 : -1.0;
+    vec3 ns = side * s.ns;
+    return dot(wo, ns) > 0.0 ? ns : side * s.ng;
+}
+
+// Whether world directions a and b (both away from s) lie on the same side of the true
+// surface: an opaque surface reflects only between such directions, whatever its shading
+// normal says (light sampling and BSDF sampling must agree on this, or MIS is biased).
+bool same_side_of_surface(Surface s, vec3 a, vec3 b) { return dot(a, s.ng) * dot(b, s.ng) > 0.0; }
 
 // Radiance emitted by s towards direction w (world space); emitters emit from the front.
 vec3 surface_emission(Surface s, vec3 w) {
