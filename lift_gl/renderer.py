@@ -16,7 +16,8 @@ import numpy as np
 from .gl.context import create_context, describe
 from .passes.accumulate import AccumulatePass
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, STAT_LOOP_LIMITED, GpuTimer, SceneBuffers
+from .limits import GlLimits, check_film, check_packed, check_triangle_count
+from .passes.common import SCENE_BINDINGS, STAT_DROPPED, STAT_LOOP_LIMITED, GpuTimer, SceneBuffers
 from .passes.gbuffer import GBufferPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
@@ -24,6 +25,7 @@ from .plugins import find_plugin
 from .scene.features import SceneFeatures
 from .scene.model import Scene
 from .scene.pack import pack_scene
+from .scene.validate import validate_scene
 
 AOVS = ("albedo", "normal", "depth")
 
@@ -51,15 +53,20 @@ class Renderer:
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
                  timers: bool = False):
-        self.scene = scene
+        self.scene = validate_scene(scene)
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
         self.ctx = create_context(backend)
+        # Hostile sizes are refused here, before any GPU (or BVH) memory is allocated.
+        self.limits = GlLimits.query(self.ctx)
+        check_film(self.size, self.limits, scene.path if size is None else None)
+        check_triangle_count(scene.triangle_count, self.limits, scene.path)
         self.plugin = find_plugin(integrator, plugin_dirs)
         self.params = self._resolve_params(params or {})
         self.features = features or SceneFeatures.of(scene)
         self.defines = self.features.defines()
         self.packed = pack_scene(scene)
+        check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
         self.camera = self.packed.to_gpu_camera(scene.camera)  # rebased as the scene is (pack.py)
         self.buffers = SceneBuffers(self.ctx, self.packed)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)

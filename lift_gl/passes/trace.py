@@ -109,7 +109,8 @@ void main() {{
 
 
 def generate_main(plugin: Plugin) -> str:
-    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {p.help}" for p in plugin.params.values())
+    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {' '.join(p.help.split())}"
+                       for p in plugin.params.values())
     return MAIN_TEMPLATE.format(local=LOCAL_SIZE, params=params, entry=plugin.entry_path.as_posix())
 
 

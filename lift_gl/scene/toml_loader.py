@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, read_utf8
 from . import primitives as prim
 from .loader import framing_camera, warn_at
 from .mesh_io import load_mesh_file
@@ -202,7 +202,7 @@ class _Context:
 
 def load_toml(path: Path) -> Scene:
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    text = read_utf8(path, SceneError)
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
