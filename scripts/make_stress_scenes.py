@@ -332,6 +332,13 @@ so that the floor next to it receives light at grazing angles (cos -> 0 at its b
 the floor behind it none.""",
         [0.0, 0.0, -FLOOR_HALF], [0.0, 0.5, 0.0], [0.0, 0.0, 2 * FLOOR_HALF], 1.0,
         ([1.2, 1.4, 1.8], [0.25, 0.0, 0.0])).write("grazing_light.toml")
+    near = 0.2
+    direct_light_scene(
+        """A light close to a surface: a 0.2 x 0.2 emitter 0.02 above the floor. Shadow rays towards it
+start a ray offset above the floor and must still end short of the light (a shadow ray
+whose end the offset carried through the light made the floor 22-52% too dark).""",
+        [-near / 2, 0.02, -near / 2], [near, 0.0, 0.0], [0.0, 0.0, near], 1.0,
+        ([0.0, 0.5, 0.6], [0.0, 0.0, -0.1]), fov=60.0).write("close_light.toml")
     more_scenes()
 
 

@@ -87,7 +87,7 @@ def assert_matches_analytic(name, expected_image, spp, **kwargs):
 
 
 # ---------------------------------------------------------------- 1. lights: tiny, huge, grazing
-@pytest.mark.parametrize("name", ["tiny_bright_light", "huge_dim_light", "grazing_light"])
+@pytest.mark.parametrize("name", ["tiny_bright_light", "huge_dim_light", "grazing_light", "close_light"])
 def test_direct_light_matches_lamberts_polygon_formula(name):
     expected = assert_matches_analytic(name, floor_under_quad_light, spp=16)
     assert expected.max() > 0
