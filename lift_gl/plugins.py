@@ -121,7 +121,10 @@ def load_manifest(folder: Path) -> Plugin:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         m = re.search(r"line (\d+)", str(exc))
-        raise PluginError(f"malformed TOML: {exc}", path, int(m.group(1)) if m else None) from None
+        line = int(m.group(1)) if m else None
+        if line is None and "end of document" in str(exc):  # unclosed at the end: its last line
+            line = max(len(text.splitlines()), 1)
+        raise PluginError(f"malformed TOML: {exc}", path, line) from None
     except RecursionError:
         raise PluginError("malformed TOML: nested too deeply", path) from None
 

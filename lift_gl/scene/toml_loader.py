@@ -208,6 +208,8 @@ def load_toml(path: Path) -> Scene:
     except tomllib.TOMLDecodeError as e:
         m = re.search(r"\(at line (\d+), column (\d+)\)", str(e))
         line = int(m.group(1)) if m else getattr(e, "lineno", None)
+        if line is None and "end of document" in str(e):  # unclosed at the end: its last line
+            line = max(len(text.splitlines()), 1)
         message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(e))
         if m:
             message += f" (column {m.group(2)})"
