@@ -225,7 +225,7 @@ def _fine_glowing_box(n: int) -> Scene:
     return scene
 
 
-@pytest.mark.skipif(not is_llvmpipe(), reason="the loop limit is llvmpipe's (Mesa gallivm); GPUs have none")
+@pytest.mark.skipif(not is_llvmpipe(), reason="the loop limit measured here is llvmpipe's (Mesa gallivm)")
 def test_paths_cut_short_by_the_drivers_loop_limit_are_counted_and_reported():
     scene = _fine_glowing_box(24)  # 6912 triangles
     r = Renderer(scene, size=(8, 8), seed=1)
