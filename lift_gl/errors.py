@@ -5,6 +5,10 @@ from __future__ import annotations
 class LiftError(Exception):
     """Base of every error lift-gl reports to a user."""
 
+    # True when a loader failed in a way it did not foresee (a bug to fix): the user still
+    # gets one clear line, and the fuzz tests (tests/test_fuzz_loaders.py) fail on it.
+    internal = False
+
     def __init__(self, message: str, path=None, line: int | None = None):
         self.message = message
         self.path = str(path) if path is not None else None
@@ -28,3 +32,19 @@ class PluginError(LiftError):
 
 class ShaderError(LiftError):
     """A shader that failed to compile; path and line are of the source file that failed."""
+
+
+class LimitError(LiftError):
+    """An input too large for a fixed or device limit; the message names the limit."""
+
+
+def read_utf8(path, error=LiftError) -> str:
+    """The text of a UTF-8 file, or `error` naming the file and the line of the first byte
+    that is not UTF-8 (a binary file, or one saved in another encoding)."""
+    data = open(path, "rb").read()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise error(f"not UTF-8 text (byte 0x{data[exc.start]:02x}); save the file as UTF-8",
+                    path, line) from None

@@ -25,13 +25,14 @@ the folders of the `LIFT_GL_PLUGIN_PATH` environment variable (separated by `os.
 """
 from __future__ import annotations
 
+import math
 import os
 import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import PluginError
+from .errors import PluginError, read_utf8
 
 BUILTIN_DIR = Path(__file__).resolve().parent.parent / "plugins"
 PARAM_TYPES = {"int": int, "float": float, "bool": bool, "color": list}
@@ -77,7 +78,9 @@ class Param:
                 value = bool(value)
             elif self.type == "color":
                 value = [float(x) for x in value]
-        except (TypeError, ValueError):
+            if self.type in ("float", "color") and not all(map(math.isfinite, value if self.type == "color" else [value])):
+                raise ValueError(value)
+        except (TypeError, ValueError, OverflowError):
             raise PluginError(f"parameter {self.name} ({self.type}): bad value {text_or_value!r}") from None
         if self.type == "color" and len(value) != 3:
             raise PluginError(f"parameter {self.name}: a colour needs 3 numbers, got {text_or_value!r}")
@@ -142,12 +145,17 @@ def load_manifest(folder: Path) -> Plugin:
     path = Path(folder) / "plugin.toml"
     if not path.is_file():
         raise PluginError("plugin.toml not found", path)
-    text = path.read_text()
+    text = read_utf8(path, PluginError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         m = re.search(r"line (\d+)", str(exc))
-        raise PluginError(f"malformed TOML: {exc}", path, int(m.group(1)) if m else None) from None
+        line = int(m.group(1)) if m else None
+        if line is None and "end of document" in str(exc):  # unclosed at the end: its last line
+            line = max(len(text.splitlines()), 1)
+        raise PluginError(f"malformed TOML: {exc}", path, line) from None
+    except RecursionError:
+        raise PluginError("malformed TOML: nested too deeply", path) from None
 
     def fail(message, key_pattern=None):
         raise PluginError(message, path, _line_of(text, key_pattern) if key_pattern else None)
@@ -162,10 +170,10 @@ def load_manifest(folder: Path) -> Plugin:
     if not _IDENT.match(name):
         fail(f"plugin name {name!r} must be an identifier (letters, digits, _)", r"^\s*name\s*=")
     language = data.get("language", "glsl")
-    if language not in LANGUAGES:
+    if not isinstance(language, str) or language not in LANGUAGES:
         fail(f"language {language!r} is not one of {', '.join(LANGUAGES)}", r"^\s*language\s*=")
     primary = data.get("primary", "gbuffer")
-    if primary not in PRIMARY_MODES:
+    if not isinstance(primary, str) or primary not in PRIMARY_MODES:
         fail(f"primary {primary!r} is not one of {', '.join(PRIMARY_MODES)}", r"^\s*primary\s*=")
     splats = data.get("splats", False)
     if not isinstance(splats, bool):
@@ -174,6 +182,8 @@ def load_manifest(folder: Path) -> Plugin:
         fail(f"entry file {data['entry']!r} not found in {folder}", r"^\s*entry\s*=")
 
     params = {}
+    if not isinstance(data.get("params", {}), dict):
+        fail("'params' must be tables: write [params.NAME]", r"^\s*params\s*=")
     for pname, spec in (data.get("params") or {}).items():
         header = rf"^\s*\[params\.{re.escape(pname)}\]"
         if not _IDENT.match(pname):
@@ -184,10 +194,15 @@ def load_manifest(folder: Path) -> Plugin:
         if unknown:
             fail(f"parameter {pname!r}: unknown keys {sorted(unknown)}", header)
         ptype = spec.get("type")
-        if ptype not in PARAM_TYPES:
+        if not isinstance(ptype, str) or ptype not in PARAM_TYPES:
             fail(f"parameter {pname!r}: type must be one of {', '.join(PARAM_TYPES)}", header)
         if "default" not in spec:
             fail(f"parameter {pname!r} has no default", header)
+        for key in ("min", "max"):
+            if key in spec and (isinstance(spec[key], bool) or not isinstance(spec[key], (int, float))):
+                fail(f"parameter {pname!r}: {key} must be a number, not {spec[key]!r}", header)
+        if not isinstance(spec.get("help", ""), str):
+            fail(f"parameter {pname!r}: help must be a string", header)
         param = Param(pname, ptype, None, spec.get("min"), spec.get("max"), spec.get("help", ""))
         try:
             param.default = param.parse(spec["default"])
@@ -197,6 +212,8 @@ def load_manifest(folder: Path) -> Plugin:
     biased = data.get("biased", "")
     if not isinstance(biased, str):
         fail("'biased' must be a string saying why the plugin is biased", r"^\s*biased\s*=")
+    if not isinstance(data.get("description", ""), str):
+        fail("description must be a string", r"^\s*description\s*=")
     return Plugin(name=name, description=data.get("description", ""), language=language,
                   entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
                   splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail))

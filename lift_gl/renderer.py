@@ -22,7 +22,9 @@ from .errors import LiftError
 from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
-from .passes.common import STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers
+from .limits import GlLimits, check_film, check_packed, check_triangle_count
+from .passes.common import (SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_LOOP_LIMITED, STAT_RAYS_HIGH,
+                            STAT_RAYS_LOW, GpuTimer, SceneBuffers)
 from .passes.gbuffer import GBufferPass
 from .passes.reduced_trace import ReducedTracePass, block_offset
 from .passes.tonemap import TonemapPass
@@ -32,6 +34,7 @@ from .plugins import Plugin, find_plugin, load_manifest
 from .scene.features import SceneFeatures
 from .scene.model import Scene
 from .scene.pack import pack_materials, pack_scene
+from .scene.validate import validate_scene
 from .watch import FileWatcher
 
 AOVS = ("albedo", "normal", "depth")
@@ -43,6 +46,7 @@ class RenderStats:
     spp: int = 0
     dropped_samples: int = 0
     dropped_splats: int = 0  # plugins with splats = true: splats dropped as NaN/Inf
+    loop_limited: int = 0  # pixel-frames whose paths the driver's loop limit cut short
     render_seconds: float = 0.0  # wall time of the frames, I/O excluded
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
     rays: int = 0  # rays traced through the BVH (with count_rays=True)
@@ -50,9 +54,13 @@ class RenderStats:
 
     def summary(self) -> str:
         error = "" if self.error is None else f", est. rel. std. error {100 * self.error.rel_std_error:.2f}%"
-        return (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames){error}, "
+        text = (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames){error}, "
                 f"dropped NaN/Inf samples: {self.dropped_samples}"
                 + (f", splats: {self.dropped_splats}" if self.dropped_splats else ""))
+        if self.loop_limited:
+            text += (f"; WARNING: in {self.loop_limited} pixel-frames the GL driver's loop limit "
+                     "cut paths short (the image is too dark there: lower max_depth, or use a GPU)")
+        return text
 
 
 class Renderer:
@@ -60,11 +68,15 @@ class Renderer:
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
                  timers: bool = False, count_rays: bool = False, ctx=None):
-        self.scene = scene
+        self.scene = validate_scene(scene)
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
         # A window hands in its own context (the viewer); otherwise a headless one.
         self.ctx = ctx if ctx is not None else create_context(backend)
+        # Hostile sizes are refused here, before any GPU (or BVH) memory is allocated.
+        self.limits = GlLimits.query(self.ctx)
+        check_film(self.size, self.limits, scene.path if size is None else None)
+        check_triangle_count(scene.triangle_count, self.limits, scene.path)
         self.plugin = find_plugin(integrator, plugin_dirs)
         self.param_overrides = dict(params or {})  # what the caller set; survives a reload
         self.params = self._resolve_params(self.param_overrides)
@@ -74,10 +86,11 @@ class Renderer:
         if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             self.defines["LIFT_COUNT_RAYS"] = True
         self.packed = pack_scene(scene)
+        check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
         self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
-        self.camera_uniforms = camera_uniforms(scene.camera, self.size)
+        self.camera_uniforms = camera_uniforms(self.camera, self.size)
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.samples_per_frame = samples_per_frame or (1 if uses_gbuffer else 4)
         self._samples_per_frame_asked = samples_per_frame  # None: the default of the plugin's primary
@@ -123,13 +136,18 @@ class Renderer:
             self.param_overrides[name] = value
         self.reset()
 
+    @property
+    def camera(self):
+        """The scene's camera in the GPU's coordinates (rebased as the scene is: scene/pack.py)."""
+        return self.packed.to_gpu_camera(self.scene.camera)
+
     def set_camera(self, camera) -> None:
         """Look through another camera; only the camera uniforms change, accumulation restarts.
 
         The caller's Scene is not modified (two renderers may share one).
         """
         self.scene = dataclasses.replace(self.scene, camera=camera)
-        self.camera_uniforms = camera_uniforms(camera, self.size)
+        self.camera_uniforms = camera_uniforms(self.camera, self.size)
         self.reset()
 
     def update_scene(self, scene: Scene, geometry: bool = True) -> None:
@@ -151,6 +169,7 @@ class Renderer:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
         self.packed = packed
+        self.camera_uniforms = camera_uniforms(self.camera, self.size)  # the origin may have moved
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
@@ -173,7 +192,7 @@ class Renderer:
         for p in self.passes:
             p.release()
         self.size = size
-        self.camera_uniforms = camera_uniforms(self.scene.camera, self.size)
+        self.camera_uniforms = camera_uniforms(self.camera, self.size)
         self._create_passes()
         self.reset()
 
@@ -315,7 +334,7 @@ class Renderer:
         self.buffers.bind()
         if self.gbuffer is not None:
             with self._timed("gbuffer"):
-                self.gbuffer.run(self.scene.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms)
+                self.gbuffer.run(self.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms)
         uniforms = dict(self.scene_uniforms, **self.camera_uniforms,
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,
@@ -364,6 +383,7 @@ class Renderer:
         self.stats.dropped_samples = int(counters[STAT_DROPPED])
         self.stats.rays = int(counters[STAT_RAYS_LOW]) + (int(counters[STAT_RAYS_HIGH]) << 32)
         self.stats.dropped_splats = int(counters[STAT_DROPPED_SPLATS])
+        self.stats.loop_limited = int(counters[STAT_LOOP_LIMITED])
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image() if readback else None
@@ -406,7 +426,7 @@ class Renderer:
             self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                        self.packed.num_spheres)
         self.buffers.bind()
-        self.gbuffer.run(self.scene.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms)
+        self.gbuffer.run(self.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms)
         w, h = self.size
         if name == "albedo":
             data = np.frombuffer(self.gbuffer.albedo.read(), np.float16).reshape(h, w, 4)[..., :3]

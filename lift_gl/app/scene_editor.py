@@ -90,7 +90,7 @@ class SceneEditor:
             renderer.aov("depth")
         else:  # what the camera sees now, through pixel centres (the last frame may be older)
             renderer.buffers.bind()
-            renderer.gbuffer.run(renderer.scene.camera, renderer.packed.bounds, (0.5, 0.5),
+            renderer.gbuffer.run(renderer.camera, renderer.packed.bounds, (0.5, 0.5),
                                  renderer.scene_uniforms, renderer.camera_uniforms)
         data = renderer.gbuffer.fbo.read(viewport=(x, h - 1 - y, 1, 1), components=4, attachment=0, dtype="u4")
         prim = int(np.frombuffer(data, np.uint32)[0])
@@ -105,13 +105,14 @@ class SceneEditor:
         # Triangles are in BVH order on the GPU: find the mesh that holds these corners.
         corners = packed.tri_pos[prim, :, :3]
         shutter_open = self.scene.camera.shutter[0]
+        origin = packed.origin if packed.origin is not None else np.zeros(3)  # pack.py rebases
         for i, mesh in enumerate(self.scene.meshes):
             if not len(mesh.indices):
                 continue
-            tris = mesh.positions[mesh.indices]
+            tris = mesh.positions[mesh.indices] - origin
             if mesh.velocity is not None and shutter_open:  # packed where it is when the shutter opens
-                tris = (tris + (mesh.velocity * shutter_open)[None, None, :]).astype(np.float32)
-            if np.any(np.all(tris == corners[None], axis=(1, 2))):
+                tris = tris + (mesh.velocity * shutter_open)[None, None, :]
+            if np.any(np.all(tris.astype(np.float32) == corners[None], axis=(1, 2))):
                 return ObjectRef("mesh", i)
         return None
 

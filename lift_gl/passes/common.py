@@ -17,7 +17,8 @@ MOTION_BINDING = 16  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
 STAT_DROPPED_SPLATS = 1  # splats dropped as NaN/Inf (plugins with splats = true)
 STAT_RAYS_LOW, STAT_RAYS_HIGH = 2, 3  # rays traced (LIFT_COUNT_RAYS), a 64-bit count in two words
-NUM_STATS = 4
+STAT_LOOP_LIMITED = 4  # pixel-frames cut short by the driver's loop limit (passes/trace.py)
+NUM_STATS = 5
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
 
 

@@ -4,13 +4,18 @@ inputs:  scene buffers, camera, jitter
 outputs: visibility (RGBA32UI: primitive id + 1 (0 = background), barycentrics as float
          bits, material id), normal_depth (RGBA32F: camera-facing shading normal, view
          depth), albedo (RGBA16F), depth buffer
+
+The depth test compares view depth / far (written as gl_FragDepth), not the projection's
+hyperbolic depth: 24 bits of that spread over the scene give a resolution of far / 2^24
+everywhere, whereas hyperbolic depth with the tiny near plane that a camera inside the
+scene needs cannot tell a wall from the back of the same wall (tests/test_stress.py).
 """
 from __future__ import annotations
 
 import moderngl
 
 from .. import shaders
-from .camera import view_projection
+from .camera import near_far, view_projection
 from .common import set_uniforms
 
 SHADER_DIR = shaders.SHADER_DIR / "passes"
@@ -46,6 +51,7 @@ class GBufferPass:
     def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict) -> None:
         uniforms = dict(scene_uniforms, **camera_uniforms)
         uniforms["u_view_proj"] = view_projection(camera, self.size, bounds, jitter).ravel()
+        uniforms["u_inv_far"] = 1.0 / near_far(camera, bounds)[1]
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.ctx.enable(moderngl.DEPTH_TEST)

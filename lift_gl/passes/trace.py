@@ -3,9 +3,15 @@
 inputs:  scene buffers, camera, G-buffer visibility (plugins with primary = "gbuffer")
 outputs: frame (RGBA32F: sum of this frame's valid samples in rgb, their count in a);
          stats[0] counts samples dropped because they were NaN or infinite;
-         stats[2..3] count the rays traced (64 bits), with LIFT_COUNT_RAYS defined
+         stats[2..3] count the rays traced (64 bits), with LIFT_COUNT_RAYS defined;
          with `splats = true` in the manifest, the frame also receives the splats
-         (passes/splat.py), and stats[1] counts splats dropped as NaN or infinite
+         (passes/splat.py), and stats[1] counts splats dropped as NaN or infinite;
+         stats[4] counts pixel-frames whose paths the driver's loop limit cut short
+
+Mesa's llvmpipe ends every loop of a shader invocation once 65535 loop iterations have run
+in it, all loops together (BVH traversal steps, bounces, the sample loop), and says nothing:
+a path of 1000 bounces through a deep BVH silently loses its tail. A probe loop after the
+samples cannot run once that budget is spent, which is how the host notices and counts it.
 
 The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebuilt exactly
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
@@ -118,13 +124,19 @@ void main() {{
         if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
     }}
 #endif
+    // ---- the driver's loop budget (see lift_gl/passes/trace.py) ----
+    // (A loop's first iteration always runs: the probe needs two to tell.)
+    uint probe = 0u;
+    for (uint i = 0u; i < u_samples + 1u; ++i) probe += 1u;
+    if (probe < u_samples + 1u) atomicAdd(stats[4], 1u);  // kept, but counted and reported
     imageStore(u_frame_out, pixel, vec4(sum, valid));
 }}
 """
 
 
 def generate_main(plugin: Plugin) -> str:
-    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {p.help}" for p in plugin.params.values())
+    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {' '.join(p.help.split())}"
+                       for p in plugin.params.values())
     return MAIN_TEMPLATE.format(local=LOCAL_SIZE, params=params, entry=plugin.entry_path.as_posix())
 
 

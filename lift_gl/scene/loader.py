@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import LiftError, SceneError
 from .model import Camera, Environment, Material, Scene
 
 
@@ -29,10 +29,34 @@ def warn_at(path, line: int | None, message: str) -> None:
 
 
 def load_scene(path) -> Scene:
+    """The scene in `path`, validated (scene/validate.py). Every failure is one SceneError
+    naming the file, and the line where the loader knows it."""
     path = Path(path)
-    ext = path.suffix.lower()
     if not path.is_file():
         raise SceneError("scene file not found", path)
+    try:
+        scene = _load(path, path.suffix.lower())
+        from .validate import validate_scene
+        return validate_scene(scene)
+    except LiftError:
+        raise
+    except RecursionError:
+        raise SceneError("nested too deeply to read", path) from None
+    except MemoryError:
+        raise SceneError("too large to read into memory", path) from None
+    except Exception as exc:  # a case no loader foresaw: still one line, and marked as a bug
+        raise internal_error(exc, path) from exc
+
+
+def internal_error(exc: Exception, path, line=None) -> SceneError:
+    text = " ".join(str(exc).split())[:200]
+    err = SceneError(f"could not read this file (unexpected {type(exc).__name__}: {text}; "
+                     "this is a lift-gl bug, please report it with the file)", path, line)
+    err.internal = True
+    return err
+
+
+def _load(path: Path, ext: str) -> Scene:
     if ext == ".toml":
         from .toml_loader import load_toml
         scene = load_toml(path)

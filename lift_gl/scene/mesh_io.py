@@ -34,10 +34,15 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
         fail("mesh file not found")
     if path.suffix.lower() not in MESH_EXTENSIONS:
         fail(f"unsupported mesh format '{path.suffix}' (use {', '.join(MESH_EXTENSIONS)})")
+    if path.suffix.lower() == ".ply":
+        check_ply_header(path, fail)  # before trimesh allocates what the header claims
     import trimesh  # heavy import, only when a mesh file is actually read
 
     try:
-        tm = trimesh.load(str(path), force="mesh", process=False)
+        # Not force="mesh": that route drops the normals stored in the file.
+        tm = trimesh.load(str(path), process=False)
+        if isinstance(tm, trimesh.Scene):  # several meshes (glTF): one, in world space
+            tm = tm.to_mesh() if tm.geometry else None
     except Exception as e:  # trimesh raises many kinds; all mean "unreadable"
         fail(f"cannot read mesh file ({type(e).__name__}: {e})")
     if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
@@ -45,6 +50,11 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
 
     positions = np.asarray(tm.vertices, dtype=np.float64)
     indices = np.asarray(tm.faces, dtype=np.int64)
+    if indices.ndim != 2 or indices.shape[1] != 3:
+        fail(f"mesh faces must be triangles, got an array of shape {indices.shape}")
+    if indices.min() < 0 or indices.max() >= len(positions):
+        fail(f"mesh faces use vertex indices outside 0..{len(positions) - 1} "
+             f"(from {indices.min()} to {indices.max()})")
     normals = None
     if _file_has_normals(path):
         n = np.asarray(tm.vertex_normals, dtype=np.float64)
@@ -59,6 +69,54 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
     source = f"{ref[0]}:{ref[1]}" if ref is not None else str(path)
     return Mesh(path.stem, positions, indices, material, normals=normals, uvs=uvs,
                 source=source)
+
+
+# Bytes of each PLY scalar type; a list property has at least its count.
+PLY_TYPE_BYTES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
+                  "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
+                  "double": 8, "float64": 8}
+MAX_MESH_ELEMENTS = 1 << 28  # vertices or faces in one file: far beyond what a GPU buffer takes
+
+
+def check_ply_header(path: Path, fail) -> None:
+    """Refuse a PLY whose header claims more elements than its file can hold (a truncated
+    or hostile file: 10^12 vertices in a few bytes), or more than MAX_MESH_ELEMENTS."""
+    size = path.stat().st_size
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+    if not head.startswith(b"ply"):
+        fail("not a PLY file (it does not start with 'ply')")
+    end = head.find(b"end_header")
+    if end < 0:
+        fail("PLY header has no 'end_header' in its first 64 KiB")
+    newline = head.find(b"\n", end)
+    body = size - (newline + 1 if newline >= 0 else end + len(b"end_header"))
+    binary = False
+    elements = []  # [name, count, least bytes of one row]
+    for line in head[:end].decode("ascii", "replace").splitlines():
+        words = line.split()
+        if not words:
+            continue
+        if words[0] == "format" and len(words) > 1:
+            binary = words[1].startswith("binary")
+        elif words[0] == "element":
+            if len(words) != 3 or not words[2].isdigit():
+                fail(f"bad PLY element line {line.strip()!r}")
+            count = int(words[2])
+            if count > MAX_MESH_ELEMENTS:
+                fail(f"PLY header claims {count:,} {words[1]} elements; the limit is "
+                     f"lift_gl.scene.mesh_io.MAX_MESH_ELEMENTS = {MAX_MESH_ELEMENTS:,}")
+            elements.append([words[1], count, 0])
+        elif words[0] == "property" and elements and len(words) >= 3:
+            kind = words[2] if words[1] == "list" else words[1]
+            # ASCII: at least one character and a separator a value.
+            elements[-1][2] += PLY_TYPE_BYTES.get(kind, 1) if binary else 2
+    for name, count, row in elements:
+        need = count * max(row, 1)
+        if need > body:
+            fail(f"PLY header claims {count:,} {name} elements (at least {need:,} bytes), but the "
+                 f"file has only {max(body, 0):,} bytes after its header")
+        body -= need
 
 
 def clean_triangles(positions, indices, normals, uvs, label):

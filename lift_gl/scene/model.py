@@ -100,7 +100,7 @@ class Mesh:
     """A triangle mesh already transformed to world space."""
 
     name: str
-    positions: np.ndarray  # float32 (V, 3)
+    positions: np.ndarray  # float64 (V, 3): far from the origin float32 would round the mesh
     indices: np.ndarray  # int32 (T, 3)
     material: int  # index into Scene.materials
     normals: np.ndarray | None = None  # float32 (V, 3), shading normals
@@ -114,7 +114,7 @@ class Mesh:
     authored: dict | None = None
 
     def __post_init__(self):
-        self.positions = np.ascontiguousarray(self.positions, dtype=np.float32).reshape(-1, 3)
+        self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 3)
         self.indices = np.ascontiguousarray(self.indices, dtype=np.int32).reshape(-1, 3)
         if self.normals is not None:
             self.normals = np.ascontiguousarray(self.normals, dtype=np.float32).reshape(-1, 3)

@@ -1,15 +1,20 @@
 """Flatten a Scene into the arrays that shaders/lift/scene_data.glsl declares.
 
-Triangles of all meshes are concatenated in world space and reordered into BVH leaf order.
+Triangles of all meshes are concatenated and reordered into BVH leaf order.
 Moving objects (motion blur) are stored where they are when the shutter opens, plus their
 displacement until it closes (`motion`). One BVH serves the whole shutter interval: its
 topology is built over the boxes the triangles sweep, and each node keeps two boxes, at
 shutter open (in `bvh_nodes`) and at shutter close (in `motion`); a ray at time t tests the
 blend of the two, which bounds every triangle below the node at t (motion is linear).
+
+Coordinates are rebased before they are rounded to float32: the GPU sees world space minus
+`origin` (the centre of the scene's bounds, kept in float64), so a scene far from the world
+origin (1e5 away) keeps the precision it has at the origin. Cameras must be rebased with
+`to_gpu_camera` too.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,7 +22,7 @@ from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached
 from .images import pack_images
 from .light_choice import light_uniforms
-from .model import Scene
+from .model import Camera, Scene
 from .optics import internal_diffuse_reflectance
 
 MATERIAL_CODES = {"diffuse": 0, "conductor": 1, "dielectric": 2, "plastic": 3}
@@ -35,7 +40,7 @@ class PackedScene:
     lights: np.ndarray  # float32 (L, 4)
     spheres: np.ndarray  # float32 (S, 2, 4)
     bvh_depth: int
-    bounds: np.ndarray  # (2, 3) world bounds of everything
+    bounds: np.ndarray  # (2, 3) bounds of everything, rebased (GPU coordinates)
     # Real counts: the arrays above hold one dummy row when empty (GL needs non-empty buffers).
     num_triangles: int
     num_spheres: int
@@ -50,6 +55,12 @@ class PackedScene:
     # the other lights (light_choice.py).
     images: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint32))
     uniforms: dict = field(default_factory=dict)
+    origin: np.ndarray = None  # float64 (3,): world position of the GPU coordinates' zero
+
+    def to_gpu_camera(self, camera: Camera) -> Camera:
+        """The camera in the rebased coordinates the GPU uses."""
+        origin = self.origin if self.origin is not None else np.zeros(3)
+        return replace(camera, position=camera.position - origin, target=camera.target - origin)
 
 
 def _as_float_bits(values) -> np.ndarray:
@@ -79,7 +90,18 @@ def pack_materials(scene: Scene) -> np.ndarray:
     return out
 
 
-def _triangles(scene: Scene):
+def scene_origin(scene: Scene) -> np.ndarray:
+    """The centre of the scene's bounds in float64 (zero for an empty scene)."""
+    lo = [m.positions.min(axis=0) for m in scene.meshes if len(m.positions)]
+    hi = [m.positions.max(axis=0) for m in scene.meshes if len(m.positions)]
+    lo += [s.center - s.radius for s in scene.spheres]
+    hi += [s.center + s.radius for s in scene.spheres]
+    if not lo:
+        return np.zeros(3)
+    return 0.5 * (np.min(lo, axis=0) + np.max(hi, axis=0))
+
+
+def _triangles(scene: Scene, origin: np.ndarray):
     if not scene.meshes:
         return (np.zeros((0, 3, 3), np.float32), np.zeros((0, 3, 3), np.float32),
                 np.zeros((0, 3, 2), np.float32), np.zeros(0, np.uint32), np.zeros((0, 3)))
@@ -87,7 +109,7 @@ def _triangles(scene: Scene):
     for mesh in scene.meshes:
         vel.append(np.broadcast_to(mesh.velocity if mesh.velocity is not None else np.zeros(3),
                                    (len(mesh.indices), 3)))
-        corners = mesh.positions[mesh.indices]
+        corners = mesh.positions[mesh.indices] - origin  # float64 until here
         pos.append(corners)
         if mesh.normals is not None:
             nrm.append(mesh.normals[mesh.indices])
@@ -135,8 +157,10 @@ def still_motion(packed: PackedScene) -> np.ndarray:
     return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
 
 
-def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
-    positions, normals, uvs, material_ids, tri_velocity = _triangles(scene)
+def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:
+    """`origin`: the world point that becomes the GPU's zero; default: the scene's centre."""
+    origin = scene_origin(scene) if origin is None else np.asarray(origin, dtype=np.float64)
+    positions, normals, uvs, material_ids, tri_velocity = _triangles(scene, origin)
     has_motion = scene.has_motion
     tri_open, tri_move = _shutter_motion(scene, tri_velocity)
     if tri_open.any():  # where the shutter opens after time 0, things have moved already
@@ -196,7 +220,7 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
 
     spheres = np.zeros((max(S, 1), 2, 4), np.float32)
     for i, s in enumerate(scene.spheres):
-        spheres[i, 0, :3] = s.center + sphere_open[i]
+        spheres[i, 0, :3] = s.center - origin + sphere_open[i]
         spheres[i, 0, 3] = s.radius
         spheres[i, 1, 0] = _as_float_bits([s.material])[0]
         spheres[i, 1, 1] = prim_select_pdf[T + i:T + i + 1].view(np.uint32).view(np.float32)[0]
@@ -206,7 +230,7 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
     lo = [swept.min(0)] if T else []
     hi = [swept.max(0)] if T else []
     for i, s in enumerate(scene.spheres):
-        for c in (s.center + sphere_open[i], s.center + sphere_open[i] + sphere_move[i]):
+        for c in (s.center - origin + sphere_open[i], s.center - origin + sphere_open[i] + sphere_move[i]):
             lo.append(c - s.radius)
             hi.append(c + s.radius)
     bounds = np.array([np.min(lo, axis=0), np.max(hi, axis=0)]) if lo else np.array([[-1.0] * 3, [1.0] * 3])
@@ -235,4 +259,5 @@ def pack_scene(scene: Scene, cache_dir=None) -> PackedScene:
         has_motion=has_motion,
         images=images,
         uniforms=uniforms,
+        origin=origin,
     )

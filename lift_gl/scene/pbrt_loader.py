@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import LiftError, SceneError
 from . import primitives as prim
-from .loader import warn_at
+from .loader import internal_error, warn_at
 from .mesh_io import load_mesh_file
 from .model import Camera, DistantLight, Environment, Material, Mesh, Scene
 from .optics import ior_from_f0
@@ -155,6 +155,8 @@ class ParamSet:
         if p is None:
             return None
         self.used.add(name)
+        if not p.values:
+            raise SceneError(f"parameter '{name}' has no value (empty [ ])", *self.where)
         if p.type not in types:
             raise SceneError(f"parameter '{name}' should be {' or '.join(types)}, "
                              f"not {p.type}", *self.where)
@@ -176,7 +178,11 @@ class ParamSet:
 
     def ints(self, name):
         p = self._get(name, ("integer",))
-        return None if p is None else np.asarray(p.values, dtype=np.int64)
+        if p is None:
+            return None
+        if not all(abs(v) < 2 ** 31 and v == int(v) for v in p.values):  # nan fails too
+            raise SceneError(f"parameter '{name}' needs integers below 2^31", *self.where)
+        return np.asarray(p.values, dtype=np.int64)
 
     def int(self, name, default=None):
         v = self.ints(name)
@@ -336,9 +342,17 @@ class _Builder:
         self.camera_params: ParamSet | None = None
         self.material_ids: dict = {}
         self.warned: set[str] = set()
+        self.including: list[Path] = []  # the Include chain, to refuse cycles
+        self.camera_statement: Statement | None = None
 
     # dispatch
-    def run(self, path: Path):
+    def run(self, path: Path, included_at: Statement | None = None):
+        where = (included_at.path, included_at.line) if included_at else (path, None)
+        if path.resolve() in self.including:
+            raise SceneError(f"Include cycle: {path} includes itself", *where)
+        if not path.is_file():
+            raise SceneError(f"included file not found: {path}", *where)
+        self.including.append(path.resolve())
         text = path.read_text(encoding="utf-8", errors="replace")
         for st in statements(tokenize(text, path), path):
             handler = getattr(self, "do_" + st.name, None)
@@ -350,7 +364,13 @@ class _Builder:
                     warn_at(st.path, st.line, f"unknown or unsupported directive "
                             f"'{st.name}'; ignored")
                 continue
-            handler(st)
+            try:
+                handler(st)
+            except (LiftError, RecursionError, MemoryError):
+                raise
+            except Exception as exc:  # unforeseen: one line naming the directive, marked a bug
+                raise internal_error(exc, st.path, st.line) from exc
+        self.including.pop()
 
     def _positional(self, st: Statement, count: int, kind=float) -> list:
         """The first `count` arguments, as pbrt writes them: bare or in one bracket."""
@@ -385,6 +405,8 @@ class _Builder:
 
     def do_Rotate(self, st):
         angle, *axis = self._positional(st, 4)
+        if not np.linalg.norm(axis) > 0:
+            raise SceneError("Rotate: the axis is zero", st.path, st.line)
         self._concat(prim.axis_angle_matrix(angle, axis))
 
     def do_LookAt(self, st):
@@ -472,12 +494,21 @@ class _Builder:
         if kind != "perspective":
             warn_at(st.path, st.line, f"camera '{kind}' is not supported; using perspective")
         self.camera_from_world = self.state.ctm.copy()
+        self.camera_statement = st
+        m = self.camera_from_world
+        if not (np.isfinite(m).all() and abs(np.linalg.det(m)) > 1e-300):
+            raise SceneError("the camera's transform is singular or not finite (a zero Scale?)",
+                             st.path, st.line)
         self.coord_systems["camera"] = np.linalg.inv(self.camera_from_world)
         self.camera_params = ps
 
     def _finish_camera(self):
         ps = self.camera_params or ParamSet()
         m = self.camera_from_world if self.camera_from_world is not None else np.eye(4)
+        st = self.camera_statement
+        if not (np.isfinite(m).all() and abs(np.linalg.det(m[:3, :3])) > 1e-300):
+            raise SceneError("the camera's transform is singular or not finite (a zero Scale?)",
+                             *((st.path, st.line) if st else (self.root, None)))
         world_from_camera = np.linalg.inv(m)
         position = world_from_camera[:3, 3]
         right, up, forward = (world_from_camera[:3, i] for i in range(3))
@@ -648,6 +679,10 @@ class _Builder:
     # shapes
     def do_Shape(self, st):
         kind, ps = self._kind_and_params(st)
+        m = self.state.ctm
+        if not (np.isfinite(m).all() and abs(np.linalg.det(m[:3, :3])) > 1e-300):
+            raise SceneError(f"Shape '{kind}': the current transform is singular or not finite "
+                             "(a zero Scale?)", st.path, st.line)
         src = f"{st.path}:{st.line}"
         if kind == "sphere":
             self._sphere(st, ps, src)
@@ -691,6 +726,9 @@ class _Builder:
 
     def _sphere(self, st, ps, src):
         radius = ps.float("radius", 1.0)
+        if not 0 < radius < float("inf"):
+            raise SceneError(f"sphere \"float radius\" must be positive and finite, got {radius}",
+                             st.path, st.line)
         if ps.float("zmin", -radius) > -radius or ps.float("zmax", radius) < radius \
                 or ps.float("phimax", 360.0) < 360.0:
             warn_at(st.path, st.line, "partial spheres (zmin/zmax/phimax) are not "
@@ -706,7 +744,7 @@ class _Builder:
 
     # files
     def do_Include(self, st):
-        self.run(self.root.parent / self._positional(st, 1, str)[0])
+        self.run(self.root.parent / self._positional(st, 1, str)[0], included_at=st)
 
     do_Import = do_Include
 

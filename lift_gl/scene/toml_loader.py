@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, read_utf8
 from . import primitives as prim
 from .loader import framing_camera, warn_at
 from .mesh_io import load_mesh_file
@@ -226,12 +226,14 @@ class _Context:
 
 def load_toml(path: Path) -> Scene:
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    text = read_utf8(path, SceneError)
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         m = re.search(r"\(at line (\d+), column (\d+)\)", str(e))
         line = int(m.group(1)) if m else getattr(e, "lineno", None)
+        if line is None and "end of document" in str(e):  # unclosed at the end: its last line
+            line = max(len(text.splitlines()), 1)
         message = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(e))
         if m:
             message += f" (column {m.group(2)})"

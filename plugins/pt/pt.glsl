@@ -3,17 +3,18 @@
 // handles pixels, seeds, accumulation and the NaN/Inf guard.
 // Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, low_discrepancy.
 
-// Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
-// that wo.z < 0 tells the BSDF the ray is inside.
+// Opaque surfaces shade from the side the ray came from (facing_shading_normal, which also
+// rescues normals tilted away from the viewer); glass keeps its orientation so that wo.z < 0
+// tells the BSDF the ray is inside.
+bool is_opaque(Material m) { return int(m.color_type.w) != MAT_DIELECTRIC; }
+
 // Two numbers for a light or BSDF sample: low-discrepancy pairs, or independent ones.
 vec2 sample_pair(inout Rng rng) {
     return low_discrepancy ? rng_ld2(rng) : rng_next2(rng);
 }
 
 Frame shading_frame(Surface s, Material m, vec3 wo_world) {
-    vec3 n = s.ns;
-    if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
-    return frame_from_normal(n);
+    return frame_from_normal(is_opaque(m) ? facing_shading_normal(s, wo_world) : s.ns);
 }
 
 // The bounce window (parameters min_bounce and only_bounce). Bounce k is the light that
@@ -68,6 +69,8 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
             if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls) && depth + 1 >= first_bounce) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
+                // Through the true surface of an opaque one: nothing (BSDF sampling agrees).
+                if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
                     // A delta light (distant) can't be found by BSDF sampling: no MIS.
                     float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
@@ -82,7 +85,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         if (!bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs)) break;
         vec3 wi_world = to_world(frame, bs.wi);
         // A reflection that the shading normal allows but the true surface does not.
-        if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wi_world, s.ng) * dot(wo_world, s.ng) <= 0.0) break;
+        if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
         throughput *= bs.weight;
         bsdf_pdf_prev = bs.pdf;
         specular_prev = bs.is_delta;

@@ -63,9 +63,19 @@ struct BsdfSample {
 int bsdf_type(Material m) { return int(m.color_type.w + 0.5); }
 float bsdf_alpha(Material m) { return m.emission_alpha.w; }
 
+// An interface between equal indices (IOR within 1e-3 of 1) bends nothing and reflects
+// (almost) nothing, rough or not: it is a delta transmission, and the rough BTDF, whose
+// half vector and refraction Jacobian degenerate there, is never used for it.
+bool dielectric_index_matched(Material m) { return abs(m.eta_ior.w - 1.0) < 1e-3; }
+
+// The rough GGX lobe of a conductor or dielectric (alpha > 0, and not index-matched glass).
+bool bsdf_is_rough(Material m) {
+    return bsdf_alpha(m) > 0.0 && !(bsdf_type(m) == MAT_DIELECTRIC && dielectric_index_matched(m));
+}
+
 bool bsdf_is_delta(Material m) {
     int type = bsdf_type(m);
-    return (type == MAT_CONDUCTOR || type == MAT_DIELECTRIC) && bsdf_alpha(m) <= 0.0;
+    return (type == MAT_CONDUCTOR || type == MAT_DIELECTRIC) && !bsdf_is_rough(m);
 }
 
 // Mirror direction about the normal of the shading frame.
@@ -411,7 +421,7 @@ vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
     if (type == MAT_CONDUCTOR && bsdf_alpha(m) > 0.0) return conductor_rough_eval(m, wo, wi);
 #endif
 #ifdef HAS_ROUGH_DIELECTRIC
-    if (type == MAT_DIELECTRIC && bsdf_alpha(m) > 0.0) return dielectric_rough_eval(m, wo, wi);
+    if (type == MAT_DIELECTRIC && bsdf_is_rough(m)) return dielectric_rough_eval(m, wo, wi);
 #endif
 #ifdef HAS_PLASTIC
     if (type == MAT_PLASTIC) return plastic_eval(m, wo, wi);
@@ -426,7 +436,7 @@ float bsdf_pdf(Material m, vec3 wo, vec3 wi) {
     if (type == MAT_CONDUCTOR && bsdf_alpha(m) > 0.0) return conductor_rough_pdf(m, wo, wi);
 #endif
 #ifdef HAS_ROUGH_DIELECTRIC
-    if (type == MAT_DIELECTRIC && bsdf_alpha(m) > 0.0) return dielectric_rough_pdf(m, wo, wi);
+    if (type == MAT_DIELECTRIC && bsdf_is_rough(m)) return dielectric_rough_pdf(m, wo, wi);
 #endif
 #ifdef HAS_PLASTIC
     if (type == MAT_PLASTIC) return plastic_pdf(m, wo, wi);
@@ -453,7 +463,7 @@ bool bsdf_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
 #ifdef HAS_DIELECTRIC
     else if (type == MAT_DIELECTRIC) {
 #ifdef HAS_ROUGH_DIELECTRIC
-        if (bsdf_alpha(m) > 0.0) ok = dielectric_rough_sample(m, wo, u, s);
+        if (bsdf_is_rough(m)) ok = dielectric_rough_sample(m, wo, u, s);
         else
 #endif
         ok = dielectric_smooth_sample(m, wo, u.z, s);

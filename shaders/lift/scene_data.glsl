@@ -51,7 +51,9 @@ layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 layout(std430, binding = 16) readonly buffer Motion { vec4 motion[]; };
 #endif
 
-// Counters the host reads back: [0] samples dropped as NaN/Inf, [1] splats dropped as NaN/Inf.
+// Counters the host reads back: [0] samples dropped as NaN/Inf, [1] splats dropped as NaN/Inf,
+// [2..3] rays traced (LIFT_COUNT_RAYS), [4] pixel-frames whose paths the driver's loop limit
+// cut short (lift_gl/passes/trace.py).
 layout(std430, binding = 8) buffer Stats { uint stats[]; };
 
 #if defined(HAS_TEXTURES) || defined(HAS_ENVIRONMENT_MAP)

@@ -58,41 +58,71 @@ Surface surface_at(Ray ray, Hit hit) {
     return s;
 }
 
-// Move p off the surface along n by a few ulps of its own magnitude, so that rays leaving
-// the surface do not hit it again, at any scene scale (after Waechter and Binder 2019).
+// Move p off the surface along n, past the rounding error of p, so that rays leaving the
+// surface do not hit it again, at any scale and any distance from the origin. That error
+// grows with p's own magnitude (a few ulps of p) and with the magnitude of the vertices p
+// was interpolated from (`scale`): the step is 2^-15 of the first, 2^-18 of the second,
+// both far above the few ulps of error (after Waechter and Binder 2019, with pbrt's
+// vertex-magnitude bound for points near zero; tests/test_stress.py checks 1e-3 to 1e4).
+vec3 offset_ray_origin_scaled(vec3 p, vec3 n, float scale) {
+    vec3 step = max(abs(p) * (1.0 / 32768.0), vec3(scale * (1.0 / 262144.0)));
+    return p + step * n;
+}
+
+// The same for a point whose vertices are of p's own magnitude, or about 1.
 vec3 offset_ray_origin(vec3 p, vec3 n) {
-    const float near_origin = 1.0 / 32.0;
-    const float float_step = 1.0 / 65536.0;
-    const float int_step = 256.0;
-    ivec3 of = ivec3(int_step * n);
-    vec3 p_int = intBitsToFloat(floatBitsToInt(p) + ivec3(p.x < 0.0 ? -of.x : of.x,
-                                                          p.y < 0.0 ? -of.y : of.y,
-                                                          p.z < 0.0 ? -of.z : of.z));
-    return vec3(abs(p.x) < near_origin ? p.x + float_step * n.x : p_int.x,
-                abs(p.y) < near_origin ? p.y + float_step * n.y : p_int.y,
-                abs(p.z) < near_origin ? p.z + float_step * n.z : p_int.z);
+    return offset_ray_origin_scaled(p, n, max(1.0, max(abs(p.x), max(abs(p.y), abs(p.z)))));
+}
+
+// Largest |coordinate| among the vertices that s.p was interpolated from.
+float surface_coordinate_scale(Surface s) {
+    if (s.prim < u_num_triangles) {
+        uint i = 3u * s.prim;
+        vec3 m = max(max(abs(tri_pos[i].xyz), abs(tri_pos[i + 1u].xyz)), abs(tri_pos[i + 2u].xyz));
+        return max(m.x, max(m.y, m.z));
+    }
+#ifdef HAS_SPHERES
+    vec4 cr = spheres[2u * (s.prim - u_num_triangles)];
+    vec3 m = abs(cr.xyz) + vec3(cr.w);
+    return max(m.x, max(m.y, m.z));
+#else
+    return max(abs(s.p.x), max(abs(s.p.y), abs(s.p.z)));
+#endif
 }
 
 // A ray leaving surface s in direction dir (world space), started on the side dir goes to.
 Ray spawn_ray(Surface s, vec3 dir) {
     vec3 n = dot(dir, s.ng) >= 0.0 ? s.ng : -s.ng;
-    return Ray(offset_ray_origin(s.p, n), dir, 0.0, 1e30);
+    return Ray(offset_ray_origin_scaled(s.p, n, surface_coordinate_scale(s)), dir, 0.0, 1e30);
 }
 
-// A shadow ray from s towards a point at distance dist along dir (1e30: the environment);
-// stops just short of it. The offset origin is not on the line from s.p along dir, and on
-// a short ray at a grazing angle (a light 0.1 above a surface) that line meets the target's
-// plane well before dist: so the ray aims from its own origin at the target itself.
+// A shadow ray from s towards a point at distance dist along dir; stops just short of it.
+// It is aimed from the offset origin at the point itself, so that the offset cannot carry
+// its end through the light's surface (a light met at a grazing angle, or a large offset).
+// Written in units of dist so that nothing overflows for the environment (dist = 1e30).
 Ray spawn_shadow_ray(Surface s, vec3 dir, float dist) {
     Ray r = spawn_ray(s, dir);
-    if (dist < 1e30) {
-        vec3 to_target = s.p + dir * dist - r.origin;
-        float len = length(to_target);
-        if (len > 0.0) r.dir = to_target / len;
-        r.tmax = len * (1.0 - 1e-4);
-    }
+    vec3 to_target = dir + (s.p - r.origin) / dist;  // (target - origin) / dist
+    float len = length(to_target);
+    r.dir = to_target / len;
+    r.tmax = dist * len * (1.0 - 1e-4);
     return r;
 }
+
+// The shading normal of an opaque surface seen from wo (world space, away from it): s.ns
+// turned to wo's side of the geometric surface. Where wo is still below that shading
+// hemisphere (interpolated or authored normals tilted away from the viewer) the BSDF would
+// be zero and the surface black: the geometric normal is used there instead.
+vec3 facing_shading_normal(Surface s, vec3 wo) {
+    float side = dot(wo, s.ng) >= 0.0 ? 1.0 : -1.0;
+    vec3 ns = side * s.ns;
+    return dot(wo, ns) > 0.0 ? ns : side * s.ng;
+}
+
+// Whether world directions a and b (both away from s) lie on the same side of the true
+// surface: an opaque surface reflects only between such directions, whatever its shading
+// normal says (light sampling and BSDF sampling must agree on this, or MIS is biased).
+bool same_side_of_surface(Surface s, vec3 a, vec3 b) { return dot(a, s.ng) * dot(b, s.ng) > 0.0; }
 
 // Radiance emitted by s towards direction w (world space); emitters emit from the front.
 vec3 surface_emission(Surface s, vec3 w) {

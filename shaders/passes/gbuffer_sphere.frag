@@ -4,6 +4,7 @@
 uniform mat4 u_view_proj;
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
+uniform float u_inv_far;  // depth test on linear view depth (see lift_gl/passes/gbuffer.py)
 flat in uint v_sphere;
 in vec3 v_world;
 layout(location = 0) out uvec4 o_visibility;
@@ -22,12 +23,12 @@ void main() {
     if (t <= 0.0) t = -b + s;  // the camera is inside the sphere
     if (t <= 0.0) discard;
     vec3 p = u_cam_pos + t * d;
-    vec4 clip = u_view_proj * vec4(p, 1.0);
-    gl_FragDepth = clip.z / clip.w * 0.5 + 0.5;
+    float view_depth = dot(p - u_cam_pos, u_cam_forward);
+    gl_FragDepth = clamp(view_depth * u_inv_far, 0.0, 1.0);
     uint material = floatBitsToUint(spheres[2u * v_sphere + 1u].x);
     o_visibility = uvec4(u_num_triangles + v_sphere + 1u, 0u, 0u, material);
     vec3 n = normalize(p - cr.xyz);
     if (dot(n, -d) < 0.0) n = -n;
-    o_normal_depth = vec4(n, dot(p - u_cam_pos, u_cam_forward));
+    o_normal_depth = vec4(n, view_depth);
     o_albedo = vec4(bsdf_albedo(material_at(material, sphere_uv(normalize(p - cr.xyz)))), 1.0);
 }
