@@ -115,7 +115,7 @@ def test_furnace_clear_glass_sphere_vanishes():
 
 # ---------------------------------------------------------------- Tungsten's Cornell box
 SIZE_REF = 64
-SPP_REF = 16
+SPP_REF = 32
 
 
 @pytest.fixture(scope="module")
