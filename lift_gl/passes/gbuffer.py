@@ -10,7 +10,7 @@ from __future__ import annotations
 import moderngl
 
 from .. import shaders
-from .camera import view_projection
+from .camera import near_far, view_projection
 from .common import set_uniforms
 
 SHADER_DIR = shaders.SHADER_DIR / "passes"
@@ -46,6 +46,10 @@ class GBufferPass:
     def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict) -> None:
         uniforms = dict(scene_uniforms, **camera_uniforms)
         uniforms["u_view_proj"] = view_projection(camera, self.size, bounds, jitter).ravel()
+        # The depth test uses view depth / far (linear, written by the fragment shaders):
+        # uniform precision, where the projection's depth would lose surfaces millimetres
+        # apart to z-fighting when the near plane is close (a camera inside the scene).
+        uniforms["u_depth_far"] = near_far(camera, bounds)[1]
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.ctx.enable(moderngl.DEPTH_TEST)

@@ -5,6 +5,7 @@
 #include "lift/textures.glsl"
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
+uniform float u_depth_far;  // depth test on view depth / far: uniform precision (gbuffer.py)
 flat in uint v_prim;
 in vec2 v_bary;
 in vec3 v_normal;
@@ -17,7 +18,9 @@ void main() {
     o_visibility = uvec4(v_prim + 1u, floatBitsToUint(v_bary.x), floatBitsToUint(v_bary.y), material);
     vec3 n = length(v_normal) > 0.0 ? normalize(v_normal) : vec3(0.0, 0.0, 1.0);
     if (dot(n, u_cam_pos - v_world) < 0.0) n = -n;
-    o_normal_depth = vec4(n, dot(v_world - u_cam_pos, u_cam_forward));
+    float view_depth = dot(v_world - u_cam_pos, u_cam_forward);
+    gl_FragDepth = clamp(view_depth / u_depth_far, 0.0, 1.0);
+    o_normal_depth = vec4(n, view_depth);
     uint i = 3u * v_prim;
     vec2 uv = (1.0 - v_bary.x - v_bary.y) * tri_uv[i].xy + v_bary.x * tri_uv[i + 1u].xy + v_bary.y * tri_uv[i + 2u].xy;
     o_albedo = vec4(bsdf_albedo(material_at(material, uv)), 1.0);

@@ -1,9 +1,9 @@
 #include "lift/scene_data.glsl"
 #include "lift/bsdf.glsl"
 #include "lift/textures.glsl"
-uniform mat4 u_view_proj;
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
+uniform float u_depth_far;  // depth test on view depth / far, as gbuffer.frag
 flat in uint v_sphere;
 in vec3 v_world;
 layout(location = 0) out uvec4 o_visibility;
@@ -22,8 +22,7 @@ void main() {
     if (t <= 0.0) t = -b + s;  // the camera is inside the sphere
     if (t <= 0.0) discard;
     vec3 p = u_cam_pos + t * d;
-    vec4 clip = u_view_proj * vec4(p, 1.0);
-    gl_FragDepth = clip.z / clip.w * 0.5 + 0.5;
+    gl_FragDepth = clamp(dot(p - u_cam_pos, u_cam_forward) / u_depth_far, 0.0, 1.0);
     uint material = floatBitsToUint(spheres[2u * v_sphere + 1u].x);
     o_visibility = uvec4(u_num_triangles + v_sphere + 1u, 0u, 0u, material);
     vec3 n = normalize(p - cr.xyz);
