@@ -20,6 +20,7 @@ PROBES = {
     "rough plastic": "vec3 probe(Material m, vec3 w) { return plastic_specular_eval(m, w, w, 0.1); }",
     "textures": "vec4 probe(vec2 uv) { return texture_lookup(0u, uv); }",
     "environment map": "float probe(vec3 w) { return env_map_pdf(w); }",
+    "beckmann": "vec3 probe(Material m, vec3 w) { return conductor_beckmann_eval(m, w, w); }",
 }
 
 

@@ -150,7 +150,7 @@ def test_unknown_elements_and_parameters_warn_once_with_their_line(tmp_path):
     <shape type="rectangle"><bsdf type="fancy"/></shape>
     <shape type="cylinder"/>
     <shape type="rectangle">
-        <bsdf type="roughconductor"><float name="alpha" value="0.1"/></bsdf>
+        <bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf>
     </shape>
     <emitter type="point"/>
 </scene>
@@ -159,13 +159,13 @@ def test_unknown_elements_and_parameters_warn_once_with_their_line(tmp_path):
     expected = [("odd.xml:2:", "unknown element <mode>"), ("odd.xml:5:", "'sample_num' is not supported"),
                 ("odd.xml:8:", "unknown element <hide>"), ("odd.xml:12:", "BSDF 'fancy' is not supported"),
                 ("odd.xml:13:", "shape 'cylinder' is not supported"),
-                ("odd.xml:15:", "beckmann microfacets are approximated by GGX"),
+                ("odd.xml:15:", "beckmann microfacets are approximated by GGX of the same alpha for roughplastic"),
                 ("odd.xml:17:", "emitter 'point' is not supported")]
     for where, what in expected:
         assert sum(where in m and what in m for m in messages) == 1, (where, what, messages)
     assert not any("odd.xml:11:" in m for m in messages), "the second <mode> is not reported again"
     assert len(scene.meshes) == 2 and scene.max_depth == 2
-    assert scene.materials[scene.meshes[1].material].type == "conductor"
+    assert scene.materials[scene.meshes[1].material].type == "plastic"
 
 
 @pytest.mark.parametrize("body, line, text", [
@@ -258,3 +258,22 @@ def test_mitsuba_reference_scene_converges_to_its_reference(shared_dir, name):
     mean, want = ((a + b) / 2).reshape(-1, 3).mean(axis=0), ref.reshape(-1, 3).mean(axis=0)
     mean_se = np.sqrt(((a - b) ** 2 / 4).reshape(-1, 3).mean(axis=0) / (SIZE * SIZE))
     assert np.all(np.abs(mean - want) < 4 * mean_se + 1e-6), (name, mean, want, mean_se)
+
+
+def test_rough_conductors_keep_beckmann(tmp_path):
+    path = tmp_path / "b.xml"
+    path.write_text("""<scene version="3.0.0">
+    <shape type="rectangle"><bsdf type="roughconductor"><float name="alpha" value="0.3"/></bsdf></shape>
+    <shape type="rectangle"><bsdf type="roughconductor"><string name="distribution" value="ggx"/></bsdf></shape>
+    <shape type="rectangle"><bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf></shape>
+</scene>""")
+    with pytest.raises(SceneError) as info:
+        load_quietly(path)
+    assert info.value.line == 4 and "unknown microfacet distribution 'phong'" in info.value.message
+    path.write_text(path.read_text().replace('    <shape type="rectangle"><bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf></shape>\n', ""))
+    scene, messages = load_quietly(path)
+    beckmann, ggx = (scene.materials[m.material] for m in scene.meshes)
+    assert (beckmann.distribution, beckmann.alpha) == ("beckmann", 0.3)  # Mitsuba's default
+    assert (ggx.distribution, ggx.alpha) == ("ggx", 0.1)
+    from lift_gl.scene.features import SceneFeatures
+    assert SceneFeatures.of(scene).beckmann

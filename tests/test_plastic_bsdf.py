@@ -18,7 +18,7 @@ from scipy import stats
 
 from glsl_harness import Kernel
 from lift_gl.scene.optics import fresnel_dielectric, internal_diffuse_reflectance
-from test_bsdf_chi2 import (CRITICAL_MARGIN, REL_TOL, histogram, pdf_cell_integrals, pearson_chi2, sample,
+from test_bsdf_chi2 import (REL_TOL, histogram, pdf_cell_integrals, pearson_chi2, sample,
                             wo_from_cos)
 
 MAT_PLASTIC = 3

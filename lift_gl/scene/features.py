@@ -25,6 +25,7 @@ class SceneFeatures:
     textures: bool = False  # image textures (base colour)
     environment_map: bool = False  # an image-based environment, importance sampled
     distant_lights: bool = False  # directional (delta) lights
+    beckmann: bool = False  # rough conductors with a Beckmann distribution
 
     @classmethod
     def of(cls, scene: Scene) -> "SceneFeatures":
@@ -44,6 +45,7 @@ class SceneFeatures:
             textures=any(m.texture is not None for m in used),
             environment_map=_has_environment(scene) and scene.environment.image is not None,
             distant_lights=any((d.irradiance > 0).any() for d in scene.distant_lights),
+            beckmann=any(m.type == "conductor" and m.alpha > 0 and m.distribution == "beckmann" for m in used),
         )
 
     @classmethod

@@ -9,9 +9,9 @@
 | twosided | its BSDF (lift-gl's opaque surfaces reflect on both sides anyway) |
 | mask, bumpmap, normalmap, blendbsdf, thindielectric, roughdiffuse | approximated, with a warning |
 
-Roughness: alpha (or the geometric mean of alpha_u and alpha_v, with a warning) is GGX's;
-a Beckmann distribution (Mitsuba's default) is approximated by GGX of the same alpha, with
-a warning. Bitmaps: sRGB-decoded unless raw; bilinear, repeating.
+Roughness: alpha (or the geometric mean of alpha_u and alpha_v, with a warning). Rough
+conductors keep their distribution (GGX or Beckmann, Mitsuba's default); rough glass and
+plastic are GGX, a Beckmann one approximated by GGX of the same alpha, with a warning. Bitmaps: sRGB-decoded unless raw; bilinear, repeating.
 """
 from __future__ import annotations
 
@@ -62,7 +62,8 @@ class BsdfReader:
         first = inner[0]
         return self.ctx.lookup(first.get("id"), first) if first.tag == "ref" else first
 
-    def _alpha(self, p: Props) -> float:
+    def _alpha(self, p: Props, beckmann_ok: bool = False) -> tuple[float, str]:
+        """(alpha, distribution); Beckmann is kept where lift-gl has it (conductors)."""
         alpha = p.float("alpha", None)
         au, av = p.float("alpha_u", None), p.float("alpha_v", None)
         if alpha is None and au is not None:
@@ -73,11 +74,15 @@ class BsdfReader:
         if alpha is None:
             alpha = 0.1
         distribution = p.string("distribution", "beckmann").lower()
-        if distribution != "ggx":
-            self.ctx.warn(p.node, f"{distribution} microfacets are approximated by GGX of the same alpha",
-                          key=("distribution", distribution))
+        if distribution not in ("ggx", "beckmann"):
+            raise SceneError(f"unknown microfacet distribution '{distribution}' (ggx, beckmann)",
+                             *p.items["distribution"].where)
+        if distribution == "beckmann" and not beckmann_ok:
+            self.ctx.warn(p.node, f"beckmann microfacets are approximated by GGX of the same alpha for "
+                          f"{p.kind}", key=("distribution", p.kind))
+            distribution = "ggx"
         p.used.update({"sample_visible"})
-        return alpha
+        return alpha, distribution
 
     def _ior(self, p: Props, name: str, default: str) -> float:
         node = p.items.get(name)
@@ -179,8 +184,9 @@ class BsdfReader:
             rgb, tex = self.colour(p, "reflectance", [0.5] * 3)
             m = Material(name, "diffuse", base_color=rgb, texture=tex, source=src)
         elif kind in ("conductor", "roughconductor"):
-            m = Material(name, "conductor", base_color=[1, 1, 1], source=src,
-                         alpha=self._alpha(p) if kind == "roughconductor" else 0.0)
+            alpha, distribution = self._alpha(p, beckmann_ok=True) if kind == "roughconductor" else (0.0, "ggx")
+            m = Material(name, "conductor", base_color=[1, 1, 1], source=src, alpha=alpha,
+                         distribution=distribution)
             tint, tex = self.colour(p, "specular_reflectance", [1, 1, 1])
             if tex is not None:
                 warn(node, "textured specular_reflectance is not supported; using 1")
@@ -210,7 +216,7 @@ class BsdfReader:
                 warn(node, "textured transmittance and specular_reflectance other than 1 are not "
                      "supported; ignored", key=("dielectric-tint",))
             m = Material(name, "dielectric", base_color=tint, ior=ior, source=src,
-                         alpha=self._alpha(p) if kind == "roughdielectric" else 0.0)
+                         alpha=self._alpha(p)[0] if kind == "roughdielectric" else 0.0)
         elif kind in ("plastic", "roughplastic"):
             ior = self._ior(p, "int_ior", "polypropylene") / self._ior(p, "ext_ior", "air")
             rgb, tex = self.colour(p, "diffuse_reflectance", [0.5] * 3)
@@ -219,7 +225,7 @@ class BsdfReader:
                 warn(node, "textured specular_reflectance is not supported; using 1")
             m = Material(name, "plastic", base_color=rgb, texture=tex, ior=ior, specular=spec,
                          nonlinear=p.bool("nonlinear", False), source=src,
-                         alpha=self._alpha(p) if kind == "roughplastic" else 0.0)
+                         alpha=self._alpha(p)[0] if kind == "roughplastic" else 0.0)
         else:
             warn(node, f"BSDF '{kind}' is not supported; approximated as a grey diffuse", key=("bsdf", kind))
             return Material(name, "diffuse", base_color=[0.5] * 3, source=src)

@@ -55,8 +55,9 @@ class Material:
     """One surface model. `type` picks the BSDF:
 
     - diffuse: Lambertian with albedo `base_color`.
-    - conductor: GGX microfacet metal with GGX `alpha` (0 = smooth mirror); Fresnel from the
-      complex IOR (`eta`, `k`) where given, else Schlick with F0 = `base_color`.
+    - conductor: GGX microfacet metal with GGX `alpha` (0 = smooth mirror; `distribution`
+      "beckmann" for Beckmann's); Fresnel from the complex IOR (`eta`, `k`) where given,
+      else Schlick with F0 = `base_color`.
     - dielectric: glass with index `ior`; smooth when `alpha` is 0, else GGX rough glass;
       `base_color` tints transmission.
     - plastic: a diffuse base of albedo `base_color` under a dielectric coat of index `ior`,
@@ -80,6 +81,7 @@ class Material:
     specular: np.ndarray = field(default_factory=lambda: np.ones(3))
     texture: int | None = None  # base colour texture: index into Scene.textures
     nonlinear: bool = False  # plastic only
+    distribution: str = "ggx"  # rough conductors: "ggx" or "beckmann"
 
     def __post_init__(self):
         self.base_color = np.asarray(self.base_color, dtype=np.float64)

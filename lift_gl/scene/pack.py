@@ -74,6 +74,8 @@ def pack_materials(scene: Scene) -> np.ndarray:
         out[i, 0, 3] = MATERIAL_CODES[m.type]
         out[i, 1, :3] = m.emission
         out[i, 1, 3] = m.alpha
+        if m.type == "conductor" and m.distribution == "beckmann" and m.alpha > 0:
+            out[i, 1, 3] = -m.alpha  # bsdf.glsl: a negative alpha marks Beckmann
         if m.eta is not None and m.k is not None:
             out[i, 2, :3] = m.eta
             out[i, 3, :3] = m.k

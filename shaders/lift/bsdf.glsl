@@ -21,6 +21,7 @@
 //   HAS_ROUGH_DIELECTRIC   GGX rough glass (Walter et al. 2007); implies HAS_DIELECTRIC
 //   HAS_PLASTIC            a diffuse base under a smooth dielectric coat
 //   HAS_ROUGH_PLASTIC      ... under a GGX-rough coat; implies HAS_PLASTIC
+//   HAS_BECKMANN           rough conductors with a Beckmann distribution (emission_alpha.w < 0)
 // A material whose code is not compiled reflects nothing (bsdf_sample returns false).
 //
 // Material fields used (lift/scene_data.glsl): color_type.rgb = diffuse albedo / Schlick F0 /
@@ -61,7 +62,9 @@ struct BsdfSample {
 };
 
 int bsdf_type(Material m) { return int(m.color_type.w + 0.5); }
-float bsdf_alpha(Material m) { return m.emission_alpha.w; }
+// A negative alpha marks a Beckmann conductor (HAS_BECKMANN); every other lobe is GGX.
+float bsdf_alpha(Material m) { return abs(m.emission_alpha.w); }
+bool bsdf_beckmann(Material m) { return m.emission_alpha.w < 0.0; }
 
 // An interface between equal indices (IOR within 1e-3 of 1) bends nothing and reflects
 // (almost) nothing, rough or not: it is a delta transmission, and the rough BTDF, whose
@@ -121,9 +124,45 @@ bool conductor_smooth_sample(Material m, vec3 wo, out BsdfSample s) {
 }
 
 #ifdef HAS_ROUGH_CONDUCTOR
+#ifdef HAS_BECKMANN
+// ---- Rough conductor, Beckmann: the same BRDF with Beckmann's D and G; normals sampled
+// by D(m) cos(m), so pdf(wi) = D(h) h.z / (4 wo.h) ----
+vec3 conductor_beckmann_eval(Material m, vec3 wo, vec3 wi) {
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 h = normalize(wo + wi);
+    return conductor_fresnel(m, dot(wo, h)) * (beckmann_D(h, alpha) * beckmann_G2(wo, wi, alpha) / (4.0 * wo.z));
+}
+
+float conductor_beckmann_pdf(Material m, vec3 wo, vec3 wi) {
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 h = normalize(wo + wi);
+    float wo_h = dot(wo, h);
+    return wo_h > 0.0 ? beckmann_D(h, alpha) * h.z / (4.0 * wo_h) : 0.0;
+}
+
+bool conductor_beckmann_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
+    s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
+    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
+    vec3 h = beckmann_sample(alpha, u);
+    float wo_h = dot(wo, h);
+    if (wo_h <= 0.0) return false;  // a back-facing microfacet: no sample
+    vec3 wi = 2.0 * wo_h * h - wo;
+    if (wi.z <= 0.0) return false;
+    s.wi = wi;
+    s.pdf = conductor_beckmann_pdf(m, wo, wi);
+    if (!(s.pdf > 0.0) || isinf(s.pdf)) return false;
+    // f cos / pdf = F G2 wo.h / (cos_o h.z): D and the Jacobians cancel.
+    s.weight = conductor_fresnel(m, wo_h) * (beckmann_G2(wo, wi, alpha) * wo_h / (wo.z * h.z));
+    return true;
+}
+#endif
+
 // ---- Rough conductor: GGX microfacet BRDF, f = D G2 F / (4 cos_o cos_i) ----
 vec3 conductor_rough_eval(Material m, vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+#ifdef HAS_BECKMANN
+    if (bsdf_beckmann(m)) return conductor_beckmann_eval(m, wo, wi);
+#endif
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
     vec3 h = normalize(wo + wi);
     float D = ggx_D(h, alpha);
@@ -134,6 +173,9 @@ vec3 conductor_rough_eval(Material m, vec3 wo, vec3 wi) {
 
 float conductor_rough_pdf(Material m, vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
+#ifdef HAS_BECKMANN
+    if (bsdf_beckmann(m)) return conductor_beckmann_pdf(m, wo, wi);
+#endif
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
     vec3 h = normalize(wo + wi);
     // Visible-normal density times the reflection Jacobian 1 / (4 wo.h); wo.h cancels.
@@ -143,6 +185,9 @@ float conductor_rough_pdf(Material m, vec3 wo, vec3 wi) {
 bool conductor_rough_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     if (wo.z <= 0.0) return false;
+#ifdef HAS_BECKMANN
+    if (bsdf_beckmann(m)) return conductor_beckmann_sample(m, wo, u, s);
+#endif
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
     vec3 h = ggx_sample_visible(wo, alpha, u);
     float wo_h = dot(wo, h);

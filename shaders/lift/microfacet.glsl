@@ -73,4 +73,43 @@ float ggx_pdf_visible(vec3 wo, vec3 m, float alpha) {
     return ggx_G1(wo, alpha) * max(0.0, dot(wo, m)) * ggx_D(m, alpha) / wo.z;
 }
 
+#ifdef HAS_BECKMANN
+// ---- Beckmann distribution (Mitsuba's default for rough conductors) ----
+// D(m) = exp(-tan^2 / alpha^2) / (pi alpha^2 cos^4). Sampled in proportion to D(m) cos(m),
+// not by visible normals (Beckmann has no closed-form VNDF sampling).
+float beckmann_D(vec3 m, float alpha) {
+    if (m.z <= 0.0) return 0.0;
+    float cos2 = m.z * m.z;
+    float tan2 = max(0.0, 1.0 - cos2) / cos2;
+    float a2 = alpha * alpha;
+    return exp(-tan2 / a2) / max(LIFT_PI * a2 * cos2 * cos2, 1e-30);
+}
+
+// Smith Lambda with Walter et al.'s (2007) rational fit, a = 1 / (alpha tan(theta)).
+float beckmann_lambda(vec3 w, float alpha) {
+    float z = abs(w.z);
+    float s = sqrt(max(0.0, 1.0 - z * z));
+    if (!(s > 0.0)) return 0.0;
+    float a = z / (alpha * s);
+    if (a >= 1.6) return 0.0;
+    return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a);
+}
+
+float beckmann_G1(vec3 w, float alpha) { return 1.0 / (1.0 + beckmann_lambda(w, alpha)); }
+
+// Height-correlated masking-shadowing.
+float beckmann_G2(vec3 wo, vec3 wi, float alpha) {
+    return 1.0 / (1.0 + beckmann_lambda(wo, alpha) + beckmann_lambda(wi, alpha));
+}
+
+// A microfacet normal with density D(m) cos(m) (over solid angle of m).
+vec3 beckmann_sample(float alpha, vec2 u) {
+    float tan2 = -alpha * alpha * log(max(1.0 - u.x, 1e-30));
+    float cos_t = inversesqrt(1.0 + tan2);
+    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    float phi = 2.0 * LIFT_PI * u.y;
+    return vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t);
+}
+#endif
+
 #endif

@@ -1,7 +1,6 @@
 #include "lift/scene_data.glsl"
 #include "lift/bsdf.glsl"
 #include "lift/textures.glsl"
-uniform mat4 u_view_proj;
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
 uniform float u_inv_far;  // depth test on linear view depth (see lift_gl/passes/gbuffer.py)
