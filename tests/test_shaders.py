@@ -99,3 +99,37 @@ void main() {
     first = points[:, 0].reshape(-1, 2)
     counts = np.histogram2d(first[:, 0], first[:, 1], bins=8, range=[[0, 1], [0, 1]])[0].ravel()
     assert stats.chisquare(counts).pvalue > 1e-3
+
+
+def test_sobol_second_dimension_matches_its_generator_matrix():
+    """sobol_dimension_1 (loop-free, lift/rng.glsl) equals the XOR of the generator matrix's
+    rows v_k = v_(k-1) ^ (v_(k-1) >> 1), v_0 = 2^31, over the index's set bits."""
+    import numpy as np
+
+    def by_rows(index: int) -> int:
+        x, v = 0, 0x80000000
+        while index:
+            if index & 1:
+                x ^= v
+            index >>= 1
+            v ^= v >> 1
+        return x
+
+    rng = np.random.default_rng(5)
+    indices = np.concatenate([np.arange(1024), rng.integers(0, 2**32, 3072)]).astype(np.uint32)
+    ctx = create_context()
+    src = assemble("""
+layout(local_size_x = 64) in;
+#include "lift/rng.glsl"
+layout(std430, binding = 10) buffer In { uint indices[]; };
+layout(std430, binding = 11) buffer Out { uint values[]; };
+void main() { values[gl_GlobalInvocationID.x] = sobol_dimension_1(indices[gl_GlobalInvocationID.x]); }
+""")
+    program = compile_compute(ctx, src)
+    inp = ctx.buffer(indices.tobytes())
+    out = ctx.buffer(reserve=indices.nbytes)
+    inp.bind_to_storage_buffer(10)
+    out.bind_to_storage_buffer(11)
+    program.run(len(indices) // 64)
+    got = np.frombuffer(out.read(), np.uint32)
+    assert [int(g) for g in got] == [by_rows(int(i)) for i in indices]

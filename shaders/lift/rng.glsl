@@ -67,13 +67,21 @@ uint lk_permute(uint x, uint key) {
 
 uint owen_scramble(uint x, uint key) { return bitfieldReverse(lk_permute(bitfieldReverse(x), key)); }
 
-// Sobol's second dimension: generator matrix rows v_k = v_(k-1) ^ (v_(k-1) >> 1).
+// Sobol's second dimension: generator matrix rows v_k = v_(k-1) ^ (v_(k-1) >> 1), i.e.
+// row k has bit (31 - j) set where C(k, j) is odd, which is where j's bits are a subset of
+// k's (Lucas). So bit j of the bit-reversed result is the parity of the index's bits at the
+// positions k that are supersets of j: a XOR superset sum over the five bits of a position,
+// five shift-and-mask steps instead of a loop over the index's 32 bits. (Loops matter:
+// llvmpipe stops a shader invocation after 65535 loop iterations in all, and the loop cost
+// about 60 of them per bounce. tests/test_rng.py checks it against the loop.)
 uint sobol_dimension_1(uint index) {
-    uint x = 0u;
-    for (uint v = 0x80000000u; index != 0u; index >>= 1u, v ^= v >> 1u) {
-        if ((index & 1u) != 0u) x ^= v;
-    }
-    return x;
+    uint g = index;
+    g ^= (g >> 1u) & 0x55555555u;
+    g ^= (g >> 2u) & 0x33333333u;
+    g ^= (g >> 4u) & 0x0f0f0f0fu;
+    g ^= (g >> 8u) & 0x00ff00ffu;
+    g ^= (g >> 16u) & 0x0000ffffu;
+    return bitfieldReverse(g);
 }
 
 vec2 rng_ld2(inout Rng r) {
