@@ -2,7 +2,7 @@
 scenes/cornell.toml (issue 6; results in docs/temporal.md).
 
     python benchmarks/temporal_pan.py [--size 64] [--frames 16] [--step 0.025] [--ref-spp 384]
-                                      [--cache DIR] [--out FILE.json]
+                                      [--cache DIR] [--out FILE.json] [--figure FILE.png]
 
 The camera (and its target) moves --step scene units to the right each frame, and each
 frame adds one sample per pixel (the viewer's case). For every frame it reports the relMSE
@@ -83,6 +83,25 @@ def run_pan(scene, size, frames, step, settings, ctx) -> list[np.ndarray]:
     return images
 
 
+def figure(scene, size, frames, step, runs, reference, ctx, out: Path) -> None:
+    """One row: the last pan frame with reset, with reprojection, the reference, then the
+    reprojecting renderer's history, rejection, variance and irradiance views."""
+    from lift_gl.app.aov_view import aov_to_display
+    from lift_gl.image_io import write_srgb8
+    from lift_gl.tonemap import to_srgb8
+
+    r = Renderer(scene, size=(size, size), seed=7, ctx=ctx, temporal="reproject")
+    for f in range(frames):
+        if f:
+            r.set_camera(pan_camera(scene.camera, f, step))
+        r.render(spp=1)
+    tiles = [to_srgb8(runs["reset"][-1]), to_srgb8(runs["reproject"][-1]), to_srgb8(reference)]
+    tiles += [aov_to_display(name, r.aov(name)) for name in ("history", "rejection", "variance", "irradiance")]
+    r.release()
+    gap = np.full((size, 2, 3), 255, np.uint8)
+    write_srgb8(out, np.concatenate([x for t in tiles for x in (t, gap)][:-1], axis=1))
+
+
 def mean_change(images) -> float:
     return float(np.mean([np.abs(b - a).mean() for a, b in zip(images, images[1:])]))
 
@@ -121,6 +140,8 @@ def main() -> None:
     parser.add_argument("--ref-spp", type=int, default=384)
     parser.add_argument("--cache", type=Path)
     parser.add_argument("--out", type=Path)
+    parser.add_argument("--figure", type=Path, help="PNG: last frame reset | reproject | reference | "
+                        "history | rejection | variance | irradiance")
     args = parser.parse_args()
 
     ctx = create_context()
@@ -140,6 +161,8 @@ def main() -> None:
     stability = {name: mean_change(images) for name, images in runs.items()}
     stability["references"] = mean_change(refs)
     ghosts = ghosting()
+    if args.figure:
+        figure(scene, args.size, args.frames, args.step, runs, refs[-1], ctx, args.figure)
 
     names = list(VARIANTS)
     print(f"pan: {args.frames} frames, {args.step} scene units a frame, {args.size}x{args.size}, 1 spp a frame; "
@@ -157,7 +180,7 @@ def main() -> None:
         print(f"ghost, {name}: interior " + " ".join(f"{v:.3f}" for v in g["interior"])
               + " | edge " + " ".join(f"{v:.3f}" for v in g["edge"]))
     result = {"machine": f"{platform.node()} {platform.processor() or platform.machine()}, {describe(ctx)}",
-              "settings": vars(args) | {"cache": str(args.cache), "out": str(args.out)},
+              "settings": vars(args) | {k: str(getattr(args, k)) for k in ("cache", "out", "figure")},
               "reference_seconds": ref_seconds, "table": table, "means": means, "stability": stability,
               "ghosting": ghosts}
     if args.out:

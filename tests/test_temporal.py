@@ -297,3 +297,12 @@ def test_render_sequence_cli(tmp_path, capsys):
                  "--spp", "1", "--aov", "history", "--out", str(tmp_path / "h_{frame:02d}.png")]) == 0
     assert (tmp_path / "h_01.png").is_file()
     assert main(["render", str(CORNELL), "--frames", "2", "--out", str(out)]) == 2  # --frames needs a path
+
+
+def test_shipped_camera_path_fits_the_cornell_box():
+    path = load_camera_path(REPO / "scenes" / "paths" / "cornell_pan.toml")
+    scene = load_scene(CORNELL)
+    path.check_objects(scene)  # raises if the [[move]] names an object the scene lacks
+    assert len(path.keyframes) == 2 and path.moves[0].name == "glass sphere"
+    with pytest.raises(SceneError, match="no such ball"):
+        dataclasses.replace(path, moves=[dataclasses.replace(path.moves[0], name="no such ball")]).check_objects(scene)

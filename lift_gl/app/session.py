@@ -106,8 +106,10 @@ class ErrorLog:
 
 class ViewSession:
     def __init__(self, ctx, scene_path, integrator: str = "pt", params: dict | None = None, seed: int = 0,
-                 plugin_dirs=(), resolution: Resolution | None = None, timers: bool = True):
+                 plugin_dirs=(), resolution: Resolution | None = None, timers: bool = True,
+                 temporal: str = "reset"):
         self.ctx = ctx
+        self.temporal = temporal  # Renderer(temporal=...): "reproject" keeps history while the camera moves
         self.seed = int(seed)
         self.plugin_dirs = tuple(plugin_dirs)
         self.timers = timers
@@ -137,7 +139,7 @@ class ViewSession:
     def _make_renderer(self, integrator: str, params: dict, scene=None) -> Renderer:
         return Renderer(scene or self.scene, size=self.resolution.render_size(self.moving), integrator=integrator,
                         seed=self.seed, params=params, plugin_dirs=self.plugin_dirs, timers=self.timers,
-                        ctx=self.ctx)
+                        ctx=self.ctx, temporal=self.temporal)
 
     def _adopt_scene(self) -> None:
         bounds = scene_bounds(self.scene)
