@@ -27,7 +27,6 @@ import dataclasses
 import json
 import platform
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -146,9 +145,7 @@ def main() -> None:
 
     ctx = create_context()
     scene = load_scene(ROOT / "scenes" / "cornell.toml")
-    start = time.perf_counter()
     refs = references(scene, args.size, args.frames, args.step, args.ref_spp, args.cache, ctx)
-    ref_seconds = time.perf_counter() - start
     runs = {name: run_pan(scene, args.size, args.frames, args.step, settings, ctx) for name, settings in VARIANTS.items()}
     table = []
     for f in range(args.frames):
@@ -181,7 +178,7 @@ def main() -> None:
               + " | edge " + " ".join(f"{v:.3f}" for v in g["edge"]))
     result = {"machine": f"{platform.node()} {platform.processor() or platform.machine()}, {describe(ctx)}",
               "settings": vars(args) | {k: str(getattr(args, k)) for k in ("cache", "out", "figure")},
-              "reference_seconds": ref_seconds, "table": table, "means": means, "stability": stability,
+              "table": table, "means": means, "stability": stability,
               "ghosting": ghosts}
     if args.out:
         args.out.write_text(json.dumps(result, indent=1))
