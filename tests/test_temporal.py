@@ -136,7 +136,8 @@ def test_disoccluded_pixels_restart_their_history():
     seen_before &= ~hidden_by_sphere(world, new.position, centre, 0.6, margin=-0.25)
     old_right, _, old_forward = scene.camera.basis()
     rel = world - scene.camera.position
-    old_x = ((rel @ old_right) / ((rel @ old_forward) * t * w / h) * 0.5 + 0.5) * w
+    old_z = np.where(depth > 0, rel @ old_forward, 1.0)
+    old_x = ((rel @ old_right) / (old_z * t * w / h) * 0.5 + 0.5) * w
     seen_before &= (old_x > 1) & (old_x < w - 1)  # in the old view, not at its border
     assert revealed.sum() >= 10 and seen_before.sum() > 200
     assert np.all(history[revealed] == 1)  # history length 1: this frame's one sample
@@ -161,7 +162,7 @@ def test_ghost_of_a_moving_object_fades_within_the_bound():
     was_ball = r.image()[..., 0] > 0.6  # the ball's pixels (red) before it moves
     wall = np.array([0.2, 0.3, 1.0])
     steps = 12
-    ghost_interior, ghost_any = [], []
+    ghost_interior, ghost_any, kept_history = [], [], []
     for step in range(1, steps + 1):
         ball = dataclasses.replace(scene.spheres[0], center=scene.spheres[0].center + [0.25 * step, 0, 0])
         r.update_scene(dataclasses.replace(scene, spheres=[ball]))
@@ -172,7 +173,13 @@ def test_ghost_of_a_moving_object_fades_within_the_bound():
         interior = left & ~_dilate(~was_ball, 1)
         ghost_interior.append(red[interior].max(initial=0.0))
         ghost_any.append(red[left].max(initial=0.0))
+        # The object's motion vectors: the ball's own pixels carry their history along
+        # (without them they would find the wall's depth there and restart).
+        on_ball = now_ball & ~_dilate(~now_ball, 1)
+        if on_ball.sum() > 20:  # until it leaves the picture
+            kept_history.append((r.aov("history")[..., 0][on_ball] > 1).mean())
     assert r.stats.reprojected == steps
+    assert len(kept_history) >= 4 and min(kept_history) > 0.9
     assert max(ghost_interior) < 1e-5  # rejected at once: no ghost at all
     bound = math.ceil(math.log(0.02) / math.log(1 - min_blend))
     # Each frame the ghost shrinks by (1 - min_blend) at least: check that rate on what we saw.
