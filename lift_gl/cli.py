@@ -96,6 +96,12 @@ def cmd_render(args) -> int:
         path.check_objects(scene)
         scene = path.scene_at(path.keyframes[0].time, scene)
     temporal = args.temporal or ("reproject" if path is not None else "reset")
+    if temporal != "reproject" and (args.min_blend is not None or args.clamp_sigma):
+        raise LiftError("--min-blend and --clamp-sigma need --temporal reproject (or --camera-path)")
+    if args.min_blend is not None and not 0 < args.min_blend <= 1:
+        raise LiftError(f"--min-blend must be in (0, 1], not {args.min_blend}")
+    if not args.clamp_sigma >= 0:
+        raise LiftError(f"--clamp-sigma must be >= 0, not {args.clamp_sigma}")
     extra = {} if args.min_blend is None else {"min_blend": args.min_blend}
     renderer = Renderer(scene, size=args.size, integrator=args.integrator, backend=args.backend, seed=args.seed,
                         params=_settings(args.set, args.integrator), plugin_dirs=args.plugins,

@@ -304,6 +304,11 @@ def test_render_sequence_cli(tmp_path, capsys):
                  "--spp", "1", "--aov", "history", "--out", str(tmp_path / "h_{frame:02d}.png")]) == 0
     assert (tmp_path / "h_01.png").is_file()
     assert main(["render", str(CORNELL), "--frames", "2", "--out", str(out)]) == 2  # --frames needs a path
+    assert main(["render", str(CORNELL), "--camera-path", str(f), "--out", str(tmp_path / "one.png")]) == 2
+    assert main(["render", str(CORNELL), "--clamp-sigma", "1", "--out", str(tmp_path / "x.png")]) == 2
+    assert main(["render", str(CORNELL), "--camera-path", str(f), "--min-blend", "0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "a pattern with {frame}" in err and "need --temporal reproject" in err and "(0, 1]" in err
 
 
 def test_shipped_camera_path_fits_the_cornell_box():
