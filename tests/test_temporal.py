@@ -318,3 +318,24 @@ def test_shipped_camera_path_fits_the_cornell_box():
     assert len(path.keyframes) == 2 and path.moves[0].name == "glass sphere"
     with pytest.raises(SceneError, match="no such ball"):
         dataclasses.replace(path, moves=[dataclasses.replace(path.moves[0], name="no such ball")]).check_objects(scene)
+
+
+def test_viewer_session_reprojects_and_shows_the_views():
+    from lift_gl.app.session import Resolution, ViewSession
+    from lift_gl.gl.context import create_context
+
+    s = ViewSession(create_context(), CORNELL, seed=4, resolution=Resolution(window=(32, 24)), temporal="reproject")
+    try:
+        for _ in range(3):
+            s.step()
+        before = s.aov_display("history")
+        s.controller.set_camera(shifted(s.scene.camera, 0.1))
+        s.apply_camera()
+        s.step()
+        assert s.renderer.stats.reprojected == 1
+        after = s.aov_display("history")
+        assert after is not before  # views of the accumulation follow the frames (not cached)
+        assert s.aov("history").max() == 4  # 3 samples carried over + 1
+        assert s.aov_display("rejection").shape == (24, 32, 3)
+    finally:
+        s.release()
