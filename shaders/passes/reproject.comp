@@ -70,6 +70,7 @@ void main() {
     if (nd.w > 0.0) {  // a surface (the background keeps no history)
         rejected = vec3(0.0);
         vec2 position = vec2(p) + motion.xy;  // (p + 0.5 + motion) - 0.5: texel centres at integers
+        position = clamp(position, vec2(-2.0), vec2(size) + 1.0);  // far off screen: no int overflow
         ivec2 base = ivec2(floor(position));
         vec2 f = position - vec2(base);
         float tolerance = 2.0 * motion.w + u_depth_slack * motion.z;
