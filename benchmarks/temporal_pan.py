@@ -177,7 +177,7 @@ def main() -> None:
         print(f"ghost, {name}: interior " + " ".join(f"{v:.3f}" for v in g["interior"])
               + " | edge " + " ".join(f"{v:.3f}" for v in g["edge"]))
     result = {"machine": f"{platform.node()} {platform.processor() or platform.machine()}, {describe(ctx)}",
-              "settings": vars(args) | {k: str(getattr(args, k)) for k in ("cache", "out", "figure")},
+              "settings": {k: getattr(args, k) for k in ("size", "frames", "step", "ref_spp")},
               "table": table, "means": means, "stability": stability,
               "ghosting": ghosts}
     if args.out:
