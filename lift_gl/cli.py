@@ -10,6 +10,8 @@ from .app.command import add_parser as add_view_parser
 from .errors import LiftError
 from .report import bench, compare
 
+GBUFFER_AOVS = ("albedo", "normal", "depth")  # as lift_gl.renderer (not imported here: it loads GL)
+
 
 def _size(text: str) -> tuple[int, int]:
     try:
@@ -48,14 +50,27 @@ def _add_render(sub):
     p.add_argument("--denoise", choices=("off", "final", "every"), default="off")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
-    p.add_argument("--aov", choices=("albedo", "normal", "depth"), help="write this G-buffer channel instead")
+    p.add_argument("--aov", choices=("albedo", "normal", "depth", "history", "rejection", "variance", "irradiance"),
+                   help="write this G-buffer channel, or view of the accumulation (after rendering), instead")
     p.add_argument("--exposure", type=float, default=0.0, help="stops, for PNG output")
     p.add_argument("--tonemap", default="aces", choices=("aces", "reinhard", "clamp"), help="for PNG output")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
     p.add_argument("--all-features", action="store_true",
                    help="compile every shader feature, not only those the scene uses (for comparisons)")
     p.add_argument("--explain", action="store_true", help="print the passes and compiled features, and why")
-    p.add_argument("--out", help="output file: .png (sRGB), .exr .pfm .npy (linear float32)")
+    p.add_argument("--out", help="output file: .png (sRGB), .exr .pfm .npy (linear float32); with "
+                   "--camera-path a folder (frame_0000.png, ...) or a pattern such as pan_{frame:04d}.png")
+    seq = p.add_argument_group("image sequences (docs/temporal.md)")
+    seq.add_argument("--camera-path", help="a camera path file (TOML keyframes): render a sequence along it")
+    seq.add_argument("--frames", type=int, help="frames of the sequence (default 24); --spp is per frame (default 4)")
+    seq.add_argument("--temporal", choices=("reproject", "reset"), default=None,
+                     help="when the camera or an object moves: reproject the accumulation (default with "
+                          "--camera-path) or restart it")
+    seq.add_argument("--min-blend", type=float, default=None,
+                     help="least weight of a moving frame in the reprojected average (default 0.1)")
+    seq.add_argument("--clamp-sigma", type=float, default=0.0,
+                     help="clamp the reprojected history to the frame's neighbourhood, +- this many "
+                          "standard deviations (BIASED; default 0: off)")
     p.set_defaults(func=cmd_render)
 
 
@@ -70,14 +85,39 @@ def cmd_render(args) -> int:
         raise LiftError("render needs --out FILE (or --explain)")
     if args.denoise != "off":
         raise LiftError("the denoiser is not available yet: use --denoise off")
+    if args.frames is not None and args.camera_path is None:
+        raise LiftError("--frames needs --camera-path FILE")
     scene = load_scene(args.scene)
+    path = None
+    if args.camera_path is not None:
+        from .camera_path import load_camera_path
+
+        path = load_camera_path(args.camera_path)
+        path.check_objects(scene)
+        scene = path.scene_at(path.keyframes[0].time, scene)
+    temporal = args.temporal or ("reproject" if path is not None else "reset")
+    if temporal != "reproject" and (args.min_blend is not None or args.clamp_sigma):
+        raise LiftError("--min-blend and --clamp-sigma need --temporal reproject (or --camera-path)")
+    if args.min_blend is not None and not 0 < args.min_blend <= 1:
+        raise LiftError(f"--min-blend must be in (0, 1], not {args.min_blend}")
+    if not args.clamp_sigma >= 0:
+        raise LiftError(f"--clamp-sigma must be >= 0, not {args.clamp_sigma}")
+    extra = {} if args.min_blend is None else {"min_blend": args.min_blend}
     renderer = Renderer(scene, size=args.size, integrator=args.integrator, backend=args.backend, seed=args.seed,
                         params=_settings(args.set, args.integrator), plugin_dirs=args.plugins,
-                        features=SceneFeatures.everything() if args.all_features else None)
+                        features=SceneFeatures.everything() if args.all_features else None,
+                        temporal=temporal, clamp_sigma=args.clamp_sigma, **extra)
     if args.explain:
         print(renderer.explain())
         if args.out is None:
             return 0
+    if path is not None:
+        return _render_sequence(renderer, scene, path, args)
+    if args.aov and args.aov not in GBUFFER_AOVS:
+        renderer.render(spp=args.spp or 64, seconds=args.seconds)
+        _write_aov(args.out, renderer, args.aov, args.exposure)
+        print(f"wrote {args.out} ({args.aov})")
+        return 0
     if args.aov:
         image = renderer.aov(args.aov)
         write_image(args.out, image, exposure=args.exposure, tonemap="clamp")
@@ -95,6 +135,61 @@ def cmd_render(args) -> int:
         write_image(args.out, image)
     write_render_record(renderer, args.scene, args.out)
     print(f"{args.out}: {renderer.size[0]}x{renderer.size[1]}, {args.integrator}, {renderer.stats.summary()}")
+    return 0
+
+
+def _write_aov(out, renderer, name: str, exposure: float) -> None:
+    from .image_io import write_image, write_srgb8
+
+    data = renderer.aov(name)
+    if str(out).lower().endswith(".png") and name not in GBUFFER_AOVS:
+        from .app.aov_view import aov_to_display  # the viewer's colours: counts and masks made visible
+
+        write_srgb8(out, aov_to_display(name, data))
+    else:
+        write_image(out, data, exposure=exposure, tonemap="clamp")
+
+
+def _frame_file(out: str, index: int) -> Path:
+    """--out of a sequence: a pattern with {frame}, or a folder that gets frame_0000.png, ..."""
+    if "{frame" in out:
+        try:
+            return Path(out.format(frame=index))
+        except (KeyError, IndexError, ValueError) as exc:
+            raise LiftError(f"--out pattern {out!r} is not valid: {exc}") from None
+    folder = Path(out)
+    if folder.suffix:
+        raise LiftError(f"--out {out!r}: a sequence needs a folder or a pattern with {{frame}}, "
+                        "e.g. frames/ or pan_{frame:04d}.png")
+    return folder / f"frame_{index:04d}.png"
+
+
+def _render_sequence(renderer, scene, path, args) -> int:
+    """Follow the camera path: one image per frame, the accumulation reprojected (or reset)
+    between frames; --spp samples per pixel are added at each frame."""
+    from .image_io import write_image, write_srgb8
+
+    frames = 24 if args.frames is None else args.frames
+    if frames < 1:
+        raise LiftError(f"--frames must be at least 1, not {frames}")
+    spp = None if args.seconds is not None else (args.spp or 4)
+    for index, time in enumerate(path.times(frames)):
+        if index:
+            moved = path.scene_at(time, scene)
+            if path.moves:
+                renderer.update_scene(moved)
+            renderer.set_camera(moved.camera)
+        image = renderer.render(spp=spp, seconds=args.seconds)
+        out = _frame_file(args.out, index)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        if args.aov:
+            _write_aov(out, renderer, args.aov, args.exposure)
+        elif out.suffix.lower() == ".png":
+            write_srgb8(out, renderer.display(args.exposure, args.tonemap))
+        else:
+            write_image(out, image)
+        print(f"{out}: t={time:g}, {renderer.stats.summary()}"
+              + (f", {renderer.stats.reprojected} reprojected frames" if renderer.reproject is not None else ""))
     return 0
 
 

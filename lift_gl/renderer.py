@@ -6,6 +6,11 @@
 A frame is: G-buffer (when the plugin takes its first hit from it) -> trace -> accumulate.
 Only the passes the settings need are created (see `explain()`).
 
+Temporal reprojection (temporal="reproject", docs/temporal.md): moving the camera
+(set_camera) or objects (update_scene) keeps the accumulation: on the next frame the
+reproject pass carries it over to the new view before the frame is added; a still camera
+keeps the exact running mean. temporal="reset" (the default) restarts accumulation instead.
+
 Hot reload: `reload()` recompiles the plugin when its files changed; a broken edit raises
 its error (file and line) and the last good program goes on rendering.
 """
@@ -27,6 +32,7 @@ from .passes.common import (SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS, S
                             STAT_RAYS_LOW, GpuTimer, SceneBuffers)
 from .passes.gbuffer import GBufferPass
 from .passes.reduced_trace import ReducedTracePass, block_offset
+from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
 from .passes.upsample import UpsamplePass
@@ -35,9 +41,14 @@ from .scene.features import SceneFeatures
 from .scene.model import Scene
 from .scene.pack import pack_materials, pack_scene
 from .scene.validate import validate_scene
+from .temporal import DEFAULT_MIN_BLEND, MODES, history_cap, motion_uniforms, objects_moved, previous_positions, same_camera
 from .watch import FileWatcher
 
-AOVS = ("albedo", "normal", "depth")
+GBUFFER_AOVS = ("albedo", "normal", "depth")
+# Views of the accumulation's internals (docs/temporal.md): history length (samples),
+# the last reprojection's rejection mask, the frames' luminance variance, radiance / albedo.
+AOVS = GBUFFER_AOVS + ("history", "rejection", "variance", "irradiance")
+PREV_POSITIONS_BINDING = 17  # shaders/passes/motion_vectors.glsl
 
 
 @dataclass
@@ -51,6 +62,7 @@ class RenderStats:
     pass_ms: dict = field(default_factory=dict)  # mean GPU time per pass (with timers=True)
     rays: int = 0  # rays traced through the BVH (with count_rays=True)
     error: ErrorEstimate | None = None  # set by Renderer.estimate_error()
+    reprojected: int = 0  # frames that began with a reprojection (temporal="reproject": something moved)
 
     def summary(self) -> str:
         error = "" if self.error is None else f", est. rel. std. error {100 * self.error.rel_std_error:.2f}%"
@@ -67,7 +79,20 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, integrator: str = "pt",
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
-                 timers: bool = False, count_rays: bool = False, ctx=None):
+                 timers: bool = False, count_rays: bool = False, ctx=None, temporal: str = "reset",
+                 min_blend: float = DEFAULT_MIN_BLEND, clamp_sigma: float = 0.0):
+        """temporal: "reset" (a moved camera or object restarts accumulation) or "reproject"
+        (the history is reprojected; min_blend: the least weight a moving frame gets;
+        clamp_sigma > 0: clamp the history to the frame's neighbourhood, BIASED)."""
+        if temporal not in MODES:
+            raise ValueError(f"temporal must be one of {', '.join(MODES)}, not {temporal!r}")
+        history_cap(min_blend, 1)  # validates min_blend
+        if not clamp_sigma >= 0.0:
+            raise ValueError(f"clamp_sigma must be >= 0, not {clamp_sigma!r}")
+        self.temporal, self.min_blend, self.clamp_sigma = temporal, float(min_blend), float(clamp_sigma)
+        self._frame_camera = self._frame_scene = None  # what the last frame saw (reproject)
+        self._prev_positions = None  # the G-buffer's prev_positions SSBO (reproject)
+        self._prev_positions_still = False  # whether it holds this scene's positions as they are
         self.scene = validate_scene(scene)
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
@@ -105,13 +130,16 @@ class Renderer:
     def _create_passes(self) -> None:
         """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
         uses_gbuffer = self.plugin.primary == "gbuffer"
+        reproject = self.temporal == "reproject"  # motion vectors need the G-buffer, whatever the primary
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                    self.packed.num_spheres) if uses_gbuffer else None)
+                                    self.packed.num_spheres, motion_vectors=reproject)
+                        if uses_gbuffer or reproject else None)
         self.trace = self._create_trace(self.plugin)
         # A plugin with a [reduced] estimate (hybrid): traced at reduced resolution, upsampled into the frame.
         reduced = self.plugin.reduced is not None
         self.reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self.defines) if reduced else None
         self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
+        self.reproject = ReprojectPass(self.ctx, self.size) if reproject else None
         self.accumulate = AccumulatePass(self.ctx, self.size)
         self.tonemap = None  # created on the first display() call: headless float output needs none
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
@@ -142,17 +170,21 @@ class Renderer:
         return self.packed.to_gpu_camera(self.scene.camera)
 
     def set_camera(self, camera) -> None:
-        """Look through another camera; only the camera uniforms change, accumulation restarts.
+        """Look through another camera; only the camera uniforms change, accumulation
+        restarts (temporal="reset") or is reprojected on the next frame ("reproject").
 
         The caller's Scene is not modified (two renderers may share one).
         """
         self.scene = dataclasses.replace(self.scene, camera=camera)
         self.camera_uniforms = camera_uniforms(self.camera, self.size)
-        self.reset()
+        if self.temporal != "reproject":
+            self.reset()
 
     def update_scene(self, scene: Scene, geometry: bool = True) -> None:
         """Show an edited scene (the viewer's live edits, lift_gl/scene/edit.py); the camera
-        stays the one on screen, accumulation restarts.
+        stays the one on screen, accumulation restarts; with temporal="reproject", objects
+        that only moved keep their history (reprojected on the next frame), while any other
+        change (materials, lights, environment, compiled features) restarts it.
 
         geometry=False (colours, roughness, emission): the materials buffer is rewritten, and
         the emitter table rebuilt when emission changed. geometry=True (objects moved or
@@ -162,6 +194,10 @@ class Renderer:
         """
         materials = pack_materials(scene)
         old = self.packed.materials
+        same_look = (materials.shape == old.shape and np.array_equal(materials, old)
+                     and _environment(scene) == _environment(self.scene)
+                     and len(scene.distant_lights) == len(self.scene.distant_lights) == 0
+                     and len(scene.textures) == len(self.scene.textures) == 0)
         emission_changed = materials.shape != old.shape or not np.array_equal(materials[:, 1, :3], old[:, 1, :3])
         if geometry or emission_changed:
             packed = pack_scene(scene)
@@ -175,11 +211,14 @@ class Renderer:
         self.scene_uniforms = self.buffers.uniforms(env)
         features = self._fixed_features or SceneFeatures.of(scene)
         if features != self.features:
+            same_look = False
             self.features, self.defines = features, features.defines()
             for p in self.passes:
                 p.release()
             self._create_passes()
-        self.reset()
+        self._prev_positions_still = False
+        if not (self.temporal == "reproject" and same_look):
+            self.reset()
 
     def resize(self, size: tuple[int, int]) -> None:
         """Render at another resolution: the scene stays uploaded, the passes are rebuilt,
@@ -231,7 +270,7 @@ class Renderer:
         if plugin.primary == "gbuffer" and self.gbuffer is None:
             self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                        self.packed.num_spheres)
-        elif plugin.primary == "camera" and self.gbuffer is not None:
+        elif plugin.primary == "camera" and self.gbuffer is not None and self.reproject is None:
             self.gbuffer.release()  # the plugin now traces its own camera rays
             self.gbuffer = None
         for stale in (getattr(self, "reduced", None), getattr(self, "upsample", None)):
@@ -264,8 +303,8 @@ class Renderer:
 
     @property
     def passes(self) -> list:
-        return [p for p in (self.gbuffer, self.trace, self.reduced, self.upsample, self.accumulate, self.tonemap)
-                if p is not None]
+        return [p for p in (self.gbuffer, self.trace, self.reduced, self.upsample, self.reproject, self.accumulate,
+                            self.tonemap) if p is not None]
 
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
@@ -275,6 +314,8 @@ class Renderer:
                  f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}"]
         if self.plugin.biased:
             lines.append(f"BIASED: {self.plugin.biased}")
+        if self.clamp_sigma > 0 and self.reproject is not None:
+            lines.append(f"BIASED: temporal neighbourhood clamp (+-{self.clamp_sigma:g} sigma) on moving frames")
         lines.append("passes:")
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}" + self._trace_device(),
@@ -284,11 +325,26 @@ class Renderer:
                    "upsample": "joint bilateral upsampling of the reduced estimate, guided by normal and depth "
                                f"(normal_power {self._reduced_setting('normal_power')}, depth_sigma "
                                f"{self._reduced_setting('depth_sigma')}), added to the frame" if self.plugin.reduced else "",
+                   "reproject": "temporal = reproject: runs ONLY on frames where the camera or an object moved "
+                                "since the last frame: the history seen from the new camera (motion vectors, "
+                                "bilinear taps rejected by depth and normal), capped at "
+                                f"{history_cap(self.min_blend, self.samples_per_frame):g} samples "
+                                f"(min blend {self.min_blend:g})"
+                                + (f", clamped to the frame's neighbourhood (+-{self.clamp_sigma:g} sigma: BIASED)"
+                                   if self.clamp_sigma > 0 else ""),
                    "accumulate": "still camera: exact running mean (compensated sum), and the difference "
-                                 "of two halves of the frames for the error estimate",
+                                 "of two halves of the frames for the error estimate, and luminance moments"
+                                 + ("; after a reprojection it adds the frame to the reprojected history"
+                                    if self.reproject is not None else ""),
                    "tonemap": "a display image was asked for (PNG or screen)"}
+        if self.reproject is not None:
+            reasons["gbuffer"] = ("the reproject pass needs its motion vectors and the previous frame's normal "
+                                  "and depth (temporal = reproject)"
+                                  + ("; the plugin also takes its first hit from it" if self.plugin.primary == "gbuffer"
+                                     else ""))
         for p in self.passes:
-            lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(p.outputs)}: {reasons[p.name]}")
+            outputs = p.outputs + (("motion", "previous normal_depth") if p is self.gbuffer and self.reproject else ())
+            lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(outputs)}: {reasons[p.name]}")
         if self.gbuffer is None:
             lines.append("  (no gbuffer: the plugin traces camera rays, primary = \"camera\")")
         lines.append("scene features compiled in (+) and left out (-):")
@@ -314,6 +370,7 @@ class Renderer:
         self.frame_index = 0
         self.stats = RenderStats()
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
+        self._frame_camera = self._frame_scene = None  # nothing to reproject from
 
     def _reduced_setting(self, name: str):
         return self.plugin.reduced.value(name, self.params)
@@ -332,9 +389,11 @@ class Renderer:
         # The accumulation's two halves (error estimate) draw from two independent streams.
         stream = 0 if half_sign(self.accumulate.frames) > 0 else 1
         self.buffers.bind()
+        moved, motion = self._motion() if self.reproject is not None else (False, None)
         if self.gbuffer is not None:
             with self._timed("gbuffer"):
-                self.gbuffer.run(self.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms)
+                self.gbuffer.run(self.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms,
+                                 motion)
         uniforms = dict(self.scene_uniforms, **self.camera_uniforms,
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,
@@ -350,12 +409,42 @@ class Renderer:
             with self._timed("upsample"):
                 self.upsample.run(self.trace.frame, self.reduced.reduced, self.gbuffer, scale, offset,
                                   self._reduced_setting("normal_power"), self._reduced_setting("depth_sigma"))
+        if moved:
+            with self._timed("reproject"):
+                self.reproject.run(self.accumulate, self.gbuffer, self.trace.frame,
+                                   history_cap(self.min_blend, samples), self.clamp_sigma)
+            self.stats.reprojected += 1
         with self._timed("accumulate"):
             self.accumulate.run(self.trace.frame)
+        if self.reproject is not None:
+            self._frame_camera, self._frame_scene = self.scene.camera, self.scene
         self.frame_index += 1
         self.stats.frames += 1
         self.stats.spp += samples
         self.stream_spp[stream] += samples
+
+    def _motion(self, frame: bool = True) -> tuple[bool, dict]:
+        """temporal="reproject": whether something moved since the last frame, and the
+        G-buffer's motion-vector uniforms; binds its prev_positions buffer. frame=False (an
+        AOV's G-buffer run, not a frame): no motion, and the history is left alone."""
+        camera, scene = self.scene.camera, self.scene
+        before_camera = self._frame_camera if frame and self._frame_camera is not None else camera
+        before_scene = self._frame_scene if frame and self._frame_scene is not None else scene
+        objects = objects_moved(before_scene, scene)
+        if objects or not self._prev_positions_still:
+            rows = previous_positions(self.packed, before_scene if objects else None, scene)
+            if self._prev_positions is None or self._prev_positions.size != rows.nbytes:
+                if self._prev_positions is not None:
+                    self._prev_positions.release()
+                self._prev_positions = self.ctx.buffer(reserve=max(rows.nbytes, 16))
+            self._prev_positions.write(rows.tobytes())
+            self._prev_positions_still = not objects
+        self._prev_positions.bind_to_storage_buffer(PREV_POSITIONS_BINDING)
+        if frame:
+            self.gbuffer.swap_history()  # this frame's normal and depth go into the older texture
+        moved = objects or not same_camera(before_camera, camera)
+        uniforms = motion_uniforms(self.packed.to_gpu_camera(before_camera), self.camera, self.size, self.packed.bounds)
+        return moved, uniforms
 
     def render(self, spp: int | None = None, seconds: float | None = None, progress=None,
                readback: bool = True) -> np.ndarray | None:
@@ -418,27 +507,65 @@ class Renderer:
         """Mean radiance (float64 RGB) and valid sample count of one pixel; (0, 0) = top left."""
         return self.accumulate.read_pixel(int(x), self.size[1] - 1 - int(y))
 
+    def variance(self) -> np.ndarray:
+        """Per pixel, the variance of one frame's luminance estimate, from the first and
+        second moments the accumulation keeps: float32 (H, W), row 0 = top (divide by the
+        history's frames for the variance of the mean). A denoiser's guide (SVGF-style)."""
+        return self.accumulate.read_variance()
+
     def aov(self, name: str) -> np.ndarray:
-        """A G-buffer channel of the current frame, float32 (H, W, 3), row 0 = top."""
+        """float32 (H, W, 3), row 0 = top: a G-buffer channel of the current camera (albedo,
+        normal, depth), or a view of the accumulation: history (its length in samples, per
+        pixel), rejection (the last reprojection's rejected bilinear weight by depth, normal,
+        off screen as r, g, b), variance (Renderer.variance), irradiance (radiance / albedo,
+        lift_gl.denoise.demodulate)."""
         if name not in AOVS:
             raise ValueError(f"unknown AOV {name!r}; choose one of {', '.join(AOVS)}")
+        if name == "history":
+            count = self.accumulate.read_totals()[::-1, :, 3:4]
+            return np.ascontiguousarray(np.repeat(count, 3, axis=2)).astype(np.float32)
+        if name == "rejection":
+            if self.reproject is None:
+                return np.zeros((self.size[1], self.size[0], 3), np.float32)
+            return self.reproject.read_rejection()
+        if name == "variance":
+            return np.ascontiguousarray(np.repeat(self.variance()[..., None], 3, axis=2))
+        if name == "irradiance":
+            from .denoise.demodulate import demodulate
+
+            return demodulate(self.image(), self.aov("albedo"))
         if self.gbuffer is None:
             self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                        self.packed.num_spheres)
         self.buffers.bind()
-        self.gbuffer.run(self.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms)
+        motion = None
+        if self.gbuffer.motion_vectors:
+            # Written into the older normal_depth texture, which the next frame overwrites:
+            # the previous frame's, which a reprojection needs, is kept.
+            _, motion = self._motion(frame=False)
+            self.gbuffer.swap_history()
+        self.gbuffer.run(self.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms,
+                         motion)
         w, h = self.size
         if name == "albedo":
             data = np.frombuffer(self.gbuffer.albedo.read(), np.float16).reshape(h, w, 4)[..., :3]
         else:
             nd = np.frombuffer(self.gbuffer.normal_depth.read(), np.float32).reshape(h, w, 4)
             data = nd[..., :3] if name == "normal" else np.repeat(nd[..., 3:4], 3, axis=2)
+        if self.gbuffer.motion_vectors:
+            self.gbuffer.swap_history()
         return np.ascontiguousarray(data[::-1]).astype(np.float32)
 
     def release(self) -> None:
         for p in self.passes:
             p.release()
+        if self._prev_positions is not None:
+            self._prev_positions.release()
         self.buffers.release()
+
+
+def _environment(scene: Scene):
+    return None if scene.environment is None else tuple(np.ravel(scene.environment.radiance))
 
 
 class _NoTimer:

@@ -79,7 +79,14 @@ def test_aov_colours():
     expected = int(np.rint(srgb_encode(np.float32(0.2)) * 255))
     assert aov_to_display("albedo", albedo)[0, 0].tolist() == [expected] * 3
     with pytest.raises(ValueError):
-        aov_to_display("variance", albedo)
+        aov_to_display("no such view", albedo)
+    # Views of the accumulation (docs/temporal.md): history over its largest value, the
+    # rejection mask as it is.
+    history = np.zeros((1, 3, 3), np.float32)
+    history[0, :, :] = np.array([1.0, 5.0, 10.0])[:, None]
+    assert aov_to_display("history", history)[0, :, 0].tolist() == [26, 128, 255]
+    rejection = np.array([[[1.0, 0.0, 0.5]]], np.float32)
+    assert aov_to_display("rejection", rejection)[0, 0].tolist() == [255, 0, 128]
 
 
 # ---- the scene picker's list ----------------------------------------------------------------

@@ -11,6 +11,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import LiftError
+from .aov_view import AOV_VIEWS
 
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent.parent / "scenes" / "cornell.toml"
 PANELS = ("settings", "statistics", "help", "edit")
@@ -69,7 +70,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--exposure", type=float, default=0.0, help="stops")
     p.add_argument("--tonemap", default="aces", choices=("aces", "reinhard", "clamp"))
     p.add_argument("--gamma", type=_gamma, default=None, help="display gamma, or 'srgb' (default)")
-    p.add_argument("--aov", choices=("albedo", "normal", "depth"), help="show this G-buffer channel")
+    p.add_argument("--aov", choices=AOV_VIEWS, help="show this G-buffer channel or view of the accumulation")
+    p.add_argument("--temporal", choices=("reset", "reproject"), default="reset",
+                   help="camera moves: restart accumulation (default) or reproject it (docs/temporal.md)")
     p.add_argument("--split", metavar="INTEGRATOR", help="split view: this integrator on the right")
     p.add_argument("--ref", help="reference image: plots the error against render time")
     p.add_argument("--panels", type=_panels, default=("settings", "statistics"),
@@ -109,5 +112,5 @@ def cmd_view(args) -> int:
         samples_per_frame=max(1, args.spp_per_frame), target_spp=args.target_spp, target_seconds=args.target_time,
         exposure=args.exposure, operator=args.tonemap, gamma=args.gamma, view=args.aov or "render",
         split=args.split, split_params=_prefixed(args.set, args.split), reference=args.ref, panels=args.panels, inspector=args.inspector,
-        frames=args.frames, screenshot=args.screenshot)
+        frames=args.frames, screenshot=args.screenshot, temporal=args.temporal)
     return ViewerWindow(options).run()

@@ -23,7 +23,7 @@ from ..image_io import read_image, write_image, write_srgb8
 from ..plugins import discover
 from ..renderer import Renderer
 from ..scene.loader import load_scene, scene_bounds
-from .aov_view import AOV_VIEWS, aov_to_display
+from .aov_view import ACCUMULATION_VIEWS, AOV_VIEWS, GBUFFER_VIEWS, aov_to_display
 from .bookmarks import Bookmark, bookmarks_path, load_bookmarks, save_bookmarks
 from .camera_controller import CameraController
 from .scene_editor import SceneEditor
@@ -106,8 +106,10 @@ class ErrorLog:
 
 class ViewSession:
     def __init__(self, ctx, scene_path, integrator: str = "pt", params: dict | None = None, seed: int = 0,
-                 plugin_dirs=(), resolution: Resolution | None = None, timers: bool = True):
+                 plugin_dirs=(), resolution: Resolution | None = None, timers: bool = True,
+                 temporal: str = "reset"):
         self.ctx = ctx
+        self.temporal = temporal  # Renderer(temporal=...): "reproject" keeps history while the camera moves
         self.seed = int(seed)
         self.plugin_dirs = tuple(plugin_dirs)
         self.timers = timers
@@ -137,7 +139,7 @@ class ViewSession:
     def _make_renderer(self, integrator: str, params: dict, scene=None) -> Renderer:
         return Renderer(scene or self.scene, size=self.resolution.render_size(self.moving), integrator=integrator,
                         seed=self.seed, params=params, plugin_dirs=self.plugin_dirs, timers=self.timers,
-                        ctx=self.ctx)
+                        ctx=self.ctx, temporal=self.temporal)
 
     def _adopt_scene(self) -> None:
         bounds = scene_bounds(self.scene)
@@ -371,15 +373,20 @@ class ViewSession:
         return [r.tonemap.display for r in self.renderers if r.tonemap is not None]
 
     # ---- AOVs and the pixel inspector ---------------------------------------------------
+    def _aov_key(self, name: str) -> str:
+        # Views of the accumulation change with every frame: cached per sample count.
+        return f"{name}@{self.renderer.stats.spp}" if name in ACCUMULATION_VIEWS else name
+
     def aov(self, name: str) -> np.ndarray:
-        """The renderer's G-buffer channel for the current camera (float32 H x W x 3, cached)."""
-        if name not in self._aov_cache:
-            self._aov_cache[name] = self.renderer.aov(name)
-        return self._aov_cache[name]
+        """The renderer's AOV for the current camera (float32 H x W x 3, cached)."""
+        key = self._aov_key(name)
+        if key not in self._aov_cache:
+            self._aov_cache[key] = self.renderer.aov(name)
+        return self._aov_cache[key]
 
     def aov_display(self, name: str) -> np.ndarray:
         """uint8 display colours of an AOV (cached with it: the same array until the view changes)."""
-        key = "display:" + name
+        key = "display:" + self._aov_key(name)
         if key not in self._aov_cache:
             self._aov_cache[key] = aov_to_display(name, self.aov(name))
         return self._aov_cache[key]
@@ -391,7 +398,7 @@ class ViewSession:
             return None
         radiance, samples = self.renderer.pixel(x, y)
         info = {"pixel": (x, y), "radiance": radiance, "samples": samples}
-        for name in AOV_VIEWS:
+        for name in GBUFFER_VIEWS:  # not the accumulation's views: those would be read back every frame
             info[name] = self.aov(name)[y, x]
         if self.compare is not None:
             info["compare_radiance"] = self.compare.pixel(x, y)[0]

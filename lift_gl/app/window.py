@@ -65,6 +65,7 @@ class ViewOptions:
     frames: int | None = None
     screenshot: str | None = None
     vsync: bool = False
+    temporal: str = "reset"  # "reproject": a moving camera keeps its history (docs/temporal.md)
 
 
 class ViewerWindow:
@@ -103,10 +104,13 @@ class ViewerWindow:
         resolution = Resolution(
             window=tuple(self.wnd.buffer_size),
             scale=options.render_scale if options.render_scale is not None else (SOFTWARE_SCALE if software else 1.0),
-            moving_scale=options.moving_scale if options.moving_scale is not None else (0.5 if software else 1.0),
+            # Reprojection needs the same resolution while moving (a resize restarts accumulation).
+            moving_scale=(1.0 if options.temporal == "reproject" else options.moving_scale
+                          if options.moving_scale is not None else (0.5 if software else 1.0)),
             fixed=options.render_size)
         self.session = ViewSession(self.ctx, options.scene, integrator=options.integrator, params=options.params,
-                                   seed=options.seed, plugin_dirs=options.plugin_dirs, resolution=resolution)
+                                   seed=options.seed, plugin_dirs=options.plugin_dirs, resolution=resolution,
+                                   temporal=options.temporal)
         s = self.session
         s.sampling.samples_per_frame = options.samples_per_frame
         s.sampling.target_spp = options.target_spp

@@ -1,9 +1,12 @@
-"""Accumulate pass (still camera): exact running mean of all frames since the last reset.
+"""Accumulate pass: exact running mean of all frames since the last reset (still camera),
+or of the frame added to the reprojected history (passes/reproject.py runs first then).
 
 inputs:  frame (RGBA32F: radiance sum, valid sample count)
 outputs: accumulation (sum and compensation, RGBA32F each); mean = (sum + c).rgb / (sum + c).a
          half difference (RGBA32F): frames of half A minus frames of half B since the reset
          (half_sign), for the error estimate without a reference (lift_gl/error_estimate.py)
+         moments (RGBA32F): sum of the frames' luminance, of its square, number of frames
+         (read_variance: the variance view, a denoiser's guide)
 """
 from __future__ import annotations
 
@@ -34,7 +37,7 @@ def half_sign(frame: int) -> float:
 class AccumulatePass:
     name = "accumulate"
     inputs = ("frame",)
-    outputs = ("accumulation", "half difference")
+    outputs = ("accumulation", "half difference", "moments")
 
     def __init__(self, ctx, size):
         self.ctx = ctx
@@ -44,12 +47,13 @@ class AccumulatePass:
         self.compensation = ctx.texture(size, 4, dtype="f4")
         self._pixel_fbo = None  # made on the first read_pixel (the viewer's pixel inspector)
         self.half_difference = ctx.texture(size, 4, dtype="f4")
+        self.moments = ctx.texture(size, 4, dtype="f4")
         self.frames = 0  # since the reset: picks the half a frame goes to (half_sign)
         self.reset()
 
     def reset(self) -> None:
         zeros = np.zeros((self.size[1], self.size[0], 4), np.float32).tobytes()
-        for texture in (self.sum, self.compensation, self.half_difference):
+        for texture in self.textures():
             texture.write(zeros)
         self.frames = 0
 
@@ -58,9 +62,35 @@ class AccumulatePass:
         self.sum.bind_to_image(1, read=True, write=True)
         self.compensation.bind_to_image(2, read=True, write=True)
         self.half_difference.bind_to_image(3, read=True, write=True)
+        self.moments.bind_to_image(4, read=True, write=True)
         self.program["u_half_sign"].value = half_sign(self.frames)
         self.program.run(*groups(*self.size))
         self.frames += 1
+
+    def textures(self) -> tuple:
+        """The state a reprojection rewrites (passes/reproject.py), in its binding order."""
+        return self.sum, self.compensation, self.half_difference, self.moments
+
+    def replace_textures(self, textures) -> tuple:
+        """Take these textures as the state (the reprojected history); give back the old ones."""
+        old = self.textures()
+        self.sum, self.compensation, self.half_difference, self.moments = textures
+        if self._pixel_fbo is not None:  # it reads the old sum and compensation
+            self._pixel_fbo.release()
+            self._pixel_fbo = None
+        return old
+
+    def read_variance(self) -> np.ndarray:
+        """(H, W) float32, row 0 = top: per pixel, the variance of one frame's luminance
+        estimate, from the moments of the frames so far (unbiased: divided by frames - 1);
+        0 where fewer than two frames. The mean's variance is this / frames."""
+        m = self._read(self.moments)
+        frames = m[..., 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mean = m[..., 0] / frames
+            variance = (m[..., 1] / frames - mean * mean) * frames / (frames - 1)
+        variance = np.where(frames > 1.5, np.maximum(variance, 0.0), 0.0)
+        return np.ascontiguousarray(variance[::-1]).astype(np.float32)
 
     def _read(self, texture) -> np.ndarray:
         w, h = self.size
@@ -95,6 +125,6 @@ class AccumulatePass:
         return (total[:3] / count if count > 0 else np.zeros(3)), count
 
     def release(self) -> None:
-        for obj in (self.program, self.sum, self.compensation, self.half_difference, self._pixel_fbo):
+        for obj in (self.program, *self.textures(), self._pixel_fbo):
             if obj is not None:
                 obj.release()

@@ -4,6 +4,10 @@ inputs:  scene buffers, camera, jitter
 outputs: visibility (RGBA32UI: primitive id + 1 (0 = background), barycentrics as float
          bits, material id), normal_depth (RGBA32F: camera-facing shading normal, view
          depth), albedo (RGBA16F), depth buffer
+         with motion_vectors (temporal reprojection only): motion (RGBA32F: previous minus
+         current pixel position, view depth in the previous camera, depth change per pixel;
+         shaders/passes/motion_vectors.glsl), and the previous frame's normal_depth kept
+         (two textures used in turn: swap_history()).
 
 The depth test compares view depth / far (written as gl_FragDepth), not the projection's
 hyperbolic depth: 24 bits of that spread over the scene give a resolution of far / 2^24
@@ -26,34 +30,58 @@ class GBufferPass:
     inputs = ("scene", "camera", "jitter")
     outputs = ("visibility", "normal_depth", "albedo")
 
-    def __init__(self, ctx: moderngl.Context, size, defines: dict, num_triangles: int, num_spheres: int):
+    def __init__(self, ctx: moderngl.Context, size, defines: dict, num_triangles: int, num_spheres: int,
+                 motion_vectors: bool = False):
         self.ctx = ctx
         self.size = size
         self.num_triangles = num_triangles
         self.num_spheres = num_spheres
+        self.motion_vectors = motion_vectors
         self.visibility = ctx.texture(size, 4, dtype="u4")
         self.normal_depth = ctx.texture(size, 4, dtype="f4")
         self.albedo = ctx.texture(size, 4, dtype="f2")
-        for t in (self.visibility, self.normal_depth, self.albedo):
+        self.motion = self.prev_normal_depth = None
+        textures = [self.visibility, self.normal_depth, self.albedo]
+        if motion_vectors:
+            defines = dict(defines, LIFT_MOTION_VECTORS=True)
+            self.motion = ctx.texture(size, 4, dtype="f4")
+            self.prev_normal_depth = ctx.texture(size, 4, dtype="f4")
+            textures += [self.motion, self.prev_normal_depth]
+        for t in textures:
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.depth = ctx.depth_renderbuffer(size)
-        self.fbo = ctx.framebuffer([self.visibility, self.normal_depth, self.albedo], self.depth)
+        self.fbo = self._framebuffer()
+        self._spare_fbo = None  # the framebuffer for the other normal_depth texture (motion vectors)
         self.vao = ctx.vertex_array(self._program("gbuffer", defines), [])
         self.sphere_vao = None
         if num_spheres:
             self.sphere_vao = ctx.vertex_array(self._program("gbuffer_sphere", defines), [])
+
+    def _framebuffer(self) -> moderngl.Framebuffer:
+        colour = [self.visibility, self.normal_depth, self.albedo] + ([self.motion] if self.motion_vectors else [])
+        return self.ctx.framebuffer(colour, self.depth)
+
+    def swap_history(self) -> None:
+        """Before a frame (motion vectors only): this frame's normal_depth becomes the
+        previous one, and the next run writes into the older texture."""
+        self.normal_depth, self.prev_normal_depth = self.prev_normal_depth, self.normal_depth
+        if self._spare_fbo is None:
+            self._spare_fbo = self._framebuffer()
+        self.fbo, self._spare_fbo = self._spare_fbo, self.fbo
 
     def _program(self, stem: str, defines: dict) -> moderngl.Program:
         vert = shaders.assemble(SHADER_DIR / f"{stem}.vert", defines)
         frag = shaders.assemble(SHADER_DIR / f"{stem}.frag", defines)
         return shaders.compile_program(self.ctx, vert, frag)
 
-    def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict) -> None:
-        uniforms = dict(scene_uniforms, **camera_uniforms)
+    def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict,
+            motion_uniforms: dict | None = None) -> None:
+        """motion_uniforms (motion vectors only): lift_gl/temporal.py motion_uniforms()."""
+        uniforms = dict(scene_uniforms, **camera_uniforms, **(motion_uniforms or {}))
         uniforms["u_view_proj"] = view_projection(camera, self.size, bounds, jitter).ravel()
         uniforms["u_inv_far"] = 1.0 / near_far(camera, bounds)[1]
         self.fbo.use()
-        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)  # motion too: background has no history
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.CULL_FACE)
         if self.num_triangles:
@@ -65,7 +93,9 @@ class GBufferPass:
         self.ctx.disable(moderngl.DEPTH_TEST)
 
     def release(self) -> None:
-        for obj in (self.visibility, self.normal_depth, self.albedo, self.depth, self.fbo, self.vao):
-            obj.release()
+        for obj in (self.visibility, self.normal_depth, self.albedo, self.depth, self.fbo, self.vao,
+                    self.motion, self.prev_normal_depth, self._spare_fbo):
+            if obj is not None:
+                obj.release()
         if self.sphere_vao is not None:
             self.sphere_vao.release()

@@ -56,6 +56,9 @@ class PackedScene:
     images: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint32))
     uniforms: dict = field(default_factory=dict)
     origin: np.ndarray = None  # float64 (3,): world position of the GPU coordinates' zero
+    # Each packed triangle's index in the meshes' concatenated order (before the BVH's
+    # reordering): temporal reprojection matches triangles across frames with it.
+    tri_order: np.ndarray | None = None  # int (T,)
 
     def to_gpu_camera(self, camera: Camera) -> Camera:
         """The camera in the rebased coordinates the GPU uses."""
@@ -262,4 +265,5 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:
         images=images,
         uniforms=uniforms,
         origin=origin,
+        tri_order=np.asarray(order[:T]),
     )

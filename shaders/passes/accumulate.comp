@@ -9,11 +9,16 @@
 // noise of the mean without a reference (lift_gl/error_estimate.py).
 // It is a plain float sum: it only needs two or three correct digits, and its rounding
 // error grows like sqrt(frames) ulps of a value that itself grows like sqrt(frames).
+//
+// A moving camera does not change this pass: the reprojection pass (reproject.comp) runs
+// before it on such frames and rewrites these buffers as the history seen from the new
+// camera, and this pass adds the frame to that history.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform readonly image2D u_frame;
 layout(rgba32f, binding = 1) uniform image2D u_sum;
 layout(rgba32f, binding = 2) uniform image2D u_compensation;
 layout(rgba32f, binding = 3) uniform image2D u_half_difference;
+layout(rgba32f, binding = 4) uniform image2D u_moments;
 uniform float u_half_sign;  // +1: this frame goes to half A, -1: to half B
 
 void main() {
@@ -34,4 +39,11 @@ void main() {
 
     // ---- Half A minus half B: for the error estimate ----
     imageStore(u_half_difference, p, imageLoad(u_half_difference, p) + u_half_sign * x);
+
+    // ---- First and second moments of the frames' luminance: for the variance view ----
+    // (sum of L, sum of L^2, frames); plain float sums, like the half difference.
+    if (x.a > 0.0) {
+        float l = dot(x.rgb / x.a, vec3(0.2126, 0.7152, 0.0722));
+        imageStore(u_moments, p, imageLoad(u_moments, p) + vec4(l, l * l, 1.0, 0.0));
+    }
 }

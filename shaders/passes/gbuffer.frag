@@ -13,6 +13,11 @@ in vec3 v_world;
 layout(location = 0) out uvec4 o_visibility;
 layout(location = 1) out vec4 o_normal_depth;
 layout(location = 2) out vec4 o_albedo;
+#ifdef LIFT_MOTION_VECTORS
+#include "passes/motion_vectors.glsl"
+in vec3 v_prev_world;
+layout(location = 3) out vec4 o_motion;
+#endif
 void main() {
     uint material = tri_info[v_prim].x;
     o_visibility = uvec4(v_prim + 1u, floatBitsToUint(v_bary.x), floatBitsToUint(v_bary.y), material);
@@ -21,6 +26,9 @@ void main() {
     float view_depth = dot(v_world - u_cam_pos, u_cam_forward);
     gl_FragDepth = clamp(view_depth * u_inv_far, 0.0, 1.0);
     o_normal_depth = vec4(n, view_depth);
+#ifdef LIFT_MOTION_VECTORS
+    o_motion = motion_vector(v_world, v_prev_world, view_depth);
+#endif
     uint i = 3u * v_prim;
     vec2 uv = (1.0 - v_bary.x - v_bary.y) * tri_uv[i].xy + v_bary.x * tri_uv[i + 1u].xy + v_bary.y * tri_uv[i + 2u].xy;
     o_albedo = vec4(bsdf_albedo(material_at(material, uv)), 1.0);

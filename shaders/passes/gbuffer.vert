@@ -6,6 +6,11 @@ flat out uint v_prim;
 out vec2 v_bary;
 out vec3 v_normal;
 out vec3 v_world;
+#ifdef LIFT_MOTION_VECTORS
+#define LIFT_VERTEX_STAGE
+#include "passes/motion_vectors.glsl"
+out vec3 v_prev_world;
+#endif
 void main() {
     uint corner = uint(gl_VertexID) % 3u;
     v_prim = uint(gl_VertexID) / 3u;
@@ -13,4 +18,7 @@ void main() {
     v_normal = tri_normal[gl_VertexID].xyz;
     v_world = tri_pos[gl_VertexID].xyz;
     gl_Position = u_view_proj * vec4(v_world, 1.0);
+#ifdef LIFT_MOTION_VECTORS
+    v_prev_world = prev_positions[gl_VertexID].xyz;  // the same corner where the last frame saw it
+#endif
 }

@@ -9,6 +9,10 @@ in vec3 v_world;
 layout(location = 0) out uvec4 o_visibility;
 layout(location = 1) out vec4 o_normal_depth;
 layout(location = 2) out vec4 o_albedo;
+#ifdef LIFT_MOTION_VECTORS
+#include "passes/motion_vectors.glsl"
+layout(location = 3) out vec4 o_motion;
+#endif
 void main() {
     vec4 cr = spheres[2u * v_sphere];
     vec3 d = normalize(v_world - u_cam_pos);
@@ -29,5 +33,9 @@ void main() {
     vec3 n = normalize(p - cr.xyz);
     if (dot(n, -d) < 0.0) n = -n;
     o_normal_depth = vec4(n, view_depth);
+#ifdef LIFT_MOTION_VECTORS
+    // A sphere moves rigidly: its row after the triangle corners holds its displacement.
+    o_motion = motion_vector(p, p + prev_positions[3u * u_num_triangles + v_sphere].xyz, view_depth);
+#endif
     o_albedo = vec4(bsdf_albedo(material_at(material, sphere_uv(normalize(p - cr.xyz)))), 1.0);
 }
