@@ -145,32 +145,38 @@ class Renderer:
         if self.denoiser == "atrous":
             from .passes.atrous import AtrousSettings
 
-            return DenoisePass(self.ctx, self.size, "atrous", settings=AtrousSettings(**self.denoiser_options))
+            try:
+                settings = AtrousSettings(**self.denoiser_options)
+            except (TypeError, ValueError) as exc:
+                raise DenoiserError(f"à-trous settings: {exc}") from None
+            return DenoisePass(self.ctx, self.size, "atrous", settings=settings)
         if self._numpy_denoiser is None:
             from .denoise import get_denoiser
 
             self._numpy_denoiser = get_denoiser(self.denoiser, **self.denoiser_options)
         return DenoisePass(self.ctx, self.size, self.denoiser, numpy_denoiser=self._numpy_denoiser)
 
-    def set_denoise(self, mode: str | None = None, denoiser: str | None = None) -> None:
-        """Change the denoise mode or denoiser (the viewer's F3 panel); accumulation goes on.
-        A denoiser that cannot be made (a missing package) raises DenoiserError and nothing changes."""
+    def set_denoise(self, mode: str | None = None, denoiser: str | None = None, options: dict | None = None) -> None:
+        """Change the denoise mode, denoiser or its options (the viewer's F3 panel);
+        accumulation goes on. A denoiser that cannot be made (a missing package, a bad
+        option) raises DenoiserError and nothing changes."""
         mode = self.denoise_mode if mode is None else mode
         denoiser = self.denoiser if denoiser is None else denoiser
+        options = self.denoiser_options if options is None else dict(options)
         if mode not in DENOISE_MODES:
             raise DenoiserError(f"unknown denoise mode {mode!r}; choose one of {', '.join(DENOISE_MODES)}")
         if denoiser not in DENOISERS:
             raise DenoiserError(f"unknown denoiser {denoiser!r}; choose one of {', '.join(DENOISERS)}")
-        if (mode, denoiser) == (self.denoise_mode, self.denoiser):
+        if (mode, denoiser, options) == (self.denoise_mode, self.denoiser, self.denoiser_options):
             return
-        old = (self.denoise_mode, self.denoiser, self._numpy_denoiser)
-        if denoiser != self.denoiser:
+        old = (self.denoise_mode, self.denoiser, self.denoiser_options, self._numpy_denoiser)
+        if (denoiser, options) != (self.denoiser, self.denoiser_options):
             self._numpy_denoiser = None
-        self.denoise_mode, self.denoiser = mode, denoiser
+        self.denoise_mode, self.denoiser, self.denoiser_options = mode, denoiser, options
         try:
             new_pass = self._create_denoise_pass() if mode != "off" else None
         except LiftError:
-            self.denoise_mode, self.denoiser, self._numpy_denoiser = old
+            self.denoise_mode, self.denoiser, self.denoiser_options, self._numpy_denoiser = old
             raise
         if self.denoise_pass is not None:
             self.denoise_pass.release()
