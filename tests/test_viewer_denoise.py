@@ -3,6 +3,8 @@ image, final frame only once the image freezes, the noisy | denoised split shows
 denoiser that cannot run is reported while the last good settings keep running."""
 from __future__ import annotations
 
+import json
+import subprocess
 import sys
 
 import numpy as np
@@ -93,3 +95,32 @@ def test_denoise_settings_survive_an_integrator_switch(session):
     r = session.renderer
     assert (r.denoise_mode, r.denoiser_options) == ("every", {"iterations": 3})
     assert r.denoise_pass.atrous.settings.iterations == 3
+
+
+WINDOW_CHECK = """
+import json, sys
+import numpy as np
+from lift_gl.app.window import ViewerWindow, ViewOptions
+window = ViewerWindow(ViewOptions(scene=sys.argv[1], window_class="headless", window_size=(96, 64),
+                                  render_scale=0.5, denoise="every", panels=("denoiser",)))
+for _ in range(2):
+    window.frame()  # draws the GUI, which leaves GL_BLEND enabled
+r = window.session.renderer
+lengths = np.linalg.norm(r.aov("normal"), axis=-1)
+print(json.dumps({"finite": bool(np.isfinite(r.image()).all()), "denoised": r.denoised_current,
+                  "surface": float((lengths > 0).mean()), "lengths": lengths[lengths > 0].tolist()}))
+"""
+
+
+def test_window_gbuffer_guides_are_not_blended():
+    """The GUI leaves blending on; the G-buffer pass must not blend, or normal_depth (alpha =
+    view depth) comes out as normals scaled by the depth and the depth squared, and the
+    denoiser's normal weights go wrong (NaN from pow of scaled cosines, seen in the viewer).
+    In a subprocess: a window context made current here would stay current for later tests."""
+    pytest.importorskip("imgui_bundle", reason="the viewer extra is not installed")
+    proc = subprocess.run([sys.executable, "-c", WINDOW_CHECK, str(CORNELL)], capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["finite"] and result["denoised"] and result["surface"] > 0.5
+    np.testing.assert_allclose(result["lengths"], 1.0, atol=1e-5)

@@ -67,7 +67,11 @@ void main() {
                 float tolerance = u_sigma_depth * abs(dot(grad, vec2(offset))) + eps_depth;
                 w *= exp(-abs(nd.w - nd_q.w) / tolerance);
             }
-            if (u_sigma_normal > 0.0) w *= pow(max(dot(nd.xyz, nd_q.xyz), 0.0), u_sigma_normal);
+            if (u_sigma_normal > 0.0) {
+                // pow(0, y) is exp2(y * log2(0)): keep 0 and negative cosines out of it.
+                float cosine = dot(nd.xyz, nd_q.xyz);
+                w *= cosine > 0.0 ? pow(min(cosine, 1.0), u_sigma_normal) : 0.0;
+            }
             if (u_sigma_luminance > 0.0 && offset != ivec2(0)) {
                 w *= exp(-abs(l_p - atrous_luminance(c_q.rgb)) / luminance_scale);
             }
