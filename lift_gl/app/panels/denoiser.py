@@ -20,8 +20,9 @@ class DenoiserPanel(Panel):
     flags = imgui.WindowFlags_.always_auto_resize
 
     def draw(self, session, ui: UiState) -> None:
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, ui.window_size[1] * 0.42), ui.placement(),
-                                  imgui.ImVec2(1.0, 0.0))
+        # Bottom right, under the statistics (the convergence plot, with a reference, opens there too).
+        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, ui.window_size[1] - 8), ui.placement(),
+                                  imgui.ImVec2(1.0, 1.0))
         imgui.set_next_window_bg_alpha(0.85)
         if not self.begin(ui):
             return
