@@ -6,7 +6,7 @@
 //        * max(0, n_p . n_q)^sigma_n                                      normal
 //        * exp(-|l_p - l_q| / (sigma_l sqrt(g3x3(var_p)) + eps_l))        luminance
 // The output variance is sum(w^2 var_q) / (sum w)^2: the variance of the weighted mean.
-// Background pixels (no surface) pass through and take no part.
+// Background pixels (no surface) pass through and take no part (their variance is 0).
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "passes/atrous_common.glsl"
 layout(rgba32f, binding = 0) uniform readonly image2D u_in;
@@ -18,22 +18,22 @@ uniform float u_sigma_depth;      // <= 0: no depth edge-stopping
 
 const float KERNEL[3] = float[3](3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0);
 const float EPS_LUMINANCE = 1e-10;
+const float LOG2_E = 1.4426950408889634;
 
 // 3x3 Gaussian of the variance around p (SVGF's prefilter: one pixel's estimate is noisy).
+// Background pixels hold variance 0 (atrous_prepare.comp): no surface test needed here.
 float blurred_variance(ivec2 p, ivec2 size) {
-    const float g[2] = float[2](0.25, 0.125);  // 1D [1/4, 1/2, 1/4]: weights by |offset|
     float sum = 0.0, weight = 0.0;
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = p + ivec2(dx, dy);
             if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) continue;
-            if (!is_surface(texelFetch(u_normal_depth, q, 0))) continue;
-            float w = (dx == 0 ? 0.5 : 0.25) * (dy == 0 ? 0.5 : 0.25);
+            float w = (dx == 0 ? 0.5 : 0.25) * (dy == 0 ? 0.5 : 0.25);  // [1/4, 1/2, 1/4] squared
             sum += w * imageLoad(u_in, q).a;
             weight += w;
         }
     }
-    return weight > 0.0 ? sum / weight : 0.0;
+    return sum / weight;
 }
 
 void main() {
@@ -62,19 +62,23 @@ void main() {
             vec4 nd_q = texelFetch(u_normal_depth, q, 0);
             if (!is_surface(nd_q)) continue;
             vec4 c_q = imageLoad(u_in, q);
-            float w = KERNEL[abs(dx)] * KERNEL[abs(dy)];
-            if (u_sigma_depth > 0.0 && offset != ivec2(0)) {
-                float tolerance = u_sigma_depth * abs(dot(grad, vec2(offset))) + eps_depth;
-                w *= exp(-abs(nd.w - nd_q.w) / tolerance);
-            }
+            // The three edge-stopping weights as one power of two: log2 of their product
+            // (one exp2 and at most one log2 a tap instead of two exp and a pow).
+            float exponent = 0.0;
             if (u_sigma_normal > 0.0) {
-                // pow(0, y) is exp2(y * log2(0)): keep 0 and negative cosines out of it.
                 float cosine = dot(nd.xyz, nd_q.xyz);
-                w *= cosine > 0.0 ? pow(min(cosine, 1.0), u_sigma_normal) : 0.0;
+                if (cosine <= 0.0) continue;  // weight 0
+                exponent += u_sigma_normal * log2(min(cosine, 1.0));
             }
-            if (u_sigma_luminance > 0.0 && offset != ivec2(0)) {
-                w *= exp(-abs(l_p - atrous_luminance(c_q.rgb)) / luminance_scale);
+            if (offset != ivec2(0)) {
+                float stop = 0.0;
+                if (u_sigma_depth > 0.0) {
+                    stop += abs(nd.w - nd_q.w) / (u_sigma_depth * abs(dot(grad, vec2(offset))) + eps_depth);
+                }
+                if (u_sigma_luminance > 0.0) stop += abs(l_p - atrous_luminance(c_q.rgb)) / luminance_scale;
+                exponent -= LOG2_E * stop;
             }
+            float w = KERNEL[abs(dx)] * KERNEL[abs(dy)] * exp2(exponent);
             sum += w * c_q.rgb;
             variance += w * w * c_q.a;
             weight += w;

@@ -12,8 +12,12 @@ void main() {
     if (any(greaterThanEqual(p, size))) return;
     vec4 c = imageLoad(u_in, p);
     vec4 nd = texelFetch(u_normal_depth, p, 0);
-    if (c.a >= 0.0 || !is_surface(nd)) {
-        imageStore(u_out, p, vec4(c.rgb, max(c.a, 0.0)));
+    if (!is_surface(nd)) {  // background: passed through; variance 0 for the 3x3 blur of its neighbours
+        imageStore(u_out, p, vec4(c.rgb, 0.0));
+        return;
+    }
+    if (c.a >= 0.0) {
+        imageStore(u_out, p, c);
         return;
     }
     float m1 = 0.0, m2 = 0.0, count = 0.0;
