@@ -8,7 +8,6 @@ from scipy.signal import fftconvolve
 from lift_gl.denoise import get_denoiser
 from lift_gl.passes.atrous import B3_SPLINE, AtrousSettings
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 def flat_guides(h, w):

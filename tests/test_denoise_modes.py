@@ -9,9 +9,8 @@ import pytest
 
 from lift_gl.cli import main
 from lift_gl.denoise import get_denoiser
-from lift_gl.denoise.atrous import LUMINANCE
 from lift_gl.denoise.demodulate import safe_albedo
-from lift_gl.denoise.variance import luminance_variance
+from lift_gl.denoise.variance import LUMINANCE, luminance_variance
 from lift_gl.errors import DenoiserError
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene

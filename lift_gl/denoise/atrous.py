@@ -13,8 +13,7 @@ import numpy as np
 
 from ..passes.atrous import AtrousFilter, AtrousSettings
 from .demodulate import EPS, demodulate, remodulate, safe_albedo
-
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)
+from .variance import LUMINANCE
 
 
 class AtrousDenoiser:
