@@ -47,7 +47,12 @@ def _add_render(sub):
     budget.add_argument("--time", type=float, dest="seconds", help="render for this many seconds instead")
     p.add_argument("--size", type=_size, help="WxH (default: the scene's film size)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--denoise", choices=("off", "final", "every"), default="off")
+    p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
+                   help="denoise the final image, or every frame (the output is then biased; default off)")
+    p.add_argument("--denoiser", choices=("atrous", "onnx", "oidn"), default="atrous",
+                   help="atrous: GLSL edge-avoiding à-trous (default); onnx: the trained network; "
+                        "oidn: Intel Open Image Denoise (pip install 'lift-gl[oidn]')")
+    p.add_argument("--noisy-out", metavar="FILE", help="with --denoise: also write the noisy mean here")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--aov", choices=("albedo", "normal", "depth", "history", "rejection", "variance", "irradiance"),
@@ -83,8 +88,8 @@ def cmd_render(args) -> int:
 
     if args.out is None and not args.explain:
         raise LiftError("render needs --out FILE (or --explain)")
-    if args.denoise != "off":
-        raise LiftError("the denoiser is not available yet: use --denoise off")
+    if args.noisy_out and args.denoise == "off":
+        raise LiftError("--noisy-out needs --denoise final or every")
     if args.frames is not None and args.camera_path is None:
         raise LiftError("--frames needs --camera-path FILE")
     scene = load_scene(args.scene)
@@ -106,7 +111,8 @@ def cmd_render(args) -> int:
     renderer = Renderer(scene, size=args.size, integrator=args.integrator, backend=args.backend, seed=args.seed,
                         params=_settings(args.set, args.integrator), plugin_dirs=args.plugins,
                         features=SceneFeatures.everything() if args.all_features else None,
-                        temporal=temporal, clamp_sigma=args.clamp_sigma, **extra)
+                        temporal=temporal, clamp_sigma=args.clamp_sigma,
+                        denoise=args.denoise, denoiser=args.denoiser, **extra)
     if args.explain:
         print(renderer.explain())
         if args.out is None:
@@ -133,6 +139,11 @@ def cmd_render(args) -> int:
         write_srgb8(args.out, renderer.display(args.exposure, args.tonemap))
     else:
         write_image(args.out, image)
+    if args.noisy_out:
+        if args.noisy_out.lower().endswith(".png"):
+            write_srgb8(args.noisy_out, renderer.display(args.exposure, args.tonemap, source="noisy"))
+        else:
+            write_image(args.noisy_out, renderer.noisy_image())
     write_render_record(renderer, args.scene, args.out)
     print(f"{args.out}: {renderer.size[0]}x{renderer.size[1]}, {args.integrator}, {renderer.stats.summary()}")
     return 0

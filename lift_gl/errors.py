@@ -48,3 +48,7 @@ def read_utf8(path, error=LiftError) -> str:
         line = data[:exc.start].count(b"\n") + 1
         raise error(f"not UTF-8 text (byte 0x{data[exc.start]:02x}); save the file as UTF-8",
                     path, line) from None
+
+
+class DenoiserError(LiftError):
+    """A denoiser that cannot run: unknown name, missing optional package or model file."""

@@ -12,7 +12,13 @@ def render_record(renderer, scene_path, out_path) -> dict:
     record = {"image": str(out_path), "scene": str(scene_path), "integrator": renderer.plugin.name,
               "params": renderer.params, "size": list(renderer.size), "seed": renderer.seed,
               "spp": stats.spp, "frames": stats.frames, "render_seconds": stats.render_seconds,
-              "dropped_samples": stats.dropped_samples}
+              "dropped_samples": stats.dropped_samples, "denoise": renderer.denoise_mode}
+    if renderer.denoise_mode != "off":
+        from .denoise import BIASED
+
+        record.update({"denoiser": renderer.denoiser, "denoise_runs": stats.denoise_runs,
+                       "denoise_seconds": stats.denoise_seconds, "biased": BIASED,
+                       "error_estimate_of": "the noisy mean, before denoising"})
     if stats.error is not None:
         record.update(stats.error.as_dict())
     from .gl.context import describe

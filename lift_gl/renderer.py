@@ -3,8 +3,10 @@
     scene = load_scene("scenes/cornell.toml")
     image = Renderer(scene, size=(256, 256), integrator="pt").render(spp=64)  # float32 HxWx3
 
-A frame is: G-buffer (when the plugin takes its first hit from it) -> trace -> accumulate.
-Only the passes the settings need are created (see `explain()`).
+A frame is: G-buffer (when the plugin takes its first hit from it) -> trace -> accumulate,
+then, with a denoiser (`denoise="every"` after each frame, `"final"` at the end of each
+`render()` call), unjittered G-buffer guides -> denoise. Only the passes the settings need are
+created (see `explain()`).
 
 Temporal reprojection (temporal="reproject", docs/temporal.md): moving the camera
 (set_camera) or objects (update_scene) keeps the accumulation: on the next frame the
@@ -22,11 +24,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .denoise import BIASED as DENOISER_BIASED
+from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
-from .errors import LiftError
+from .errors import DenoiserError, LiftError
 from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
+from .passes.denoise import DenoisePass
 from .limits import GlLimits, check_film, check_packed, check_triangle_count
 from .passes.common import (SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_LOOP_LIMITED, STAT_RAYS_HIGH,
                             STAT_RAYS_LOW, GpuTimer, SceneBuffers)
@@ -49,6 +54,7 @@ GBUFFER_AOVS = ("albedo", "normal", "depth")
 # the last reprojection's rejection mask, the frames' luminance variance, radiance / albedo.
 AOVS = GBUFFER_AOVS + ("history", "rejection", "variance", "irradiance")
 PREV_POSITIONS_BINDING = 17  # shaders/passes/motion_vectors.glsl
+MODE_WORDS = {"every": "every frame", "final": "final frame"}
 
 
 @dataclass
@@ -63,12 +69,19 @@ class RenderStats:
     rays: int = 0  # rays traced through the BVH (with count_rays=True)
     error: ErrorEstimate | None = None  # set by Renderer.estimate_error()
     reprojected: int = 0  # frames that began with a reprojection (temporal="reproject": something moved)
+    denoiser: str | None = None  # e.g. "atrous, final frame"; None: not denoised
+    denoise_runs: int = 0
+    denoise_seconds: float = 0.0  # wall time of the denoiser runs (GPU work finished), inside render_seconds
 
     def summary(self) -> str:
+        # The error estimate is the noisy mean's: the denoiser's bias is not in it.
         error = "" if self.error is None else f", est. rel. std. error {100 * self.error.rel_std_error:.2f}%"
         text = (f"{self.spp} spp in {self.render_seconds:.2f} s ({self.frames} frames){error}, "
                 f"dropped NaN/Inf samples: {self.dropped_samples}"
                 + (f", splats: {self.dropped_splats}" if self.dropped_splats else ""))
+        if self.denoiser:
+            text += (f"; denoised ({self.denoiser}, {self.denoise_runs} run{'s' if self.denoise_runs != 1 else ''}, "
+                     f"{self.denoise_seconds:.3f} s; BIASED: error estimate is of the noisy mean)")
         if self.loop_limited:
             text += (f"; WARNING: in {self.loop_limited} pixel-frames the GL driver's loop limit "
                      "cut paths short (the image is too dark there: lower max_depth, or use a GPU)")
@@ -80,10 +93,13 @@ class Renderer:
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
                  timers: bool = False, count_rays: bool = False, ctx=None, temporal: str = "reset",
-                 min_blend: float = DEFAULT_MIN_BLEND, clamp_sigma: float = 0.0):
+                 min_blend: float = DEFAULT_MIN_BLEND, clamp_sigma: float = 0.0, denoise: str = "off",
+                 denoiser: str = "atrous", denoiser_options: dict | None = None):
         """temporal: "reset" (a moved camera or object restarts accumulation) or "reproject"
         (the history is reprojected; min_blend: the least weight a moving frame gets;
-        clamp_sigma > 0: clamp the history to the frame's neighbourhood, BIASED)."""
+        clamp_sigma > 0: clamp the history to the frame's neighbourhood, BIASED).
+        denoise: "off", "every" (each frame) or "final" (end of each render()), with `denoiser`
+        ("atrous", "onnx", "oidn"; lift_gl.denoise): BIASED, labelled as such."""
         if temporal not in MODES:
             raise ValueError(f"temporal must be one of {', '.join(MODES)}, not {temporal!r}")
         history_cap(min_blend, 1)  # validates min_blend
@@ -93,6 +109,14 @@ class Renderer:
         self._frame_camera = self._frame_scene = None  # what the last frame saw (reproject)
         self._prev_positions = None  # the G-buffer's prev_positions SSBO (reproject)
         self._prev_positions_still = False  # whether it holds this scene's positions as they are
+        if denoise not in DENOISE_MODES:
+            raise DenoiserError(f"unknown denoise mode {denoise!r}; choose one of {', '.join(DENOISE_MODES)}")
+        if denoiser not in DENOISERS:
+            raise DenoiserError(f"unknown denoiser {denoiser!r}; choose one of {', '.join(DENOISERS)}")
+        self.denoise_mode = denoise
+        self.denoiser = denoiser
+        self.denoiser_options = dict(denoiser_options or {})
+        self._numpy_denoiser = None  # onnx / oidn: made once (model loading), kept across resizes
         self.scene = validate_scene(scene)
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
@@ -122,7 +146,7 @@ class Renderer:
         self.use_timers = timers
         self._create_passes()
         self.frame_index = 0
-        self.stats = RenderStats()
+        self.stats = RenderStats(denoiser=self._denoiser_label())
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
@@ -141,8 +165,59 @@ class Renderer:
         self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
         self.reproject = ReprojectPass(self.ctx, self.size) if reproject else None
         self.accumulate = AccumulatePass(self.ctx, self.size)
+        self.denoise_pass = self._create_denoise_pass() if self.denoise_mode != "off" else None
+        self._denoised_spp = None  # stats.spp when the denoised image was made (None: none is current)
         self.tonemap = None  # created on the first display() call: headless float output needs none
+        self.tonemap_noisy = None  # display(source="noisy") while denoising: the viewer's split view
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
+
+    def _create_denoise_pass(self) -> DenoisePass:
+        if self.denoiser == "atrous":
+            from .passes.atrous import AtrousSettings
+
+            try:
+                settings = AtrousSettings(**self.denoiser_options)
+            except (TypeError, ValueError) as exc:
+                raise DenoiserError(f"à-trous settings: {exc}") from None
+            return DenoisePass(self.ctx, self.size, "atrous", settings=settings)
+        if self._numpy_denoiser is None:
+            from .denoise import get_denoiser
+
+            self._numpy_denoiser = get_denoiser(self.denoiser, **self.denoiser_options)
+        return DenoisePass(self.ctx, self.size, self.denoiser, numpy_denoiser=self._numpy_denoiser)
+
+    def set_denoise(self, mode: str | None = None, denoiser: str | None = None, options: dict | None = None) -> None:
+        """Change the denoise mode, denoiser or its options (the viewer's F3 panel);
+        accumulation goes on. A denoiser that cannot be made (a missing package, a bad
+        option) raises DenoiserError and nothing changes."""
+        mode = self.denoise_mode if mode is None else mode
+        denoiser = self.denoiser if denoiser is None else denoiser
+        options = self.denoiser_options if options is None else dict(options)
+        if mode not in DENOISE_MODES:
+            raise DenoiserError(f"unknown denoise mode {mode!r}; choose one of {', '.join(DENOISE_MODES)}")
+        if denoiser not in DENOISERS:
+            raise DenoiserError(f"unknown denoiser {denoiser!r}; choose one of {', '.join(DENOISERS)}")
+        if (mode, denoiser, options) == (self.denoise_mode, self.denoiser, self.denoiser_options):
+            return
+        old = (self.denoise_mode, self.denoiser, self.denoiser_options, self._numpy_denoiser)
+        if (denoiser, options) != (self.denoiser, self.denoiser_options):
+            self._numpy_denoiser = None
+        self.denoise_mode, self.denoiser, self.denoiser_options = mode, denoiser, options
+        try:
+            new_pass = self._create_denoise_pass() if mode != "off" else None
+        except LiftError:
+            self.denoise_mode, self.denoiser, self.denoiser_options, self._numpy_denoiser = old
+            raise
+        if self.denoise_pass is not None:
+            self.denoise_pass.release()
+        self.denoise_pass = new_pass
+        self._denoised_spp = None
+        if self.timers is not None and new_pass is not None:
+            self.timers.setdefault("denoise", self._timer())
+        self.stats.denoiser = self._denoiser_label()
+
+    def _denoiser_label(self) -> str | None:
+        return None if self.denoise_mode == "off" else f"{self.denoiser}, {MODE_WORDS[self.denoise_mode]}"
 
     # ---- settings ----
     def _resolve_params(self, overrides: dict) -> dict:
@@ -304,7 +379,8 @@ class Renderer:
     @property
     def passes(self) -> list:
         return [p for p in (self.gbuffer, self.trace, self.reduced, self.upsample, self.reproject, self.accumulate,
-                            self.tonemap) if p is not None]
+                            getattr(self, "denoise_pass", None), self.tonemap, getattr(self, "tonemap_noisy", None))
+                if p is not None]
 
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
@@ -316,6 +392,8 @@ class Renderer:
             lines.append(f"BIASED: {self.plugin.biased}")
         if self.clamp_sigma > 0 and self.reproject is not None:
             lines.append(f"BIASED: temporal neighbourhood clamp (+-{self.clamp_sigma:g} sigma) on moving frames")
+        if self.denoise_pass is not None:
+            lines.append(f"BIASED: denoise={self.denoise_mode} ({self.denoiser}): {DENOISER_BIASED}")
         lines.append("passes:")
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
                    "trace": f"runs {self.plugin.entry}" + self._trace_device(),
@@ -336,6 +414,7 @@ class Renderer:
                                  "of two halves of the frames for the error estimate, and luminance moments"
                                  + ("; after a reprojection it adds the frame to the reprojected history"
                                     if self.reproject is not None else ""),
+                   "denoise": self._denoise_reason(),
                    "tonemap": "a display image was asked for (PNG or screen)"}
         if self.reproject is not None:
             reasons["gbuffer"] = ("the reproject pass needs its motion vectors and the previous frame's normal "
@@ -343,6 +422,8 @@ class Renderer:
                                   + ("; the plugin also takes its first hit from it" if self.plugin.primary == "gbuffer"
                                      else ""))
         for p in self.passes:
+            if p is self.tonemap_noisy:
+                continue
             outputs = p.outputs + (("motion", "previous normal_depth") if p is self.gbuffer and self.reproject else ())
             lines.append(f"  {p.name:<11} {', '.join(p.inputs)} -> {', '.join(outputs)}: {reasons[p.name]}")
         if self.gbuffer is None:
@@ -350,6 +431,20 @@ class Renderer:
         lines.append("scene features compiled in (+) and left out (-):")
         lines += ["  " + f for f in self.features.explain()]
         return "\n".join(lines)
+
+    def _denoise_reason(self) -> str:
+        if self.denoise_pass is None:
+            return ""
+        when = ("after every frame" if self.denoise_mode == "every"
+                else "once at the end of each render() call (the final frame)")
+        if self.denoiser == "atrous":
+            s = self.denoise_pass.atrous.settings
+            how = (f"à-trous on the GPU: mean / albedo, {s.iterations} iterations of SVGF edge-stopping "
+                   f"(sigma luminance {s.sigma_luminance} x sqrt(variance from the half-buffers), normal "
+                   f"{s.sigma_normal}, depth {s.sigma_depth}), x albedo")
+        else:
+            how = f"{self.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
+        return f"--denoise {self.denoise_mode}: {how}, {when}; guides from an unjittered G-buffer"
 
     def _trace_device(self) -> str:
         if self.plugin.language != "opencl":
@@ -368,9 +463,10 @@ class Renderer:
         for timer in (self.timers or {}).values():
             timer.total_ns = timer.count = 0
         self.frame_index = 0
-        self.stats = RenderStats()
+        self.stats = RenderStats(denoiser=self._denoiser_label())
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
         self._frame_camera = self._frame_scene = None  # nothing to reproject from
+        self._denoised_spp = None
 
     def _reduced_setting(self, name: str):
         return self.plugin.reduced.value(name, self.params)
@@ -422,6 +518,51 @@ class Renderer:
         self.stats.frames += 1
         self.stats.spp += samples
         self.stream_spp[stream] += samples
+        if self.denoise_mode == "every":
+            self.run_denoiser()
+
+    def _guides(self):
+        """The G-buffer rendered through the pixel centres (no jitter): the denoiser's guides
+        and the AOVs match the image's pixels rather than the last frame's subpixel offset."""
+        if self.gbuffer is None:
+            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
+                                       self.packed.num_spheres)
+        self.buffers.bind()
+        motion = None
+        if self.gbuffer.motion_vectors:
+            # Written into the older normal_depth texture, which the next frame overwrites:
+            # the previous frame's, which a reprojection needs, is kept.
+            _, motion = self._motion(frame=False)
+            self.gbuffer.swap_history()
+        self.gbuffer.run(self.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms,
+                         motion)
+        return self.gbuffer
+
+    def _guides_done(self) -> None:
+        """After _guides' textures were read: the frame's own normal and depth are current
+        again, and the guides' copy is the older one, which the next frame overwrites."""
+        if self.gbuffer.motion_vectors:
+            self.gbuffer.swap_history()
+
+    def run_denoiser(self) -> None:
+        """Denoise the mean so far (what denoise="every" does after each frame and "final"
+        at the end of render()); the viewer calls it for its final frame."""
+        if self.denoise_pass is None:
+            raise DenoiserError("this renderer was made with denoise='off'")
+        start = time.perf_counter()
+        gbuffer = self._guides()
+        with self._timed("denoise"):
+            self.denoise_pass.run(self.accumulate, gbuffer)
+        self._guides_done()
+        self.ctx.finish()
+        self.stats.denoise_seconds += time.perf_counter() - start
+        self.stats.denoise_runs += 1
+        self._denoised_spp = self.stats.spp
+
+    @property
+    def denoised_current(self) -> bool:
+        """True when the denoised image is of the mean as it is now."""
+        return self.denoise_pass is not None and self._denoised_spp == self.stats.spp and self.stats.spp > 0
 
     def _motion(self, frame: bool = True) -> tuple[bool, dict]:
         """temporal="reproject": whether something moved since the last frame, and the
@@ -447,9 +588,13 @@ class Renderer:
         return moved, uniforms
 
     def render(self, spp: int | None = None, seconds: float | None = None, progress=None,
-               readback: bool = True) -> np.ndarray | None:
-        """Add spp samples per pixel (or render for `seconds` of wall time); the mean so far
-        (None with readback=False: the viewer shows the GPU image and reads nothing back)."""
+               readback: bool = True, final: bool = True) -> np.ndarray | None:
+        """Add spp samples per pixel (or render for `seconds` of wall time); the image so far
+        (None with readback=False: the viewer shows the GPU image and reads nothing back).
+
+        With denoise="final" the denoiser runs once at the end, inside the timed render, unless
+        final=False (the viewer, whose final frame comes later). The image returned is the
+        denoised one when the denoiser ran on the mean as it is now (image())."""
         if spp is None and seconds is None:
             spp = 16
         start = time.perf_counter()
@@ -466,6 +611,8 @@ class Renderer:
                 self.ctx.finish()
             if progress is not None:
                 progress(self, done)
+        if self.denoise_mode == "final" and final and done > 0:
+            self.run_denoiser()
         self.ctx.finish()
         self.stats.render_seconds += time.perf_counter() - start
         counters = self.buffers.read_stats()
@@ -478,7 +625,14 @@ class Renderer:
         return self.image() if readback else None
 
     def image(self) -> np.ndarray:
-        """Mean radiance so far: float32 (H, W, 3), row 0 = top."""
+        """The image so far: float32 (H, W, 3), row 0 = top. The denoised radiance when the
+        denoiser ran on the mean as it is now, else the mean radiance (noisy_image())."""
+        if self.denoised_current:
+            return self.denoise_pass.read()
+        return self.accumulate.read_mean()
+
+    def noisy_image(self) -> np.ndarray:
+        """Mean radiance so far, never denoised: float32 (H, W, 3), row 0 = top."""
         return self.accumulate.read_mean()
 
     def estimate_error(self) -> ErrorEstimate | None:
@@ -488,19 +642,29 @@ class Renderer:
         return self.stats.error
 
     def display(self, exposure: float = 0.0, operator: str = "aces", gamma: float | None = None,
-                readback: bool = True) -> np.ndarray | None:
-        """The mean so far tone-mapped on the GPU: uint8 sRGB (H, W, 3), row 0 = top.
+                readback: bool = True, source: str = "image") -> np.ndarray | None:
+        """The image so far tone-mapped on the GPU: uint8 sRGB (H, W, 3), row 0 = top.
 
         gamma None encodes with the sRGB curve, a number with x^(1/gamma). With readback=False
         the result stays in the RGBA8 texture `self.tonemap.display` (rows bottom-up) and
-        None is returned.
+        None is returned. source "image": what image() returns (denoised when current);
+        "noisy": the mean, into `self.tonemap_noisy.display` when a denoiser is on (the
+        viewer's noisy / denoised split view).
         """
+        if source not in ("image", "noisy"):
+            raise ValueError(f"display source must be 'image' or 'noisy', not {source!r}")
+        if source == "noisy" and self.denoise_pass is not None:
+            if self.tonemap_noisy is None:
+                self.tonemap_noisy = TonemapPass(self.ctx, self.size)
+            self.tonemap_noisy.run(self.accumulate, exposure, operator, gamma)
+            return self.tonemap_noisy.read() if readback else None
         if self.tonemap is None:
             self.tonemap = TonemapPass(self.ctx, self.size)
             if self.timers is not None:
                 self.timers["tonemap"] = self._timer()
+        shown = self.denoise_pass if self.denoised_current else self.accumulate
         with self._timed("tonemap"):
-            self.tonemap.run(self.accumulate, exposure, operator, gamma)
+            self.tonemap.run(shown, exposure, operator, gamma)
         return self.tonemap.read() if readback else None
 
     def pixel(self, x: int, y: int) -> tuple[np.ndarray, float]:
@@ -534,26 +698,14 @@ class Renderer:
             from .denoise.demodulate import demodulate
 
             return demodulate(self.image(), self.aov("albedo"))
-        if self.gbuffer is None:
-            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                       self.packed.num_spheres)
-        self.buffers.bind()
-        motion = None
-        if self.gbuffer.motion_vectors:
-            # Written into the older normal_depth texture, which the next frame overwrites:
-            # the previous frame's, which a reprojection needs, is kept.
-            _, motion = self._motion(frame=False)
-            self.gbuffer.swap_history()
-        self.gbuffer.run(self.camera, self.packed.bounds, (0.5, 0.5), self.scene_uniforms, self.camera_uniforms,
-                         motion)
+        self._guides()
         w, h = self.size
         if name == "albedo":
             data = np.frombuffer(self.gbuffer.albedo.read(), np.float16).reshape(h, w, 4)[..., :3]
         else:
             nd = np.frombuffer(self.gbuffer.normal_depth.read(), np.float32).reshape(h, w, 4)
             data = nd[..., :3] if name == "normal" else np.repeat(nd[..., 3:4], 3, axis=2)
-        if self.gbuffer.motion_vectors:
-            self.gbuffer.swap_history()
+        self._guides_done()
         return np.ascontiguousarray(data[::-1]).astype(np.float32)
 
     def release(self) -> None:

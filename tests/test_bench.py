@@ -63,7 +63,9 @@ def test_bench_command_writes_json_and_table(capsys, tmp_path):
     stdout = capsys.readouterr().out
     assert "| scene | size | triangles | BVH build s | gbuffer ms | trace ms | accumulate ms |" in stdout
     assert "| cornell | 24x16 |" in stdout and "machine:" in stdout
+    assert "denoise atrous ms |" in stdout  # the default denoiser is timed
     data = json.loads(out.read_text())
+    assert data["results"][0]["denoise_ms"]["atrous"] > 0
     assert [r["size"] for r in data["results"]] == [[16, 16], [24, 16]]
     assert data["results"][0]["triangles"] > 0 and data["results"][0]["bvh_build_seconds"] > 0
     assert "cores" in data["machine"] and "gl" in data["machine"]

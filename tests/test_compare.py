@@ -40,8 +40,7 @@ def test_configurations():
     ("pt:max_depth", "off", "NAME=VALUE"),
     (":max_depth=3", "off", "no plugin name"),
     ("pt,pt", "off", "more than once"),
-    ("pt", "final", "not available yet"),
-    ("pt", "off,every", "not available yet"),
+    ("pt", "off,,final", "empty"),
     ("pt", "sometimes", "unknown mode"),
 ])
 def test_bad_configurations(integrators, denoise, words):
@@ -152,6 +151,28 @@ def test_compare_equal_spp(capsys, tmp_path, furnace_reference):
     assert "pt:max_depth=0" in report and "reaches DSSIM" in report
 
 
+def test_compare_denoise_modes(capsys, tmp_path, furnace_reference):
+    """--denoise off,final,every: three configurations; final and every end on the same
+    accumulation, so on the same denoised image, the one a plain final-mode render gives;
+    the report marks both as biased."""
+    out = tmp_path / "cmp"
+    code, stdout, err = run_cli(capsys, "compare", FURNACE, "--denoise", "off,final,every", "--spp", 8,
+                                "--seeds", 1, "--size", "24x24", "--ref", furnace_reference, "--out", out)
+    assert code == 0, err
+    rows = read_csv(out / "metrics.csv")
+    assert sorted({r["configuration"] for r in rows}) == ["pt", "pt+denoise=every", "pt+denoise=final"]
+    final = read_image(out / "images" / "pt+denoise=final.exr")
+    np.testing.assert_array_equal(final, read_image(out / "images" / "pt+denoise=every.exr"))
+    plain = Renderer(load_scene(FURNACE), size=SIZE, seed=1, denoise="final")
+    np.testing.assert_array_equal(final, plain.render(spp=8))
+    plain.release()
+    noisy = read_image(out / "images" / "pt.exr")
+    assert not np.array_equal(final, noisy)
+    report = (out / "report.md").read_text()
+    assert "**BIASED** `pt+denoise=final`" in report and "**BIASED** `pt+denoise=every`" in report
+    assert "**BIASED** `pt`:" not in report
+
+
 def test_compare_equal_time(capsys, tmp_path, furnace_reference):
     out = tmp_path / "cmp"
     code, stdout, err = run_cli(capsys, "compare", FURNACE, "--time", 0.25, "--seeds", 1, "--size", "24x24",
@@ -187,7 +208,8 @@ def test_reference_is_rendered_once_then_read_from_the_cache(capsys, tmp_path, m
 
 
 @pytest.mark.parametrize("extra, words", [
-    (["--denoise", "final"], "not available yet"),
+    (["--denoise", "final,sometimes"], "unknown mode 'sometimes'"),
+    (["--denoise", "final", "--denoiser", "bm3d"], "invalid choice: 'bm3d'"),
     (["--integrators", "pt:max_dept=3"], "'max_dept'"),
     (["--integrators", "nosuchplugin"], "no plugin named 'nosuchplugin'"),
     (["--seeds", "0"], "--seeds"),

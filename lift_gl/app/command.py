@@ -14,7 +14,7 @@ from ..errors import LiftError
 from .aov_view import AOV_VIEWS
 
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent.parent / "scenes" / "cornell.toml"
-PANELS = ("settings", "statistics", "help", "edit")
+PANELS = ("settings", "statistics", "denoiser", "help", "edit")
 
 
 def _panels(text: str) -> tuple:
@@ -74,6 +74,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("--temporal", choices=("reset", "reproject"), default="reset",
                    help="camera moves: restart accumulation (default) or reproject it (docs/temporal.md)")
     p.add_argument("--split", metavar="INTEGRATOR", help="split view: this integrator on the right")
+    p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
+                   help="denoise every frame, or the final frame (when the image freezes); default off")
+    p.add_argument("--denoiser", choices=("atrous", "onnx", "oidn"), default="atrous")
+    p.add_argument("--noisy-split", action="store_true",
+                   help="with --denoise: show the noisy image left and the denoised one right")
     p.add_argument("--ref", help="reference image: plots the error against render time")
     p.add_argument("--panels", type=_panels, default=("settings", "statistics"),
                    help=f"panels open at start, comma-separated from {', '.join(PANELS)} (default settings,statistics)")
@@ -98,6 +103,8 @@ def cmd_view(args) -> int:
     for name, value in (("--scale", args.scale), ("--moving-scale", args.moving_scale)):
         if value is not None and not 0 < value <= 1:
             raise LiftError(f"{name} must be in (0, 1], not {value}")
+    if args.noisy_split and args.denoise == "off":
+        raise LiftError("--noisy-split needs --denoise final or every")
     if not Path(args.scene).is_file():
         raise LiftError("scene file not found", args.scene)
     try:
@@ -110,7 +117,9 @@ def cmd_view(args) -> int:
         plugin_dirs=tuple(args.plugins), seed=args.seed, window_size=args.size, window_class=args.window,
         render_scale=args.scale, moving_scale=args.moving_scale, render_size=args.render_size,
         samples_per_frame=max(1, args.spp_per_frame), target_spp=args.target_spp, target_seconds=args.target_time,
-        exposure=args.exposure, operator=args.tonemap, gamma=args.gamma, view=args.aov or "render",
+        exposure=args.exposure, operator=args.tonemap, gamma=args.gamma,
+        view=args.aov or ("noisy | denoised" if args.noisy_split else "render"),
+        denoise=args.denoise, denoiser=args.denoiser,
         split=args.split, split_params=_prefixed(args.set, args.split), reference=args.ref, panels=args.panels, inspector=args.inspector,
         frames=args.frames, screenshot=args.screenshot, temporal=args.temporal)
     return ViewerWindow(options).run()

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import metrics
-from ..errors import LiftError
+from ..errors import DenoiserError, LiftError
 from ..image_io import read_image, write_image, write_srgb8
 from ..plugins import discover
 from ..renderer import Renderer
@@ -50,6 +50,18 @@ class Display:
     gamma: float | None = None  # None: the sRGB curve
     view: str = "render"  # "render" or an AOV name
     split_position: float = 0.5  # of the image width, for the split view
+
+
+@dataclass
+class Denoise:
+    """The denoiser settings the viewer keeps across integrators and scenes (F3 panel)."""
+
+    mode: str = "off"  # off | every | final (final: when the image freezes, at its target or paused)
+    denoiser: str = "atrous"
+    options: dict = field(default_factory=dict)  # the à-trous settings (lift_gl/passes/atrous.py)
+
+
+NOISY_SPLIT = "noisy | denoised"  # a display view: the noisy mean left, the denoised image right
 
 
 @dataclass
@@ -116,6 +128,7 @@ class ViewSession:
         self.resolution = resolution or Resolution()
         self.sampling = Sampling()
         self.display = Display()
+        self.denoise = Denoise()
         self.errors = ErrorLog()
         self.moving = False
         self.last_frame = FrameTimes()
@@ -137,9 +150,15 @@ class ViewSession:
 
     # ---- construction -------------------------------------------------------------------
     def _make_renderer(self, integrator: str, params: dict, scene=None) -> Renderer:
-        return Renderer(scene or self.scene, size=self.resolution.render_size(self.moving), integrator=integrator,
-                        seed=self.seed, params=params, plugin_dirs=self.plugin_dirs, timers=self.timers,
-                        ctx=self.ctx, temporal=self.temporal)
+        try:
+            return Renderer(scene or self.scene, size=self.resolution.render_size(self.moving), integrator=integrator,
+                            seed=self.seed, params=params, plugin_dirs=self.plugin_dirs, timers=self.timers,
+                            ctx=self.ctx, temporal=self.temporal, denoise=self.denoise.mode, denoiser=self.denoise.denoiser,
+                            denoiser_options=self.denoise.options)
+        except DenoiserError as exc:  # the denoiser went away (a missing package): render without it
+            self.errors.add(exc)
+            self.denoise = Denoise()
+            return self._make_renderer(integrator, params, scene)
 
     def _adopt_scene(self) -> None:
         bounds = scene_bounds(self.scene)
@@ -213,6 +232,28 @@ class ViewSession:
             r.reset()
         self._restarted()
         return True
+
+    def set_denoise(self, mode: str | None = None, denoiser: str | None = None, options: dict | None = None) -> bool:
+        """Denoiser settings of the main renderer (the split view's right integrator stays
+        noisy); a denoiser that cannot run (pyoidn missing) is reported and nothing changes."""
+        try:
+            self.renderer.set_denoise(mode, denoiser, options)
+        except LiftError as exc:
+            self.errors.add(exc)
+            return False
+        r = self.renderer
+        self.denoise = Denoise(r.denoise_mode, r.denoiser, dict(r.denoiser_options))
+        if self.display.view == NOISY_SPLIT and r.denoise_mode == "off":
+            self.display.view = "render"
+        self._display_key = None
+        return True
+
+    def _denoise_final_frame(self) -> None:
+        """denoise=final: the image is denoised once, when it freezes (target reached, paused)."""
+        r = self.renderer
+        if r.denoise_mode == "final" and self.frozen and r.stats.spp > 0 and not r.denoised_current:
+            r.run_denoiser()
+            self._display_key = None
 
     def set_param(self, name: str, value, renderer: Renderer | None = None) -> bool:
         try:
@@ -342,11 +383,13 @@ class ViewSession:
             if not self.sampling.accumulate:
                 r.reset()
             r.samples_per_frame = samples  # one Renderer frame of `samples` samples per pixel
-            r.render(spp=samples, readback=False)  # ends with a GPU sync: wall time is GPU time
+            # denoise=every runs inside render(); final waits for the image to freeze.
+            r.render(spp=samples, readback=False, final=False)  # ends with a GPU sync: wall time is GPU time
         wall = time.perf_counter() - start
+        self._display_key = None
+        self._denoise_final_frame()
         self.last_frame = FrameTimes(wall_ms=wall * 1e3, pass_ms=self.pass_times(), samples=samples,
                                      pixels=self.renderer.size[0] * self.renderer.size[1])
-        self._display_key = None
         # Sampled at geometrically growing spp (cheap: one read-back each), and at the final image.
         if self.reference is not None and (self.renderer.stats.spp >= self._next_convergence_spp
                                            or self.target_reached):
@@ -360,17 +403,33 @@ class ViewSession:
 
     def update_display(self) -> None:
         """Tone-map into the renderers' display textures (only when something changed)."""
+        self._denoise_final_frame()  # paused with denoise=final: the frozen image gets denoised
         d = self.display
-        key = (id(self.renderer), id(self.compare), self.renderer.stats.spp, d.exposure, d.operator, d.gamma,
-               self.renderer.size)
+        r = self.renderer
+        key = (id(r), id(self.compare), r.stats.spp, d.exposure, d.operator, d.gamma, r.size, d.view,
+               r.denoise_mode, r.denoised_current)
         if key == self._display_key:
             return
-        for r in self.renderers:
-            r.display(d.exposure, d.operator, d.gamma, readback=False)
+        for renderer in self.renderers:
+            renderer.display(d.exposure, d.operator, d.gamma, readback=False)
+        if d.view == NOISY_SPLIT and r.denoise_pass is not None:
+            r.display(d.exposure, d.operator, d.gamma, readback=False, source="noisy")
         self._display_key = key
 
     def display_textures(self) -> list:
-        return [r.tonemap.display for r in self.renderers if r.tonemap is not None]
+        """The textures the image area shows: one, or the split view's left and right."""
+        r = self.renderer
+        if self.display.view == NOISY_SPLIT and r.tonemap_noisy is not None and r.tonemap is not None:
+            return [r.tonemap_noisy.display, r.tonemap.display]
+        return [x.tonemap.display for x in self.renderers if x.tonemap is not None]
+
+    def split_labels(self) -> tuple[str, str] | None:
+        """Names of the two sides of the split view, if one is shown."""
+        if self.display.view == NOISY_SPLIT and self.renderer.tonemap_noisy is not None:
+            return "noisy", f"denoised ({self.renderer.denoiser})"
+        if self.compare is not None and self.display.view == "render":
+            return self.renderer.plugin.name, self.compare.plugin.name
+        return None
 
     # ---- AOVs and the pixel inspector ---------------------------------------------------
     def _aov_key(self, name: str) -> str:
@@ -481,6 +540,8 @@ class ViewSession:
             "paths_per_second": pixels * stats.spp / stats.render_seconds if stats.render_seconds > 0 else 0.0,
             "dropped_samples": stats.dropped_samples, "frozen": self.frozen, "target_reached": self.target_reached,
             "params": {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in r.params.items()},
+            "denoise": r.denoise_mode, "denoiser": r.denoiser if r.denoise_mode != "off" else None,
+            "denoise_runs": stats.denoise_runs, "denoised_shown": r.denoised_current,
         }
         if self.convergence:
             last = self.convergence[-1]

@@ -57,6 +57,8 @@ class ViewOptions:
     operator: str = "aces"
     gamma: float | None = None
     view: str = "render"
+    denoise: str = "off"
+    denoiser: str = "atrous"
     split: str | None = None
     split_params: dict | None = None
     reference: str | None = None
@@ -97,8 +99,9 @@ class ViewerWindow:
         self.ui = UiState(window_size=tuple(self.wnd.buffer_size), inspector=options.inspector)
         self.panels = make_panels()
         for panel in self.panels:
-            if panel.key in ("F1", "F2", "F4", "H"):
-                panel.visible = {"F1": "settings", "F2": "statistics", "F4": "edit", "H": "help"}[panel.key] in options.panels
+            if panel.key in ("F1", "F2", "F3", "F4", "H"):
+                panel.visible = {"F1": "settings", "F2": "statistics", "F3": "denoiser", "F4": "edit",
+                                 "H": "help"}[panel.key] in options.panels
 
         software = is_software(self.ctx)
         resolution = Resolution(
@@ -117,6 +120,8 @@ class ViewerWindow:
         s.sampling.target_seconds = options.target_seconds
         s.sampling.target_frames = options.frames or 0
         s.display.exposure, s.display.operator, s.display.gamma = options.exposure, options.operator, options.gamma
+        if options.denoise != "off" or options.denoiser != "atrous":
+            s.set_denoise(options.denoise, options.denoiser)
         s.display.view = options.view
         if options.split:
             s.set_compare(options.split, options.split_params)
@@ -151,7 +156,7 @@ class ViewerWindow:
         if action != keys.ACTION_PRESS or imgui.get_io().want_capture_keyboard:
             return
         s = self.session
-        toggles = {keys.F1: "F1", keys.F2: "F2", keys.F4: "F4", keys.H: "H"}
+        toggles = {keys.F1: "F1", keys.F2: "F2", keys.F3: "F3", keys.F4: "F4", keys.H: "H"}
         if key in toggles:
             for panel in self.panels:
                 if panel.key == toggles[key]:
@@ -303,11 +308,11 @@ class ViewerWindow:
         draw = imgui.get_foreground_draw_list()
         x, y, w, h = self.ui.image_rect
         s = self.session
-        if s.compare is not None and s.display.view == "render":
+        labels = s.split_labels()
+        if labels is not None:
             divider = x + w * s.display.split_position
-            draw.add_text(imgui.ImVec2(divider - 8 - 8 * len(s.renderer.plugin.name), y + h - 24),
-                          0xFFFFFFFF, s.renderer.plugin.name)
-            draw.add_text(imgui.ImVec2(divider + 8, y + h - 24), 0xFFFFFFFF, s.compare.plugin.name)
+            draw.add_text(imgui.ImVec2(divider - 8 - 8 * len(labels[0]), y + h - 24), 0xFFFFFFFF, labels[0])
+            draw.add_text(imgui.ImVec2(divider + 8, y + h - 24), 0xFFFFFFFF, labels[1])
         now = time.perf_counter()
         self.ui.messages = [(t, text) for t, text in self.ui.messages if now - t < 4.0]
         for i, (_, text) in enumerate(self.ui.messages):

@@ -83,7 +83,9 @@ class GBufferPass:
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)  # motion too: background has no history
         self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.disable(moderngl.CULL_FACE)
+        # Blending left on by the viewer's GUI would mix normal_depth with the clear colour
+        # (its alpha is the view depth): normals scaled by the depth, the depth squared.
+        self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         if self.num_triangles:
             set_uniforms(self.vao.program, uniforms)
             self.vao.render(moderngl.TRIANGLES, vertices=3 * self.num_triangles)

@@ -11,7 +11,10 @@ For each scene: its BVH build time (no cache) and, at each size:
 - paths/s (one path per pixel sample) and rays/s: rays traced through the BVH per path,
   counted by a shader variant with LIFT_COUNT_RAYS in separate frames (so counting does not
   slow the timed ones); primary visibility from the raster G-buffer is not a traced ray.
-A pass that exists only with some settings (a denoiser) gets its column when it runs.
+A pass that exists only with some settings gets its column when it runs.
+- denoiser time (--denoisers, default atrous): one denoiser run on the accumulated image, its
+  unjittered G-buffer guides included, GPU work finished (best of --repeat x 3 runs); "none"
+  leaves it out.
 """
 from __future__ import annotations
 
@@ -31,6 +34,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
     p.add_argument("--frames", type=int, default=16, help="timed frames per measurement (default 16)")
     p.add_argument("--repeat", type=int, default=3, help="frame time: best of this many measurements (default 3)")
+    p.add_argument("--denoisers", default="atrous", metavar="LIST",
+                   help="comma-separated denoisers to time (atrous, onnx, oidn), or none (default atrous)")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--json", type=Path, dest="json_path", help="also write the results here")
@@ -78,7 +83,18 @@ def bvh_build_seconds(scene) -> tuple[int, float]:
     return len(positions), time.perf_counter() - start
 
 
-def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, backend="auto", plugin_dirs=()) -> dict:
+def denoise_seconds(renderer, runs: int) -> float:
+    """Best wall time of one denoiser run on the renderer's current accumulation."""
+    times = []
+    for _ in range(runs):
+        before = renderer.stats.denoise_seconds
+        renderer.run_denoiser()
+        times.append(renderer.stats.denoise_seconds - before)
+    return min(times)
+
+
+def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, backend="auto", plugin_dirs=(),
+               denoisers=()) -> dict:
     """Timings of one scene at one size; see the module's docstring."""
     from ..renderer import Renderer
 
@@ -113,13 +129,20 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     rays_per_path = counting.stats.rays / paths
     counting.release()
 
+    denoise_ms = {}
+    for name in denoisers:
+        denoising = make(denoise="final", denoiser=name)
+        denoising.render(spp=max(2, min(frames, 8)) * spf, final=False)  # both half-buffers hold samples
+        denoise_ms[name] = 1e3 * denoise_seconds(denoising, 3 * max(repeat, 1))
+        denoising.release()
+
     paths_per_second = size[0] * size[1] * spf / frame_s
     return {"size": list(size), "samples_per_frame": spf, "frames": frames, "repeat": repeat,
             "frame_ms": 1e3 * frame_s, "frame_ms_all": [1e3 * s for s in frame_seconds],
             "pass_ms_sync": pass_sync, "pass_ms_query": pass_query,
             "paths_per_second": paths_per_second, "rays_per_path": rays_per_path,
             "rays_per_second": paths_per_second * rays_per_path, "counted_paths": paths,
-            "dropped_samples": dropped}
+            "dropped_samples": dropped, "denoise_ms": denoise_ms}
 
 
 def table(results: list[dict]) -> str:
@@ -129,14 +152,18 @@ def table(results: list[dict]) -> str:
         for name in r["pass_ms_sync"]:
             if name not in passes:
                 passes.append(name)
+    denoisers = []
+    for r in results:
+        denoisers += [name for name in r.get("denoise_ms", {}) if name not in denoisers]
     header = ["scene", "size", "triangles", "BVH build s"] + [f"{p} ms" for p in passes] + \
-             ["frame ms", "Mpaths/s", "rays/path", "Mrays/s"]
+             ["frame ms", "Mpaths/s", "rays/path", "Mrays/s"] + [f"denoise {d} ms" for d in denoisers]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in results:
         cells = [r["scene_name"], "x".join(map(str, r["size"])), f"{r['triangles']:,}", f"{r['bvh_build_seconds']:.3f}"]
         cells += [f"{r['pass_ms_sync'][p]:.2f}" if p in r["pass_ms_sync"] else "–" for p in passes]
         cells += [f"{r['frame_ms']:.2f}", f"{r['paths_per_second'] / 1e6:.3f}", f"{r['rays_per_path']:.2f}",
                   f"{r['rays_per_second'] / 1e6:.3f}"]
+        cells += [f"{r['denoise_ms'][d]:.2f}" if d in r.get("denoise_ms", {}) else "–" for d in denoisers]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -155,6 +182,12 @@ def cmd_bench(args) -> int:
     if args.frames < 1 or args.repeat < 1:
         raise LiftError("--frames and --repeat must be at least 1")
     params = _settings(args.set, args.integrator)
+    denoisers = [] if args.denoisers.strip() == "none" else [d.strip() for d in args.denoisers.split(",")]
+    from ..denoise import DENOISERS
+
+    for name in denoisers:
+        if name not in DENOISERS:
+            raise LiftError(f"--denoisers: unknown denoiser {name!r}; choose among {', '.join(DENOISERS)}, or none")
     machine = describe_machine(create_context(args.backend))
     print(f"machine: {machine_line(machine)}", flush=True)
     results = []
@@ -164,7 +197,8 @@ def cmd_bench(args) -> int:
         load_seconds = time.perf_counter() - start
         triangles, build_seconds = bvh_build_seconds(scene)
         for size in sizes:
-            case = bench_case(scene, size, args.integrator, params, args.frames, args.repeat, args.backend, args.plugins)
+            case = bench_case(scene, size, args.integrator, params, args.frames, args.repeat, args.backend, args.plugins,
+                              denoisers)
             case.update(scene=str(path), scene_name=Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
                         triangles=triangles, spheres=len(scene.spheres), load_seconds=load_seconds,
                         bvh_build_seconds=build_seconds)

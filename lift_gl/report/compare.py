@@ -35,7 +35,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("scene")
     p.add_argument("--integrators", default="pt", metavar="LIST",
                    help="comma-separated plugins, each with optional :NAME=VALUE settings (pt,pt:max_depth=3)")
-    p.add_argument("--denoise", default="off", metavar="MODES", help="off,final,every (the denoiser is not available yet)")
+    p.add_argument("--denoise", default="off", metavar="MODES",
+                   help="off,final,every: each configuration once per mode (final: each checkpoint denoised as if "
+                        "it were the last; every: every frame; the denoiser's time counts as render time)")
+    p.add_argument("--denoiser", default="atrous", choices=("atrous", "onnx", "oidn"),
+                   help="the denoiser of the modes other than off (default atrous)")
     budget = p.add_mutually_exclusive_group(required=True)
     budget.add_argument("--time", type=float, dest="seconds", help="equal time: render time of every run, in seconds")
     budget.add_argument("--spp", type=int, help="equal spp: samples per pixel of every run")
@@ -95,7 +99,8 @@ def _configurations(args) -> list[Configuration]:
     from .configurations import parse_spec
 
     names = {parse_spec(spec.strip())[0] for spec in args.integrators.split(",") if spec.strip()}
-    return parse_configurations(args.integrators, args.denoise, {name: _settings(args.set, name) for name in names})
+    return parse_configurations(args.integrators, args.denoise, {name: _settings(args.set, name) for name in names},
+                                args.denoiser)
 
 
 class Session:
@@ -114,7 +119,8 @@ class Session:
         from ..renderer import Renderer
 
         return Renderer(self.scene, size=self.size, integrator=config.integrator, backend=self.args.backend,
-                        seed=seed, params=config.params, plugin_dirs=self.args.plugins)
+                        seed=seed, params=config.params, plugin_dirs=self.args.plugins, denoise=config.denoise,
+                        denoiser=config.denoiser)
 
     def run(self, config: Configuration, seed: int, reference: np.ndarray, keep_images: bool):
         """One progressive run: its rows (one per checkpoint), images if asked, total wall time."""
@@ -124,16 +130,16 @@ class Session:
         warm_up(renderer)
         rows, images = [], []
         start = time.perf_counter()
-        # When the denoiser lands: "every" is the renderer's own setting (each frame denoised,
-        # inside the timed frames); "final" denoises each checkpoint's image as if it were the
-        # last, and that time counts as render time. parse_configurations refuses both until then.
+        # Denoising is the renderer's: "every" after each frame, "final" at the end of each
+        # render() call, i.e. each checkpoint's image as if it were the last; either way inside
+        # the timed render, and the image a checkpoint holds is the denoised one.
         for cp in run_checkpoints(renderer, self.spp_targets, self.time_targets):
             row = {"configuration": config.label, "integrator": config.integrator,
                    "params": ";".join(f"{k}={v}" for k, v in config.params.items()), "denoise": config.denoise,
                    "seed": seed, "checkpoint": cp.index, "spp": cp.spp,
                    "render_seconds": cp.render_seconds, "wall_seconds": cp.wall_seconds}
             row.update(image_metrics(cp.image, reference, self.args.flip))
-            row["est_rel_mse"] = cp.estimate.rel_mse if cp.estimate is not None else math.nan
+            row["est_rel_mse"] = cp.estimate.rel_mse if cp.estimate is not None else math.nan  # of the noisy mean
             row["dropped_samples"] = cp.dropped_samples
             rows.append(row)
             if keep_images:
@@ -239,8 +245,17 @@ def cmd_compare(args) -> int:
     size = tuple(args.size or scene.film_size)
     session = Session(scene, size, args)
     # Every configuration's plugin and settings are checked before anything long starts.
+    biased = {}  # label -> why its images are biased (plugin's manifest, denoiser)
     for config in configs:
-        session.renderer(config, 1).release()
+        r = session.renderer(config, 1)
+        reasons = [r.plugin.biased] if r.plugin.biased else []
+        if config.denoise != "off":
+            from ..denoise import BIASED
+
+            reasons.append(f"denoised ({config.denoiser}, {config.denoise}): {BIASED}")
+        if reasons:
+            biased[config.label] = "; ".join(reasons)
+        r.release()
     out = Path(args.out)
     (out / "images").mkdir(parents=True, exist_ok=True)
 
@@ -271,7 +286,7 @@ def cmd_compare(args) -> int:
     _contact_sheet(images, reference.image, t_equal, out / "contact_sheet.png", args.exposure)
     summary = {"scene": str(args.scene), "size": list(size), "mode": session.mode,
                "budget": args.spp if session.mode == "spp" else args.seconds, "seeds": args.seeds,
-               "configurations": [c.label for c in configs], "reference": {"source": reference.source,
+               "configurations": [c.label for c in configs], "biased": biased, "reference": {"source": reference.source,
                                                                          "cached": reference.cached, **reference.info},
                "machine": machine, "started": started, "equal_time_seconds": t_equal, "overhead": overhead,
                "final": {label: {k: (v.__dict__ if hasattr(v, "__dict__") else v) for k, v in f.items()}

@@ -2,10 +2,12 @@
 
     --integrators pt,pt:max_depth=3,mine    a plugin name (or folder), then :NAME=VALUE settings
     --denoise off,final                     every configuration once per denoiser mode
+    --denoiser atrous                       which denoiser the modes other than off use
     --set bdpt.max_depth=8                  a setting for every configuration of that plugin
 
-A configuration's label is its spec as written (plus `+denoise=MODE` when not off); labels
-name the curves, the CSV rows and the image files.
+A configuration's label is its spec as written (plus `+denoise=MODE` when not off, and the
+denoiser's name when it is not the default, `+denoise=MODE:oidn`); labels name the curves, the
+CSV rows and the image files. Denoised configurations are biased (lift_gl/denoise BIASED).
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ class Configuration:
     integrator: str
     params: dict = field(default_factory=dict)  # NAME -> value as text (the plugin parses it)
     denoise: str = "off"
+    denoiser: str = "atrous"  # used when denoise is not off
 
     @property
     def file_stem(self) -> str:
@@ -52,22 +55,21 @@ def parse_spec(spec: str) -> tuple[str, dict]:
     return name.strip(), params
 
 
-def parse_configurations(integrators: str, denoise: str = "off", settings: dict | None = None) -> list[Configuration]:
+def parse_configurations(integrators: str, denoise: str = "off", settings: dict | None = None,
+                         denoiser: str = "atrous") -> list[Configuration]:
     """The configurations to compare, in the order given. `settings` maps a plugin name to
     the --set values for it; a spec's own settings win over them."""
     modes = _split_list(denoise, "--denoise")
     for mode in modes:
         if mode not in DENOISE_MODES:
             raise LiftError(f"--denoise: unknown mode {mode!r}; choose among {', '.join(DENOISE_MODES)}")
-        if mode != "off":
-            raise LiftError(f"--denoise {mode}: the denoiser is not available yet: use --denoise off")
     configs = []
     for spec in _split_list(integrators, "--integrators"):
         name, params = parse_spec(spec)
         merged = dict((settings or {}).get(name, {}), **params)
         for mode in modes:
-            label = spec if mode == "off" else f"{spec}+denoise={mode}"
-            configs.append(Configuration(label=label, integrator=name, params=merged, denoise=mode))
+            label = spec if mode == "off" else f"{spec}+denoise={mode}" + ("" if denoiser == "atrous" else f":{denoiser}")
+            configs.append(Configuration(label=label, integrator=name, params=merged, denoise=mode, denoiser=denoiser))
     labels = [c.label for c in configs]
     repeated = sorted({label for label in labels if labels.count(label) > 1})
     if repeated:

@@ -35,7 +35,9 @@ def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equa
              f"- {size} pixels; {budget}; {summary['seeds']} independent seed(s) per configuration, "
              "runs interleaved; 95% confidence intervals over seeds (t distribution, on log values)",
              f"- reference: {_reference_text(summary['reference'])}",
-             f"- machine: {machine_line(machine)}; started {summary['started']}", "",
+             f"- machine: {machine_line(machine)}; started {summary['started']}"]
+    lines += [f"- **BIASED** `{label}`: {why}" for label, why in summary.get("biased", {}).items()]
+    lines += ["",
              "## Verdict", ""]
     lines += [f"- {v.sentence()}" for v in verdicts] or ["- (no verdict: no metric in common)"]
     best = {}
@@ -65,7 +67,10 @@ def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equa
     lines += ["", "**est. relMSE** is the render's own estimate of its relMSE, without the reference (from two "
               "halves of its frames accumulated apart): the variance part of the error. **relMSE / est.** near 1 means "
               "the error against the reference is all noise; well above 1 means bias (a biased estimator, a short "
-              "max_depth) or a reference of another scene or renderer.", "",
+              "max_depth) or a reference of another scene or renderer." + (
+                  " For a denoised configuration the estimate is of its noisy mean, before the denoiser: there the "
+                  "ratio compares the denoised error with the noise it started from (below 1: the denoiser helped)."
+                  if any("+denoise=" in label for label in finals) else ""), "",
               "## Images at equal render time", "", "![contact sheet](contact_sheet.png)", "",
               f"Seed 1 of each configuration at its checkpoint nearest to {t_equal:.3g} s of render time; beneath, "
               "each pixel's relative squared error against the reference. Linear images: `images/*.exr`.", ""]

@@ -5,12 +5,12 @@ rendering logic of its own.
 | --- | ------------------------------------------------------------------ |
 | F1  | Settings: scene, integrator and its parameters, sampling, camera, display, reference |
 | F2  | Statistics: timings per pass, resolution, spp, paths/s, dropped samples |
-| F3  | (Denoiser: comes with the denoiser)                                 |
+| F3  | Denoiser: off / every frame / final frame, which denoiser, à-trous settings, noisy vs denoised |
 | H   | keyboard help                                                      |
 |     | Convergence (opens with a reference), Errors (opens on an error), pixel inspector |
 
-A new panel (the denoiser's, F3) is a class with `title`, `key`, `visible` and `draw(session, ui)`
-added to `make_panels`.
+A new panel is a class with `title`, `key`, `visible` and `draw(session, ui)` added to
+`make_panels`.
 """
 from __future__ import annotations
 
@@ -63,6 +63,7 @@ class Panel:
 
 def make_panels() -> list[Panel]:
     from .convergence import ConvergencePanel
+    from .denoiser import DenoiserPanel
     from .edit import EditPanel
     from .errors import ErrorsPanel
     from .help import HelpOverlay
@@ -70,5 +71,5 @@ def make_panels() -> list[Panel]:
     from .settings import SettingsPanel
     from .statistics import StatisticsPanel
 
-    return [SettingsPanel(), StatisticsPanel(), ConvergencePanel(), ErrorsPanel(), HelpOverlay(), PixelInspector(),
-            EditPanel()]
+    return [SettingsPanel(), StatisticsPanel(), DenoiserPanel(), ConvergencePanel(), ErrorsPanel(), HelpOverlay(),
+            PixelInspector(), EditPanel()]

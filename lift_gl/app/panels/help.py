@@ -6,7 +6,7 @@ from imgui_bundle import imgui
 from . import Panel, UiState
 
 KEYS = (
-    ("F1 / F2", "settings / statistics panel"),
+    ("F1 / F2 / F3", "settings / statistics / denoiser panel"),
     ("F4", "edit panel: lights and materials; click selects, drag moves a light"),
     ("H", "this help"),
     ("W A S D", "fly forward, left, back, right"),

@@ -5,6 +5,7 @@ from imgui_bundle import imgui
 
 from ...tonemap import OPERATORS
 from ..aov_view import AOV_VIEWS
+from ..session import NOISY_SPLIT
 from ..camera_controller import MODES
 from ..scene_catalog import find_scenes
 from . import Panel, UiState
@@ -179,8 +180,10 @@ class SettingsPanel(Panel):
         if not imgui.collapsing_header("Display", imgui.TreeNodeFlags_.default_open):
             return
         d = session.display
-        _, d.view = _combo("view", VIEWS, d.view)
-        imgui.set_item_tooltip("the tone-mapped render, or a G-buffer channel (AOV)")
+        views = VIEWS + ((NOISY_SPLIT,) if session.renderer.denoise_mode != "off" else ())
+        _, d.view = _combo("view", views, d.view)
+        imgui.set_item_tooltip("the tone-mapped render, a G-buffer channel (AOV), or with a denoiser on, "
+                               "the noisy and denoised images side by side (F3)")
         _, d.exposure = imgui.slider_float("exposure", d.exposure, -10.0, 10.0, "%.2f stops")
         _, d.operator = _combo("tone mapping", OPERATORS, d.operator)
         srgb = d.gamma is None
