@@ -67,7 +67,7 @@ class Renderer:
     def __init__(self, scene: Scene, size: tuple[int, int] | None = None, integrator: str = "pt",
                  backend: str = "auto", seed: int = 0, params: dict | None = None,
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
-                 timers: bool = False, count_rays: bool = False, ctx=None):
+                 timers: bool = False, count_rays: bool = False, ctx=None, uniform_blocks: bool | None = None):
         self.scene = validate_scene(scene)
         self.size = tuple(int(v) for v in (size or scene.film_size))
         self.seed = int(seed)
@@ -82,12 +82,16 @@ class Renderer:
         self.params = self._resolve_params(self.param_overrides)
         self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
-        self.defines = self.features.defines()
-        if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
-            self.defines["LIFT_COUNT_RAYS"] = True
+        self.count_rays = count_rays
         self.packed = pack_scene(scene)
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
-        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion)
+        # On a CPU rasterizer the small scene arrays go in uniform blocks, which llvmpipe reads
+        # faster than storage buffers (docs/cpu-speed.md); uniform_blocks=False keeps them all SSBOs.
+        if uniform_blocks is None:
+            uniform_blocks = is_software(self.ctx)
+        block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
+        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes)
+        self.defines = self._shader_defines()
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         self.camera_uniforms = camera_uniforms(self.camera, self.size)
@@ -101,6 +105,12 @@ class Renderer:
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
+
+    def _shader_defines(self) -> dict:
+        defines = dict(self.features.defines(), **self.buffers.defines())
+        if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
+            defines["LIFT_COUNT_RAYS"] = True
+        return defines
 
     def _create_passes(self) -> None:
         """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
@@ -173,9 +183,10 @@ class Renderer:
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
-        features = self._fixed_features or SceneFeatures.of(scene)
-        if features != self.features:
-            self.features, self.defines = features, features.defines()
+        self.features = self._fixed_features or SceneFeatures.of(scene)
+        defines = self._shader_defines()  # features, and arrays that moved into or out of uniform blocks
+        if defines != self.defines:
+            self.defines = defines
             for p in self.passes:
                 p.release()
             self._create_passes()
