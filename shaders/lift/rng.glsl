@@ -67,20 +67,26 @@ uint lk_permute(uint x, uint key) {
 
 uint owen_scramble(uint x, uint key) { return bitfieldReverse(lk_permute(bitfieldReverse(x), key)); }
 
-// Sobol's second dimension: generator matrix rows v_k = v_(k-1) ^ (v_(k-1) >> 1).
-uint sobol_dimension_1(uint index) {
-    uint x = 0u;
-    for (uint v = 0x80000000u; index != 0u; index >>= 1u, v ^= v >> 1u) {
-        if ((index & 1u) != 0u) x ^= v;
-    }
-    return x;
+// Sobol's second dimension, bit-reversed. Its generator matrix (rows v_k = v_(k-1) ^
+// (v_(k-1) >> 1), v_0 = 2^31) is Pascal's triangle mod 2, so by Lucas' theorem output bit j
+// (counted from the top) is the XOR of the index bits k whose bit positions contain j's
+// (k & j == j): five butterfly steps, one per bit of a position. No loop: a loop over the
+// index bits ran 32 times (the scrambled index is a random word), and on llvmpipe every
+// iteration costs the whole SIMD batch.
+uint sobol_dimension_1_reversed(uint index) {
+    index ^= (index >> 1u) & 0x55555555u;
+    index ^= (index >> 2u) & 0x33333333u;
+    index ^= (index >> 4u) & 0x0f0f0f0fu;
+    index ^= (index >> 8u) & 0x00ff00ffu;
+    index ^= (index >> 16u) & 0x0000ffffu;
+    return index;
 }
 
 vec2 rng_ld2(inout Rng r) {
     uint key = pcg_hash(r.ld_seed + r.ld_pair++ * 0x9e3779b9u);
     uint index = owen_scramble(r.sample_index, key);
     uint x = owen_scramble(bitfieldReverse(index), pcg_hash(key ^ 0xa511e9b3u));
-    uint y = owen_scramble(sobol_dimension_1(index), pcg_hash(key ^ 0x63d83595u));
+    uint y = bitfieldReverse(lk_permute(sobol_dimension_1_reversed(index), pcg_hash(key ^ 0x63d83595u)));  // owen_scramble of the unreversed
     return vec2(x >> 8u, y >> 8u) * (1.0 / 16777216.0);
 }
 
