@@ -21,12 +21,16 @@ The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`.
 """
 from __future__ import annotations
 
+import re
+
 import moderngl
 
 from .. import shaders
 from ..plugins import GLSL_TYPES, Plugin
 from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
+
+PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.MULTILINE)
 
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
@@ -90,6 +94,33 @@ void main() {{
     if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
     vec3 sum = vec3(0.0);
     float valid = 0.0;
+#if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS)
+    // A plugin whose paths advance a vertex at a time: one loop over all the vertices of all
+    // this frame's samples, a lane starting its next sample as soon as its path ends. (A loop
+    // per sample keeps the SIMD lanes of a CPU rasterizer waiting for the longest path of
+    // their batch.) The samples of a frame share its G-buffer hit, as in the loop below.
+#ifdef HAS_MOTION
+    g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
+#endif
+    Ray primary_ray = camera_ray(vec2(pixel) + u_jitter);
+    Hit primary_hit = gbuffer_hit(pixel, primary_ray);
+    uint s = 0u;
+    Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, 0u, u_sample_base, u_seed, u_stream);
+    PathState path = path_start(primary_ray, primary_hit);
+    while (s < u_samples) {{
+        if (path_step(path, rng)) continue;
+        vec3 L = path_radiance(path);
+        if (is_finite(L)) {{
+            sum += L;
+            valid += 1.0;
+        }} else {{
+            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
+        }}
+        ++s;
+        rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+        path = path_start(primary_ray, primary_hit);
+    }}
+#else
     for (uint s = 0u; s < u_samples; ++s) {{
         Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
         Ray ray;
@@ -117,6 +148,7 @@ void main() {{
         sum += L;
         valid += 1.0;
     }}
+#endif
 #ifdef LIFT_COUNT_RAYS
     // A 64-bit count in two words: carry into stats[3] when stats[2] wraps around.
     if (lift_rays_traced > 0u) {{
@@ -167,6 +199,9 @@ class TracePass:
             self.outputs = ("frame (with splats)",)
         self.source = shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} host main>")
+        # The plugin advances its paths a vertex at a time (LIFT_PATH_STEPS): several samples
+        # in one frame then cost little more than their vertices (see main()).
+        self.path_steps = plugin.primary == "gbuffer" and PATH_STEPS.search(self.source.text) is not None
         self.program = shaders.compile_compute(ctx, self.source)
         self.frame = ctx.texture(size, 4, dtype="f4")
 
