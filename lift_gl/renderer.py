@@ -38,13 +38,6 @@ from .scene.validate import validate_scene
 from .watch import FileWatcher
 
 AOVS = ("albedo", "normal", "depth")
-# On a CPU rasterizer, a plugin whose paths advance a vertex at a time (pt) renders this many
-# samples per pixel in each frame once the accumulation has FIRST_FRAMES frames of one sample
-# (each frame has one subpixel position: the first frames spread them for the edges). Fewer,
-# larger dispatches, and SIMD lanes that start their next sample instead of idling
-# (docs/cpu-speed.md). Only where the caller left samples_per_frame to the renderer.
-CPU_SAMPLES_PER_FRAME = 16
-FIRST_FRAMES = 16
 
 
 @dataclass
@@ -94,9 +87,8 @@ class Renderer:
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
         # On a CPU rasterizer the small scene arrays go in uniform blocks, which llvmpipe reads
         # faster than storage buffers (docs/cpu-speed.md); uniform_blocks=False keeps them all SSBOs.
-        self.software = is_software(self.ctx)
         if uniform_blocks is None:
-            uniform_blocks = self.software
+            uniform_blocks = is_software(self.ctx)
         block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
         self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes)
         self.defines = self._shader_defines()
@@ -376,11 +368,6 @@ class Renderer:
         self.stats.spp += samples
         self.stream_spp[stream] += samples
 
-    def _frame_samples(self) -> int:
-        batch = (self._samples_per_frame_asked is None and self.stats.frames >= FIRST_FRAMES
-                 and getattr(self.trace, "path_steps", False) and self.software)
-        return max(self.samples_per_frame, CPU_SAMPLES_PER_FRAME) if batch else self.samples_per_frame
-
     def render(self, spp: int | None = None, seconds: float | None = None, progress=None,
                readback: bool = True) -> np.ndarray | None:
         """Add spp samples per pixel (or render for `seconds` of wall time); the mean so far
@@ -394,7 +381,7 @@ class Renderer:
                 break
             if seconds is not None and time.perf_counter() - start >= seconds:
                 break
-            n = self._frame_samples() if spp is None else min(self._frame_samples(), spp - done)
+            n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
             self.render_frame(n)
             done += n
             if seconds is not None or progress is not None:

@@ -17,11 +17,14 @@ The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebui
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
 With primary = "camera" it also picks each sample's point on the lens and, in scenes with
 motion (HAS_MOTION), its moment in the shutter interval (g_ray_time, lift/bvh.glsl).
-The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`.
+The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`. A plugin that also
+defines LIFT_PATH_STEPS (pt: PathState, path_start, path_step, path_radiance) lets main() run
+the several samples of a frame (samples_per_frame > 1, G-buffer primary) as one loop over
+their vertices, each lane starting its next sample when its path ends: on a CPU rasterizer
+the 8 lanes of a SIMD batch otherwise wait for the longest path of the batch, sample after
+sample (docs/cpu-speed.md). The samples and their random numbers are the same either way.
 """
 from __future__ import annotations
-
-import re
 
 import moderngl
 
@@ -29,8 +32,6 @@ from .. import shaders
 from ..plugins import GLSL_TYPES, Plugin
 from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
-
-PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.MULTILINE)
 
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
@@ -199,9 +200,6 @@ class TracePass:
             self.outputs = ("frame (with splats)",)
         self.source = shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} host main>")
-        # The plugin advances its paths a vertex at a time (LIFT_PATH_STEPS): several samples
-        # in one frame then cost little more than their vertices (see main()).
-        self.path_steps = plugin.primary == "gbuffer" and PATH_STEPS.search(self.source.text) is not None
         self.program = shaders.compile_compute(ctx, self.source)
         self.frame = ctx.texture(size, 4, dtype="f4")
 
