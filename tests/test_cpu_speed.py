@@ -1,6 +1,11 @@
-"""Scene arrays in uniform blocks (CPU rasterizers, docs/cpu-speed.md) read the same data as
-storage buffers: the same seed renders the same image, bit for bit, whichever way each array
-travels. The reference is the storage-buffer path (uniform_blocks=False)."""
+"""What makes pt faster on a CPU rasterizer (docs/cpu-speed.md) must not change its samples.
+
+- Scene arrays in uniform blocks read the same data as storage buffers: the same seed renders
+  the same image, bit for bit, whichever way each array travels (the reference is the
+  storage-buffer path, uniform_blocks=False).
+- The host's vertex-at-a-time loop over several samples per frame gives the image of the plain
+  loop over samples.
+"""
 from __future__ import annotations
 
 import dataclasses
@@ -70,3 +75,21 @@ def test_an_edit_that_changes_array_lengths_recompiles_with_the_new_lengths():
     r.release()
     fresh, _, _ = _render(edited, True, spp=2, size=(24, 24))
     np.testing.assert_array_equal(edited_image, fresh)
+
+
+def test_vertex_at_a_time_loop_gives_the_samples_of_the_per_sample_loop(tmp_path):
+    """pt defines LIFT_PATH_STEPS, so with several samples per frame the host runs all their
+    vertices in one loop (lift_gl/passes/trace.py); a copy of pt without that define gets
+    the plain loop over samples. Same random numbers, same paths: the same image, bit for bit."""
+    source = REPO / "plugins" / "pt"
+    plain = tmp_path / "pt_plain"
+    plain.mkdir()
+    (plain / "plugin.toml").write_text((source / "plugin.toml").read_text().replace('name = "pt"', 'name = "pt_plain"'))
+    text = (source / "pt.glsl").read_text()
+    assert "#define LIFT_PATH_STEPS\n" in text
+    (plain / "pt.glsl").write_text(text.replace("#define LIFT_PATH_STEPS\n", ""))
+    scene = load_scene(CORNELL)
+    steps, _, _ = _render(scene, None, spp=12, samples_per_frame=6)
+    loop, _, _ = _render(scene, None, spp=12, samples_per_frame=6, integrator=str(plain))
+    assert np.isfinite(steps).all() and steps.mean() > 0
+    np.testing.assert_array_equal(steps, loop)
