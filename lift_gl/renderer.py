@@ -304,6 +304,9 @@ class Renderer:
             lines.append("  (no gbuffer: the plugin traces camera rays, primary = \"camera\")")
         lines.append("scene features compiled in (+) and left out (-):")
         lines += ["  " + f for f in self.features.explain()]
+        if self.buffers.in_uniform_block:
+            lines.append("scene arrays in uniform blocks, which a CPU rasterizer reads faster than storage "
+                         f"buffers (docs/cpu-speed.md): {', '.join(sorted(self.buffers.in_uniform_block))}")
         return "\n".join(lines)
 
     def _trace_device(self) -> str:
