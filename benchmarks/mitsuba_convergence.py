@@ -13,9 +13,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import time
 
 import numpy as np
+
+
+def cpu_seconds() -> float:
+    """CPU time of this process, all threads (Dr.Jit's pool included)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def main() -> None:
@@ -39,11 +46,11 @@ def main() -> None:
     rows = []
     spp = 1
     while spp <= args.spp:
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), cpu_seconds()
         image = np.array(mi.render(scene, spp=spp, seed=spp), np.float32)
-        seconds = time.perf_counter() - start
-        rows.append({"spp": spp, "seconds": seconds, "rel_mse": rel_mse(image, ref)})
-        print(f"{spp:6d} spp  {seconds:8.2f} s  relMSE {rows[-1]['rel_mse']:.5f}", flush=True)
+        seconds, cpu = time.perf_counter() - start, cpu_seconds() - cpu_start
+        rows.append({"spp": spp, "seconds": seconds, "cpu_seconds": cpu, "rel_mse": rel_mse(image, ref)})
+        print(f"{spp:6d} spp  {seconds:8.2f} s  CPU {cpu:8.2f} s  relMSE {rows[-1]['rel_mse']:.5f}", flush=True)
         spp *= 2
     if args.out:
         with open(args.out, "w") as f:

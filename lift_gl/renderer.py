@@ -94,12 +94,14 @@ class Renderer:
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
                  timers: bool = False, count_rays: bool = False, ctx=None, temporal: str = "reset",
                  min_blend: float = DEFAULT_MIN_BLEND, clamp_sigma: float = 0.0, denoise: str = "off",
-                 denoiser: str = "atrous", denoiser_options: dict | None = None):
+                 denoiser: str = "atrous", denoiser_options: dict | None = None,
+                 uniform_blocks: bool | None = None):
         """temporal: "reset" (a moved camera or object restarts accumulation) or "reproject"
         (the history is reprojected; min_blend: the least weight a moving frame gets;
         clamp_sigma > 0: clamp the history to the frame's neighbourhood, BIASED).
         denoise: "off", "every" (each frame) or "final" (end of each render()), with `denoiser`
-        ("atrous", "onnx", "oidn"; lift_gl.denoise): BIASED, labelled as such."""
+        ("atrous", "onnx", "oidn"; lift_gl.denoise): BIASED, labelled as such.
+        uniform_blocks: small scene arrays in uniform blocks (default: on CPU rasterizers)."""
         if temporal not in MODES:
             raise ValueError(f"temporal must be one of {', '.join(MODES)}, not {temporal!r}")
         history_cap(min_blend, 1)  # validates min_blend
@@ -131,12 +133,16 @@ class Renderer:
         self.params = self._resolve_params(self.param_overrides)
         self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
-        self.defines = self.features.defines()
-        if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
-            self.defines["LIFT_COUNT_RAYS"] = True
+        self.count_rays = count_rays
         self.packed = pack_scene(scene)
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
-        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion)
+        # On a CPU rasterizer the small scene arrays go in uniform blocks, which llvmpipe reads
+        # faster than storage buffers (docs/cpu-speed.md); uniform_blocks=False keeps them all SSBOs.
+        if uniform_blocks is None:
+            uniform_blocks = is_software(self.ctx)
+        block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
+        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes)
+        self.defines = self._shader_defines()
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         self.camera_uniforms = camera_uniforms(self.camera, self.size)
@@ -150,6 +156,12 @@ class Renderer:
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
+
+    def _shader_defines(self) -> dict:
+        defines = dict(self.features.defines(), **self.buffers.defines())
+        if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
+            defines["LIFT_COUNT_RAYS"] = True
+        return defines
 
     def _create_passes(self) -> None:
         """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
@@ -287,7 +299,11 @@ class Renderer:
         features = self._fixed_features or SceneFeatures.of(scene)
         if features != self.features:
             same_look = False
-            self.features, self.defines = features, features.defines()
+        self.features = features
+        defines = self._shader_defines()  # features, and arrays that moved into or out of uniform blocks
+        if defines != self.defines:
+            same_look = False  # new passes: their history starts empty
+            self.defines = defines
             for p in self.passes:
                 p.release()
             self._create_passes()
@@ -430,6 +446,9 @@ class Renderer:
             lines.append("  (no gbuffer: the plugin traces camera rays, primary = \"camera\")")
         lines.append("scene features compiled in (+) and left out (-):")
         lines += ["  " + f for f in self.features.explain()]
+        if self.buffers.in_uniform_block:
+            lines.append("scene arrays in uniform blocks, which a CPU rasterizer reads faster than storage "
+                         f"buffers (docs/cpu-speed.md): {', '.join(sorted(self.buffers.in_uniform_block))}")
         return "\n".join(lines)
 
     def _denoise_reason(self) -> str:

@@ -102,7 +102,7 @@ void main() {
 
 
 def test_sobol_second_dimension_matches_its_generator_matrix():
-    """sobol_dimension_1 (loop-free, lift/rng.glsl) equals the XOR of the generator matrix's
+    """sobol_dimension_1_reversed (loop-free, lift/rng.glsl), reversed back, equals the XOR of the generator matrix's
     rows v_k = v_(k-1) ^ (v_(k-1) >> 1), v_0 = 2^31, over the index's set bits."""
     import numpy as np
 
@@ -123,7 +123,7 @@ layout(local_size_x = 64) in;
 #include "lift/rng.glsl"
 layout(std430, binding = 10) buffer In { uint indices[]; };
 layout(std430, binding = 11) buffer Out { uint values[]; };
-void main() { values[gl_GlobalInvocationID.x] = sobol_dimension_1(indices[gl_GlobalInvocationID.x]); }
+void main() { values[gl_GlobalInvocationID.x] = bitfieldReverse(sobol_dimension_1_reversed(indices[gl_GlobalInvocationID.x])); }
 """)
     program = compile_compute(ctx, src)
     inp = ctx.buffer(indices.tobytes())

@@ -12,6 +12,14 @@ SCENE_BINDINGS = {
     "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
     "materials": 5, "lights": 6, "spheres": 7, "images": 9,
 }
+# Arrays that may go into a uniform block on a CPU rasterizer (shaders/lift/scene_data.glsl):
+# name -> (the define that switches it over and holds its length, vec4 rows per GLSL element).
+UNIFORM_ARRAYS = {
+    "bvh_nodes": ("LIFT_UBO_BVH_NODES", 1), "tri_pos": ("LIFT_UBO_TRI_POS", 1),
+    "tri_normal": ("LIFT_UBO_TRI_NORMAL", 1), "tri_uv": ("LIFT_UBO_TRI_UV", 1),
+    "tri_info": ("LIFT_UBO_TRI_INFO", 1), "materials": ("LIFT_UBO_MATERIALS", 4),
+    "lights": ("LIFT_UBO_LIGHTS", 1), "spheres": ("LIFT_UBO_SPHERES", 1),
+}
 STATS_BINDING = 8
 MOTION_BINDING = 16  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
@@ -46,17 +54,28 @@ def set_uniforms(program, values: dict) -> None:
         member.value = value
 
 
+def glsl_length(name: str, array: np.ndarray) -> int:
+    """Elements of the GLSL array `name` that the packed `array` fills (vec4, uvec2 or Material)."""
+    return array.shape[0] if name == "tri_info" else array.size // (4 * UNIFORM_ARRAYS[name][1])
+
+
 class SceneBuffers:
     """The packed scene uploaded as SSBOs, plus the statistics counters.
 
     `motion`: the shaders are compiled with HAS_MOTION (default: when the scene moves), so
-    they read `motion`. A still scene compiled with every feature gets still_motion()."""
+    they read `motion`. A still scene compiled with every feature gets still_motion().
 
-    def __init__(self, ctx, packed: PackedScene, motion: bool | None = None):
+    `uniform_block_bytes` > 0 (CPU rasterizers): each of the UNIFORM_ARRAYS that fits in that
+    many bytes goes into a uniform block rather than a storage buffer, which Mesa's llvmpipe
+    reads far faster (shaders/lift/scene_data.glsl says why); defines() tells the shaders which.
+    """
+
+    def __init__(self, ctx, packed: PackedScene, motion: bool | None = None, uniform_block_bytes: int = 0):
         self.ctx = ctx
         self.packed = packed
-        self.buffers = {name: ctx.buffer(np.ascontiguousarray(getattr(packed, name)).tobytes())
-                        for name in SCENE_BINDINGS}
+        self.uniform_block_bytes = uniform_block_bytes
+        self.in_uniform_block = self._uniform_arrays(packed)
+        self.buffers = {name: ctx.buffer(self._bytes(name, getattr(packed, name))) for name in SCENE_BINDINGS}
         self.motion = None
         if packed.has_motion if motion is None else motion:
             rows = packed.motion if packed.has_motion else still_motion(packed)
@@ -64,18 +83,38 @@ class SceneBuffers:
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()
 
+    def _uniform_arrays(self, packed: PackedScene) -> set:
+        return {name for name in UNIFORM_ARRAYS
+                if 0 < getattr(packed, name).shape[0] and
+                glsl_length(name, getattr(packed, name)) * 16 * UNIFORM_ARRAYS[name][1] <= self.uniform_block_bytes}
+
+    def _bytes(self, name: str, array: np.ndarray) -> bytes:
+        array = np.ascontiguousarray(array)
+        if name == "tri_info" and name in self.in_uniform_block:  # std140: uvec2 elements 16 bytes apart
+            padded = np.zeros((array.shape[0], 4), np.uint32)
+            padded[:, :2] = array
+            array = padded
+        return array.tobytes()
+
+    def defines(self) -> dict:
+        """The shader defines of the arrays in uniform blocks (their GLSL lengths)."""
+        return {UNIFORM_ARRAYS[name][0]: glsl_length(name, getattr(self.packed, name))
+                for name in sorted(self.in_uniform_block)}
+
     def upload(self, packed: PackedScene) -> list[str]:
         """Take an edited scene's arrays: rewrite the buffers whose contents changed (in place
         when the size is the same) and return their names. The motion buffer follows only
-        if the scene moves."""
+        if the scene moves. Where an array's length changes, so may defines(): the caller
+        recompiles its shaders then."""
         written = []
+        old_uniform, self.in_uniform_block = self.in_uniform_block, self._uniform_arrays(packed)
         for name in SCENE_BINDINGS:
             new = np.ascontiguousarray(getattr(packed, name))
             old = getattr(self.packed, name)
-            if new.shape == old.shape and np.array_equal(new, old):
+            if new.shape == old.shape and np.array_equal(new, old) and (name in old_uniform) == (name in self.in_uniform_block):
                 continue
             written.append(name)
-            data = new.tobytes()
+            data = self._bytes(name, new)
             if len(data) == self.buffers[name].size:
                 self.buffers[name].write(data)
             else:
@@ -94,7 +133,10 @@ class SceneBuffers:
 
     def bind(self) -> None:
         for name, binding in SCENE_BINDINGS.items():
-            self.buffers[name].bind_to_storage_buffer(binding)
+            if name in self.in_uniform_block:
+                self.buffers[name].bind_to_uniform_block(binding)
+            else:
+                self.buffers[name].bind_to_storage_buffer(binding)
         if self.motion is not None:
             self.motion.bind_to_storage_buffer(MOTION_BINDING)
         self.stats.bind_to_storage_buffer(STATS_BINDING)

@@ -17,7 +17,12 @@ The host writes main(): the pixel loop, per-sample seeds, the primary hit (rebui
 from the G-buffer's primitive id, or traced from the camera), the NaN/Inf guard, the output.
 With primary = "camera" it also picks each sample's point on the lens and, in scenes with
 motion (HAS_MOTION), its moment in the shutter interval (g_ray_time, lift/bvh.glsl).
-The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`.
+The plugin writes only `vec3 radiance(Ray ray, Hit hit, inout Rng rng)`. A plugin that also
+defines LIFT_PATH_STEPS (pt: PathState, path_start, path_step, path_radiance) lets main() run
+the several samples of a frame (samples_per_frame > 1, G-buffer primary) as one loop over
+their vertices, each lane starting its next sample when its path ends: on a CPU rasterizer
+the 8 lanes of a SIMD batch otherwise wait for the longest path of the batch, sample after
+sample (docs/cpu-speed.md). The samples and their random numbers are the same either way.
 """
 from __future__ import annotations
 
@@ -90,6 +95,33 @@ void main() {{
     if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
     vec3 sum = vec3(0.0);
     float valid = 0.0;
+#if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS)
+    // A plugin whose paths advance a vertex at a time: one loop over all the vertices of all
+    // this frame's samples, a lane starting its next sample as soon as its path ends. (A loop
+    // per sample keeps the SIMD lanes of a CPU rasterizer waiting for the longest path of
+    // their batch.) The samples of a frame share its G-buffer hit, as in the loop below.
+#ifdef HAS_MOTION
+    g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
+#endif
+    Ray primary_ray = camera_ray(vec2(pixel) + u_jitter);
+    Hit primary_hit = gbuffer_hit(pixel, primary_ray);
+    uint s = 0u;
+    Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, 0u, u_sample_base, u_seed, u_stream);
+    PathState path = path_start(primary_ray, primary_hit);
+    while (s < u_samples) {{
+        if (path_step(path, rng)) continue;
+        vec3 L = path_radiance(path);
+        if (is_finite(L)) {{
+            sum += L;
+            valid += 1.0;
+        }} else {{
+            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
+        }}
+        ++s;
+        rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+        path = path_start(primary_ray, primary_hit);
+    }}
+#else
     for (uint s = 0u; s < u_samples; ++s) {{
         Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
         Ray ray;
@@ -117,6 +149,7 @@ void main() {{
         sum += L;
         valid += 1.0;
     }}
+#endif
 #ifdef LIFT_COUNT_RAYS
     // A 64-bit count in two words: carry into stats[3] when stats[2] wraps around.
     if (lift_rays_traced > 0u) {{

@@ -1,6 +1,7 @@
 // pt: a unidirectional path tracer, written to read like the textbook (Veach 1997, pbrt).
-// The host calls radiance() once per sample with the camera ray and its first hit; it
-// handles pixels, seeds, accumulation and the NaN/Inf guard.
+// The host calls radiance() once per sample with the camera ray and its first hit (or, with
+// several samples a frame, path_start and path_step: see PathState); it handles pixels,
+// seeds, accumulation and the NaN/Inf guard.
 // Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, low_discrepancy.
 
 // Opaque surfaces shade from the side the ray came from (facing_shading_normal, which also
@@ -24,82 +25,106 @@ Frame shading_frame(Surface s, Material m, vec3 wo_world) {
 // vertex `depth` is bounce `depth + 1`. Only bounces in [first_bounce, last_bounce] are
 // added to L, but the path is sampled the same way whatever the window, so the images of
 // the single bounces of one seed add up to the full image.
-vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
-    vec3 L = vec3(0.0);
-    vec3 throughput = vec3(1.0);
-    float bsdf_pdf_prev = 0.0;   // solid-angle pdf of the direction that led here
-    bool specular_prev = true;   // camera rays and delta lobes: no MIS for what they hit
-    vec3 p_prev = ray.origin;
-    int first_bounce = only_bounce >= 0 ? only_bounce : min_bounce;
-    int last_bounce = only_bounce >= 0 ? min(only_bounce, max_depth) : max_depth;
+int first_bounce() { return only_bounce >= 0 ? only_bounce : min_bounce; }
+int last_bounce() { return only_bounce >= 0 ? min(only_bounce, max_depth) : max_depth; }
 
-    for (int depth = 0; ; ++depth) {
-        bool counted = depth >= first_bounce;  // light that ends its path here is bounce `depth`
-        // ---- Escaped: the environment ----
-        if (hit.prim == NO_HIT) {
+// A path under way: what the loop of radiance() carries from one vertex to the next. The
+// path advances one vertex per path_step(), so that the host can start a lane's next sample
+// as soon as its path ends (LIFT_PATH_STEPS, lift_gl/passes/trace.py) instead of idling
+// until the longest path of its SIMD batch ends (docs/cpu-speed.md).
+#define LIFT_PATH_STEPS
+struct PathState {
+    Ray ray;               // the ray that reached this vertex ...
+    Hit hit;               // ... and what it hit
+    vec3 L;
+    vec3 throughput;
+    float bsdf_pdf_prev;   // solid-angle pdf of the direction that led here
+    bool specular_prev;    // camera rays and delta lobes: no MIS for what they hit
+    vec3 p_prev;
+    int depth;
+};
+
+PathState path_start(Ray ray, Hit hit) {
+    return PathState(ray, hit, vec3(0.0), vec3(1.0), 0.0, true, ray.origin, 0);
+}
+
+// One vertex of the path: what it adds to L, then the next ray, traced. False: the path ended.
+bool path_step(inout PathState path, inout Rng rng) {
+    int depth = path.depth;
+    bool counted = depth >= first_bounce();  // light that ends its path here is bounce `depth`
+    // ---- Escaped: the environment ----
+    if (path.hit.prim == NO_HIT) {
 #ifdef HAS_ENVIRONMENT
-            float w = specular_prev ? 1.0 : power_heuristic(bsdf_pdf_prev, env_light_pdf(ray.dir));
-            if (counted) L += throughput * env_radiance(ray.dir) * w;
+        float w = path.specular_prev ? 1.0 : power_heuristic(path.bsdf_pdf_prev, env_light_pdf(path.ray.dir));
+        if (counted) path.L += path.throughput * env_radiance(path.ray.dir) * w;
 #endif
-            break;
-        }
-        Surface s = surface_at(ray, hit);
-        vec3 wo_world = -ray.dir;
+        return false;
+    }
+    Surface s = surface_at(path.ray, path.hit);
+    vec3 wo_world = -path.ray.dir;
 
-        // ---- Emission found by the path ----
+    // ---- Emission found by the path ----
 #ifdef HAS_EMISSIVE
-        vec3 Le = surface_emission(s, wo_world);
-        if (counted && any(greaterThan(Le, vec3(0.0)))) {
-            float w = specular_prev ? 1.0 : power_heuristic(bsdf_pdf_prev, light_pdf(p_prev, s, ray.dir, hit.t));
-            L += throughput * Le * w;
-        }
+    vec3 Le = surface_emission(s, wo_world);
+    if (counted && any(greaterThan(Le, vec3(0.0)))) {
+        float w = path.specular_prev ? 1.0 : power_heuristic(path.bsdf_pdf_prev, light_pdf(path.p_prev, s, path.ray.dir, path.hit.t));
+        path.L += path.throughput * Le * w;
+    }
 #endif
-        if (depth >= last_bounce) break;
+    if (depth >= last_bounce()) return false;
 
-        Material m = material_at(s.material, s.uv);  // textures applied
-        Frame frame = shading_frame(s, m, wo_world);
-        vec3 wo = to_local(frame, wo_world);
+    Material m = material_at(s.material, s.uv);  // textures applied
+    Frame frame = shading_frame(s, m, wo_world);
+    vec3 wo = to_local(frame, wo_world);
 
-        // ---- Next event estimation: one light sample, weighted against BSDF sampling ----
+    // ---- Next event estimation: one light sample, weighted against BSDF sampling ----
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
-        if (!bsdf_is_delta(m)) {
-            LightSample ls;
-            // The light is sampled even where its bounce (depth + 1) is not counted, so that
-            // every window draws the same random numbers; only the shadow ray is saved.
-            if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls) && depth + 1 >= first_bounce) {
-                vec3 wi = to_local(frame, ls.wi);
-                vec3 f = bsdf_eval(m, wo, wi);
-                // Through the true surface of an opaque one: nothing (BSDF sampling agrees).
-                if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
-                if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
-                    // A delta light (distant) can't be found by BSDF sampling: no MIS.
-                    float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
-                    L += throughput * f * ls.radiance * (w / ls.pdf);
-                }
+    if (!bsdf_is_delta(m)) {
+        LightSample ls;
+        // The light is sampled even where its bounce (depth + 1) is not counted, so that
+        // every window draws the same random numbers; only the shadow ray is saved.
+        if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls) && depth + 1 >= first_bounce()) {
+            vec3 wi = to_local(frame, ls.wi);
+            vec3 f = bsdf_eval(m, wo, wi);
+            // Through the true surface of an opaque one: nothing (BSDF sampling agrees).
+            if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
+            if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
+                // A delta light (distant) can't be found by BSDF sampling: no MIS.
+                float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
+                path.L += path.throughput * f * ls.radiance * (w / ls.pdf);
             }
         }
+    }
 #endif
 
-        // ---- BSDF sampling: the next direction ----
-        BsdfSample bs;
-        if (!bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs)) break;
-        vec3 wi_world = to_world(frame, bs.wi);
-        // A reflection that the shading normal allows but the true surface does not.
-        if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
-        throughput *= bs.weight;
-        bsdf_pdf_prev = bs.pdf;
-        specular_prev = bs.is_delta;
-        p_prev = s.p;
+    // ---- BSDF sampling: the next direction ----
+    BsdfSample bs;
+    if (!bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs)) return false;
+    vec3 wi_world = to_world(frame, bs.wi);
+    // A reflection that the shading normal allows but the true surface does not.
+    if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) return false;
+    path.throughput *= bs.weight;
+    path.bsdf_pdf_prev = bs.pdf;
+    path.specular_prev = bs.is_delta;
+    path.p_prev = s.p;
 
-        // ---- Russian roulette: end dim paths, reweight the survivors ----
-        if (depth + 1 >= rr_depth) {
-            float survive = clamp(max(throughput.r, max(throughput.g, throughput.b)), rr_min_survival, 1.0);
-            if (rng_next(rng) >= survive) break;
-            throughput /= survive;
-        }
-
-        ray = spawn_ray(s, wi_world);
-        trace_closest(ray, hit);
+    // ---- Russian roulette: end dim paths, reweight the survivors ----
+    if (depth + 1 >= rr_depth) {
+        float survive = clamp(max(path.throughput.r, max(path.throughput.g, path.throughput.b)), rr_min_survival, 1.0);
+        if (rng_next(rng) >= survive) return false;
+        path.throughput /= survive;
     }
-    return L;
+
+    path.ray = spawn_ray(s, wi_world);
+    trace_closest(path.ray, path.hit);
+    path.depth = depth + 1;
+    return true;
+}
+
+vec3 path_radiance(PathState path) { return path.L; }
+
+vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
+    PathState path = path_start(ray, hit);
+    while (path_step(path, rng)) {}
+    return path_radiance(path);
 }

@@ -67,28 +67,27 @@ uint lk_permute(uint x, uint key) {
 
 uint owen_scramble(uint x, uint key) { return bitfieldReverse(lk_permute(bitfieldReverse(x), key)); }
 
-// Sobol's second dimension: generator matrix rows v_k = v_(k-1) ^ (v_(k-1) >> 1), i.e.
-// row k has bit (31 - j) set where C(k, j) is odd, which is where j's bits are a subset of
-// k's (Lucas). So bit j of the bit-reversed result is the parity of the index's bits at the
-// positions k that are supersets of j: a XOR superset sum over the five bits of a position,
-// five shift-and-mask steps instead of a loop over the index's 32 bits. (Loops matter:
-// llvmpipe stops a shader invocation after 65535 loop iterations in all, and the loop cost
-// about 60 of them per bounce. tests/test_rng.py checks it against the loop.)
-uint sobol_dimension_1(uint index) {
-    uint g = index;
-    g ^= (g >> 1u) & 0x55555555u;
-    g ^= (g >> 2u) & 0x33333333u;
-    g ^= (g >> 4u) & 0x0f0f0f0fu;
-    g ^= (g >> 8u) & 0x00ff00ffu;
-    g ^= (g >> 16u) & 0x0000ffffu;
-    return bitfieldReverse(g);
+// Sobol's second dimension, bit-reversed. Its generator matrix (rows v_k = v_(k-1) ^
+// (v_(k-1) >> 1), v_0 = 2^31) is Pascal's triangle mod 2, so by Lucas' theorem output bit j
+// (counted from the top) is the XOR of the index bits k whose bit positions contain j's
+// (k & j == j): five butterfly steps, one per bit of a position. No loop: a loop over the
+// index bits ran 32 times (the scrambled index is a random word), and on llvmpipe every
+// iteration costs the whole SIMD batch; and llvmpipe stops an invocation after 65535 loop
+// iterations in all, which that loop spent at about 60 a bounce.
+uint sobol_dimension_1_reversed(uint index) {
+    index ^= (index >> 1u) & 0x55555555u;
+    index ^= (index >> 2u) & 0x33333333u;
+    index ^= (index >> 4u) & 0x0f0f0f0fu;
+    index ^= (index >> 8u) & 0x00ff00ffu;
+    index ^= (index >> 16u) & 0x0000ffffu;
+    return index;
 }
 
 vec2 rng_ld2(inout Rng r) {
     uint key = pcg_hash(r.ld_seed + r.ld_pair++ * 0x9e3779b9u);
     uint index = owen_scramble(r.sample_index, key);
     uint x = owen_scramble(bitfieldReverse(index), pcg_hash(key ^ 0xa511e9b3u));
-    uint y = owen_scramble(sobol_dimension_1(index), pcg_hash(key ^ 0x63d83595u));
+    uint y = bitfieldReverse(lk_permute(sobol_dimension_1_reversed(index), pcg_hash(key ^ 0x63d83595u)));  // owen_scramble of the unreversed
     return vec2(x >> 8u, y >> 8u) * (1.0 / 16777216.0);
 }
 

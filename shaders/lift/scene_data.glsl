@@ -1,6 +1,11 @@
 // lift/scene_data.glsl: the scene as the GPU sees it (written by lift_gl/scene/pack.py).
 // All positions are world space. Triangles are stored in BVH leaf order, so a triangle id
 // is an index into these arrays, and leaf ranges are contiguous.
+// On a CPU rasterizer the host may hand any of the arrays below in a uniform block instead
+// (LIFT_UBO_<ARRAY> defined to its length; lift_gl/passes/common.py): Mesa's llvmpipe loads a
+// storage buffer one SIMD lane at a time, with a branch per lane and word, but gathers from a
+// uniform block. Same names, same data (std140 rounds uvec2 array elements up to 16 bytes),
+// so the code that reads them is the same.
 #ifndef LIFT_SCENE_DATA_GLSL
 #define LIFT_SCENE_DATA_GLSL
 
@@ -12,16 +17,36 @@
 // Two vec4 per node: (bmin.xyz, first), (bmax.xyz, count); first and count are uint bits.
 // count == 0: interior node, children are nodes `first` and `first + 1`.
 // count > 0: leaf holding triangles first .. first + count - 1.
+#ifdef LIFT_UBO_BVH_NODES
+layout(std140, binding = 0) uniform BvhNodes { vec4 bvh_nodes[LIFT_UBO_BVH_NODES]; };
+#else
 layout(std430, binding = 0) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
+#endif
 // Three vec4 per triangle: corner positions (xyz); w unused.
+#ifdef LIFT_UBO_TRI_POS
+layout(std140, binding = 1) uniform TriPositions { vec4 tri_pos[LIFT_UBO_TRI_POS]; };
+#else
 layout(std430, binding = 1) readonly buffer TriPositions { vec4 tri_pos[]; };
+#endif
 // Three vec4 per triangle: corner shading normals (xyz); w unused.
+#ifdef LIFT_UBO_TRI_NORMAL
+layout(std140, binding = 2) uniform TriNormals { vec4 tri_normal[LIFT_UBO_TRI_NORMAL]; };
+#else
 layout(std430, binding = 2) readonly buffer TriNormals { vec4 tri_normal[]; };
+#endif
 // Three vec4 per triangle: corner texture coordinates (xy); zw unused.
+#ifdef LIFT_UBO_TRI_UV
+layout(std140, binding = 3) uniform TriUVs { vec4 tri_uv[LIFT_UBO_TRI_UV]; };
+#else
 layout(std430, binding = 3) readonly buffer TriUVs { vec4 tri_uv[]; };
+#endif
 // One uvec2 per triangle: (material id, uint bits of the probability that light sampling
 // picks this triangle; 0 for triangles that do not emit).
+#ifdef LIFT_UBO_TRI_INFO
+layout(std140, binding = 4) uniform TriInfo { uvec2 tri_info[LIFT_UBO_TRI_INFO]; };
+#else
 layout(std430, binding = 4) readonly buffer TriInfo { uvec2 tri_info[]; };
+#endif
 
 struct Material {
     vec4 color_type;      // rgb: albedo / F0 / transmission tint / conductor tint; w: MAT_* as float
@@ -30,16 +55,28 @@ struct Material {
                           // plastic: x internal diffuse reflectance of the coat, y nonlinear (0/1)
     vec4 k_pad;           // rgb: conductor k / plastic specular tint; w: base colour texture + 1 (0: none)
 };
+#ifdef LIFT_UBO_MATERIALS
+layout(std140, binding = 5) uniform Materials { Material materials[LIFT_UBO_MATERIALS]; };
+#else
 layout(std430, binding = 5) readonly buffer Materials { Material materials[]; };
+#endif
 
 // One vec4 per emissive primitive, in light-sampling order:
 // (uint bits of primitive id, cumulative selection probability up to and including this
 // one, selection probability, area). Primitive ids >= u_num_triangles are spheres.
+#ifdef LIFT_UBO_LIGHTS
+layout(std140, binding = 6) uniform Lights { vec4 lights[LIFT_UBO_LIGHTS]; };
+#else
 layout(std430, binding = 6) readonly buffer Lights { vec4 lights[]; };
+#endif
 
 // Two vec4 per sphere: (center.xyz, radius), (uint bits of material id, uint bits of
 // light selection probability, 0, 0).
+#ifdef LIFT_UBO_SPHERES
+layout(std140, binding = 7) uniform Spheres { vec4 spheres[LIFT_UBO_SPHERES]; };
+#else
 layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
+#endif
 
 #ifdef HAS_MOTION
 // Motion blur. The arrays above hold every primitive where it is when the shutter opens,

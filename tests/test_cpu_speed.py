@@ -1,0 +1,95 @@
+"""What makes pt faster on a CPU rasterizer (docs/cpu-speed.md) must not change its samples.
+
+- Scene arrays in uniform blocks read the same data as storage buffers: the same seed renders
+  the same image, bit for bit, whichever way each array travels (the reference is the
+  storage-buffer path, uniform_blocks=False).
+- The host's vertex-at-a-time loop over several samples per frame gives the image of the plain
+  loop over samples.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import trimesh
+
+from conftest import REPO
+from lift_gl import load_scene
+from lift_gl.passes.common import UNIFORM_ARRAYS
+from lift_gl.renderer import Renderer
+from lift_gl.scene.model import Mesh
+
+CORNELL = REPO / "scenes" / "cornell.toml"  # glass, metal, diffuse, an area light
+
+
+def _render(scene, uniform_blocks, spp=4, size=(32, 32), **kw):
+    r = Renderer(scene, size=size, uniform_blocks=uniform_blocks, **kw)
+    try:
+        return r.render(spp=spp), set(r.buffers.in_uniform_block), dict(r.defines)
+    finally:
+        r.release()
+
+
+def test_uniform_blocks_render_the_same_image_as_storage_buffers():
+    scene = load_scene(CORNELL)
+    ssbo, none_in_blocks, _ = _render(scene, False)
+    ubo, in_blocks, defines = _render(scene, True)
+    assert none_in_blocks == set()
+    assert {"bvh_nodes", "tri_pos", "tri_info", "materials", "lights"} <= in_blocks
+    assert all(UNIFORM_ARRAYS[name][0] in defines for name in in_blocks)
+    assert np.isfinite(ubo).all() and ubo.mean() > 0
+    np.testing.assert_array_equal(ubo, ssbo)
+
+
+def test_arrays_too_big_for_a_uniform_block_stay_storage_buffers():
+    """5,120 more triangles: three vec4 corners each pass 64 KiB (llvmpipe's uniform block
+    limit), so the triangle arrays stay SSBOs while the materials and lights still go in
+    blocks; the mix renders what the storage buffers alone render."""
+    scene = load_scene(CORNELL)
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=0.25)
+    mesh = Mesh(name="ball", positions=np.asarray(ball.vertices) + [0.0, 0.6, 0.0],
+                indices=np.asarray(ball.faces, np.int32), material=0,
+                normals=np.asarray(ball.vertex_normals, np.float32))
+    scene = dataclasses.replace(scene, meshes=[*scene.meshes, mesh])
+    ssbo, _, _ = _render(scene, False, spp=2)
+    mixed, in_blocks, defines = _render(scene, True, spp=2)
+    if in_blocks == set():  # a GL whose uniform blocks are larger than the scene
+        return
+    assert "tri_pos" not in in_blocks and "LIFT_UBO_TRI_POS" not in defines
+    assert {"materials", "lights"} <= in_blocks
+    np.testing.assert_array_equal(mixed, ssbo)
+
+
+def test_an_edit_that_changes_array_lengths_recompiles_with_the_new_lengths():
+    """Lengths are compiled into the shaders; an edit that changes them (a second light)
+    must rebuild the passes, and then renders what a fresh renderer renders."""
+    scene = load_scene(CORNELL)
+    r = Renderer(scene, size=(24, 24), uniform_blocks=True)
+    before = dict(r.defines)
+    light = next(m for m in scene.meshes if scene.materials[m.material].is_emissive)
+    twin = dataclasses.replace(light, name="twin", positions=light.positions + [0.3, -0.01, 0.0])
+    edited = dataclasses.replace(scene, meshes=[*scene.meshes, twin])
+    r.update_scene(edited)
+    assert r.defines != before
+    edited_image = r.render(spp=2)
+    r.release()
+    fresh, _, _ = _render(edited, True, spp=2, size=(24, 24))
+    np.testing.assert_array_equal(edited_image, fresh)
+
+
+def test_vertex_at_a_time_loop_gives_the_samples_of_the_per_sample_loop(tmp_path):
+    """pt defines LIFT_PATH_STEPS, so with several samples per frame the host runs all their
+    vertices in one loop (lift_gl/passes/trace.py); a copy of pt without that define gets
+    the plain loop over samples. Same random numbers, same paths: the same image, bit for bit."""
+    source = REPO / "plugins" / "pt"
+    plain = tmp_path / "pt_plain"
+    plain.mkdir()
+    (plain / "plugin.toml").write_text((source / "plugin.toml").read_text().replace('name = "pt"', 'name = "pt_plain"'))
+    text = (source / "pt.glsl").read_text()
+    assert "#define LIFT_PATH_STEPS\n" in text
+    (plain / "pt.glsl").write_text(text.replace("#define LIFT_PATH_STEPS\n", ""))
+    scene = load_scene(CORNELL)
+    steps, _, _ = _render(scene, None, spp=12, samples_per_frame=6)
+    loop, _, _ = _render(scene, None, spp=12, samples_per_frame=6, integrator=str(plain))
+    assert np.isfinite(steps).all() and steps.mean() > 0
+    np.testing.assert_array_equal(steps, loop)
