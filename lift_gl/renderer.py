@@ -87,7 +87,9 @@ class Renderer:
             self.defines["LIFT_COUNT_RAYS"] = True
         self.packed = pack_scene(scene)
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
-        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion)
+        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion,
+                                    max_buffer_bytes=self.limits.max_ssbo_bytes)
+        self.defines.update(self.buffers.plan.defines())  # a scene split across buffers
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         self.camera_uniforms = camera_uniforms(self.camera, self.size)
@@ -170,12 +172,14 @@ class Renderer:
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
         self.packed = packed
         self.camera_uniforms = camera_uniforms(self.camera, self.size)  # the origin may have moved
+        split_before = self.buffers.plan.defines()
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         features = self._fixed_features or SceneFeatures.of(scene)
-        if features != self.features:
-            self.features, self.defines = features, features.defines()
+        if features != self.features or self.buffers.plan.defines() != split_before:
+            extra = {k: v for k, v in self.defines.items() if k == "LIFT_COUNT_RAYS"}
+            self.features, self.defines = features, {**features.defines(), **self.buffers.plan.defines(), **extra}
             for p in self.passes:
                 p.release()
             self._create_passes()
@@ -293,7 +297,22 @@ class Renderer:
             lines.append("  (no gbuffer: the plugin traces camera rays, primary = \"camera\")")
         lines.append("scene features compiled in (+) and left out (-):")
         lines += ["  " + f for f in self.features.explain()]
+        lines += self._explain_memory()
         return "\n".join(lines)
+
+    def _explain_memory(self) -> list[str]:
+        """The scene's storage buffers, each with its size, and how a big scene was split."""
+        p, plan = self.packed, self.buffers.plan
+        buffers = self.buffers.memory()
+        total = sum(size for _, _, size in buffers)
+        lines = [f"BVH: {p.bvh_nodes.shape[0]:,} nodes, depth {p.bvh_depth}, built by {p.bvh_builder} "
+                 f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER chooses)",
+                 f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
+                 f"(limit {self.limits.max_ssbo_bytes / (1 << 20):,.0f} MiB a buffer)"
+                 + (f"; BVH and triangles split into {plan.chunks} buffers of up to "
+                    f"{plan.chunk_rows * 16 / (1 << 20):,.1f} MiB" if plan.split else "")]
+        lines += [f"  {name:<40} binding {binding:>2}  {size:>14,} bytes" for name, binding, size in buffers]
+        return lines
 
     def _trace_device(self) -> str:
         if self.plugin.language != "opencl":

@@ -12,16 +12,91 @@
 // Two vec4 per node: (bmin.xyz, first), (bmax.xyz, count); first and count are uint bits.
 // count == 0: interior node, children are nodes `first` and `first + 1`.
 // count > 0: leaf holding triangles first .. first + count - 1.
+// Three vec4 per triangle in tri_pos (corner positions, xyz), tri_normal (corner shading
+// normals, xyz) and tri_uv (corner texture coordinates, xy); one uvec2 per triangle in
+// tri_info: (material id, uint bits of the probability that light sampling picks this
+// triangle; 0 for triangles that do not emit).
+// Read them through the accessors below (bvh_node_row, tri_pos_row, tri_normal_row,
+// tri_uv_row, tri_info_at), never the arrays: a scene too big for one buffer a kind keeps
+// them all in a heap of several buffers (LIFT_SPLIT_SCENE, lift_gl/scene/split.py).
+#ifndef LIFT_SPLIT_SCENE
 layout(std430, binding = 0) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
-// Three vec4 per triangle: corner positions (xyz); w unused.
 layout(std430, binding = 1) readonly buffer TriPositions { vec4 tri_pos[]; };
-// Three vec4 per triangle: corner shading normals (xyz); w unused.
 layout(std430, binding = 2) readonly buffer TriNormals { vec4 tri_normal[]; };
-// Three vec4 per triangle: corner texture coordinates (xy); zw unused.
 layout(std430, binding = 3) readonly buffer TriUVs { vec4 tri_uv[]; };
-// One uvec2 per triangle: (material id, uint bits of the probability that light sampling
-// picks this triangle; 0 for triangles that do not emit).
 layout(std430, binding = 4) readonly buffer TriInfo { uvec2 tri_info[]; };
+vec4 bvh_node_row(uint r) { return bvh_nodes[r]; }
+vec4 tri_pos_row(uint r) { return tri_pos[r]; }
+vec4 tri_normal_row(uint r) { return tri_normal[r]; }
+vec4 tri_uv_row(uint r) { return tri_uv[r]; }
+uvec2 tri_info_at(uint t) { return tri_info[t]; }
+#else
+// The heap: vec4 rows, LIFT_HEAP_CHUNKS buffers of 2^LIFT_HEAP_SHIFT rows from binding 24
+// (lift_gl/scene/split.py HEAP_FIRST_BINDING); each array starts at the row in its uniform.
+layout(std430, binding = 24) readonly buffer Heap0 { vec4 heap0[]; };
+#if LIFT_HEAP_CHUNKS > 1
+layout(std430, binding = 25) readonly buffer Heap1 { vec4 heap1[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 2
+layout(std430, binding = 26) readonly buffer Heap2 { vec4 heap2[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 3
+layout(std430, binding = 27) readonly buffer Heap3 { vec4 heap3[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 4
+layout(std430, binding = 28) readonly buffer Heap4 { vec4 heap4[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 5
+layout(std430, binding = 29) readonly buffer Heap5 { vec4 heap5[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 6
+layout(std430, binding = 30) readonly buffer Heap6 { vec4 heap6[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 7
+layout(std430, binding = 31) readonly buffer Heap7 { vec4 heap7[]; };
+#endif
+uniform uint u_heap_nodes;
+uniform uint u_heap_pos;
+uniform uint u_heap_normal;
+uniform uint u_heap_uv;
+uniform uint u_heap_info;
+// Separate blocks, not an array of blocks: indexing one with a non-uniform index is not
+// allowed in GLSL 4.30, and rays of one work group read different chunks.
+vec4 heap_row(uint r) {
+    uint i = r & ((1u << LIFT_HEAP_SHIFT) - 1u);
+#if LIFT_HEAP_CHUNKS > 1
+    uint c = r >> LIFT_HEAP_SHIFT;
+    if (c == 1u) return heap1[i];
+#if LIFT_HEAP_CHUNKS > 2
+    if (c == 2u) return heap2[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 3
+    if (c == 3u) return heap3[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 4
+    if (c == 4u) return heap4[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 5
+    if (c == 5u) return heap5[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 6
+    if (c == 6u) return heap6[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 7
+    if (c == 7u) return heap7[i];
+#endif
+#endif
+    return heap0[i];
+}
+vec4 bvh_node_row(uint r) { return heap_row(u_heap_nodes + r); }
+vec4 tri_pos_row(uint r) { return heap_row(u_heap_pos + r); }
+vec4 tri_normal_row(uint r) { return heap_row(u_heap_normal + r); }
+vec4 tri_uv_row(uint r) { return heap_row(u_heap_uv + r); }
+uvec2 tri_info_at(uint t) {
+    vec4 row = heap_row(u_heap_info + (t >> 1u));
+    return floatBitsToUint((t & 1u) == 0u ? row.xy : row.zw);
+}
+#endif
 
 struct Material {
     vec4 color_type;      // rgb: albedo / F0 / transmission tint / conductor tint; w: MAT_* as float
