@@ -132,4 +132,4 @@ def test_builder_selection_and_cache(tmp_path, monkeypatch):
         cache_mod.resolve_builder(None, 10)
     monkeypatch.delenv(cache_mod.BUILDER_ENV_VAR)
     assert cache_mod.resolve_builder(None, 10) == "sah"
-    assert cache_mod.resolve_builder(None, cache_mod.AUTO_LBVH_TRIANGLES) == "lbvh+sah"
+    assert cache_mod.resolve_builder(None, cache_mod.AUTO_LBVH_TRIANGLES) == "lbvh"

@@ -20,7 +20,8 @@ ENV_VAR = "LIFT_GL_CACHE_DIR"
 BUILDER_ENV_VAR = "LIFT_GL_BVH_BUILDER"
 # sah: binned SAH in numpy (bvh.py); lbvh: Morton-code LBVH through OpenCL (lbvh.py);
 # lbvh+sah: the LBVH with its top levels rebuilt by SAH; auto: sah below AUTO_LBVH_TRIANGLES,
-# lbvh+sah from there on when pyopencl is installed (docs/bvh.md has the measurements).
+# lbvh from there on when pyopencl is installed. Not lbvh+sah: its lower SAH cost did not
+# make it trace faster on llvmpipe (docs/bvh.md has the measurements).
 BUILDERS = ("auto", "sah", "lbvh", "lbvh+sah")
 AUTO_LBVH_TRIANGLES = 1_000_000
 
@@ -38,7 +39,7 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
         raise ValueError(f"unknown BVH builder {name!r} (from {'$' + BUILDER_ENV_VAR if builder is None else 'the caller'}); "
                          f"choose one of {', '.join(BUILDERS)}")
     if name == "auto":
-        return "lbvh+sah" if n_tris >= AUTO_LBVH_TRIANGLES and _opencl_available() else "sah"
+        return "lbvh" if n_tris >= AUTO_LBVH_TRIANGLES and _opencl_available() else "sah"
     return name
 
 
