@@ -101,12 +101,19 @@ def build_one(n: int, builder: str, mesh: Path) -> dict:
         hwm_reset = True
     except OSError:
         hwm_reset = False
+    steps = {}
     t0, c0 = time.perf_counter(), time.process_time()
-    bvh = build_with(tris, builder)
+    if builder == "sah":
+        bvh = build_with(tris, builder)
+    else:   # the same build as build_with's, with the time of each step
+        from lift_gl.accel.lbvh import build_lbvh
+
+        bvh = build_lbvh(tris, refine=builder == "lbvh+sah", timings=steps)
     seconds, cpu_seconds = time.perf_counter() - t0, time.process_time() - c0
     peak = _status_kib("VmHWM")
     return {"triangles": n, "mesh": name, "builder": builder, "seconds": seconds,
             "cpu_seconds": cpu_seconds,   # all threads (PoCL's too): less sensitive to load
+            "step_seconds": steps,
             "peak_build_bytes": (peak - rss_before) * 1024 if hwm_reset else None,
             "peak_rss_bytes": peak * 1024, "input_bytes": int(tris.nbytes),
             "nodes": bvh.num_nodes, "leaves": bvh.num_leaves, "depth": bvh.depth,

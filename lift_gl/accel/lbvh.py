@@ -29,6 +29,8 @@ pyopencl is imported here, lazily, through lift_gl.opencl (the `opencl` extra).
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from .bvh import BVH, MAX_DEPTH, MAX_LEAF, build_bvh, empty_bvh, refit_boxes
@@ -208,12 +210,12 @@ def _lbvh_tree(keys: np.ndarray, max_leaf: int):
     """The Karras hierarchy as a _PointerTree whose subtrees of <= max_leaf triangles are
     leaves, plus each node's key range (lo, size)."""
     n = keys.shape[0]
-    left, right, rlo, rhi = (a.astype(np.int64) for a in _karras(keys))
-    size = np.concatenate([rhi - rlo + 1, np.ones(n, np.int64)])
-    lo = np.concatenate([rlo, np.arange(n, dtype=np.int64)])
-    small = size <= max_leaf
-    left = np.concatenate([np.where(small[: n - 1], -1, left), np.full(n, -1, np.int64)])
-    right = np.concatenate([right, np.full(n, -1, np.int64)])
+    left, right, rlo, rhi = _karras(keys)   # int32: half the memory traffic of int64
+    size = np.concatenate([rhi - rlo + 1, np.ones(n, np.int32)])
+    lo = np.concatenate([rlo, np.arange(n, dtype=np.int32)])
+    small = size[: n - 1] <= max_leaf
+    left = np.concatenate([np.where(small, np.int32(-1), left), np.full(n, -1, np.int32)])
+    right = np.concatenate([right, np.full(n, -1, np.int32)])
     return _PointerTree(left, right, lo, size), lo, size
 
 
@@ -308,9 +310,18 @@ def _limit_depth(bvh: BVH, pos_sorted: np.ndarray, max_depth: int) -> BVH:
 
 
 def build_lbvh(tri_positions: np.ndarray, *, refine: bool = False, max_leaf: int = MAX_LEAF,
-               max_depth: int = MAX_DEPTH, cluster: int = CLUSTER) -> BVH:
+               max_depth: int = MAX_DEPTH, cluster: int = CLUSTER, timings: dict | None = None) -> BVH:
     """LBVH of a float32 (T, K, 3) primitive array (see bvh.build_bvh for K). Leaves hold the
-    Morton-consecutive triangles of subtrees of at most max_leaf triangles."""
+    Morton-consecutive triangles of subtrees of at most max_leaf triangles. `timings`, if
+    given, receives the seconds of each step (benchmarks/bvh_scale.py reports them)."""
+    clock = [time.perf_counter()]
+
+    def lap(name):
+        if timings is not None:
+            now = time.perf_counter()
+            timings[name] = timings.get(name, 0.0) + now - clock[0]
+            clock[0] = now
+
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     if pos.ndim != 3 or pos.shape[1] < 1 or pos.shape[2] != 3:
         raise ValueError(f"tri_positions must have shape (T, 3, 3) or (T, K, 3), got {pos.shape}")
@@ -323,17 +334,25 @@ def build_lbvh(tri_positions: np.ndarray, *, refine: bool = False, max_leaf: int
         pos = np.where(np.isfinite(pos), pos, np.float32(0.0))
     if n == 1:
         return build_bvh(pos)
+    lap("input checks")
     keys, box_lo, box_hi = _sorted_keys(pos)
+    lap("morton codes (OpenCL) and sort (numpy)")
     order = (keys & np.uint64(0xFFFFFFFF)).astype(np.int64)
     box_lo, box_hi = box_lo[order], box_hi[order]
+    lap("reorder boxes")
     tree, lo, size = _lbvh_tree(keys, max_leaf)
     del keys
+    lap("hierarchy (OpenCL)")
     root = 0
     if refine:
         root = _refine_top(tree, lo, size, box_lo, box_hi, cluster)
+        lap("SAH top rebuild")
     nodes, depth = tree.flatten(root)
+    lap("flatten")
     bvh = BVH(nodes=nodes, order=order.astype(np.uint32), depth=depth)
     bvh.nodes[:, 0:3], bvh.nodes[:, 4:7] = refit_boxes(bvh, None, tri_boxes=(box_lo, box_hi))
+    lap("fit boxes")
     if depth > max_depth:
         bvh = _limit_depth(bvh, pos[order], max_depth)
+        lap("depth limit")
     return bvh
