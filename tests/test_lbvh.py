@@ -133,3 +133,29 @@ def test_builder_selection_and_cache(tmp_path, monkeypatch):
     monkeypatch.delenv(cache_mod.BUILDER_ENV_VAR)
     assert cache_mod.resolve_builder(None, 10) == "sah"
     assert cache_mod.resolve_builder(None, cache_mod.AUTO_LBVH_TRIANGLES) == "lbvh"
+
+
+def test_gl_traversal_of_an_lbvh_renders_what_the_sah_tree_renders(monkeypatch, tmp_path):
+    """The shaders traverse an LBVH like any other tree: the same closest hits, so the same
+    image, but for the rare ray that hits two triangles at the same distance (shared edges)."""
+    trimesh = pytest.importorskip("trimesh")
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.model import Camera, Environment, Material, Mesh, Scene
+
+    torus = trimesh.creation.torus(1.0, 0.35, major_sections=96, minor_sections=48)
+    torus.apply_transform(trimesh.transformations.rotation_matrix(0.9, [1, 0.3, 0]))
+    scene = Scene(camera=Camera(np.array([0.0, 1.5, 3.5]), np.zeros(3)),
+                  materials=[Material("m", base_color=np.array([0.7, 0.6, 0.5]))],
+                  meshes=[Mesh("torus", np.asarray(torus.vertices, np.float64), np.asarray(torus.faces, np.int32), 0)],
+                  environment=Environment(radiance=np.array([1.0, 1.0, 1.0])), max_depth=4)
+    monkeypatch.setenv(cache_mod.ENV_VAR, str(tmp_path))
+    images = {}
+    for builder in ("sah", "lbvh"):
+        monkeypatch.setenv(cache_mod.BUILDER_ENV_VAR, builder)
+        r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+        assert r.packed.bvh_builder == builder
+        images[builder] = r.render(spp=4)
+        r.release()
+    assert images["sah"].max() > 0
+    differ = (images["sah"] != images["lbvh"]).any(axis=2)
+    assert differ.mean() <= 0.01, f"{differ.sum()} of {differ.size} pixels differ"
