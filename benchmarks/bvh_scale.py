@@ -141,10 +141,13 @@ def mesh_scene(tris: np.ndarray):
                  environment=Environment(radiance=np.array([1.0, 1.0, 1.0])), max_depth=4)
 
 
-def trace_times(n: int, builders, size, spp: int, repeat: int, mesh: Path) -> dict:
+def trace_times(n: int, builders, size, spp: int, repeat: int, mesh: Path, split_bytes: int | None = None) -> dict:
+    """Frame times of each builder's tree; with split_bytes, also of the first builder's tree
+    split across buffers of at most that many bytes (the cost of the heap accessors)."""
     import tempfile
 
     from lift_gl.accel.cache import BUILDER_ENV_VAR, ENV_VAR
+    from lift_gl.limits import MAX_SSBO_ENV_VAR
     from lift_gl.renderer import Renderer
 
     tris, name = make_mesh(n, mesh)
@@ -158,8 +161,15 @@ def trace_times(n: int, builders, size, spp: int, repeat: int, mesh: Path) -> di
             r = Renderer(scene, size=size, integrator="pt", seed=1)
             r.render(spp=1)   # warm-up: shader compilation
             renderers[b] = r
+        if split_bytes:
+            os.environ[BUILDER_ENV_VAR] = builders[0]
+            os.environ[MAX_SSBO_ENV_VAR] = str(split_bytes)
+            r = Renderer(scene, size=size, integrator="pt", seed=1)
+            r.render(spp=1)
+            renderers[f"{builders[0]} split in {r.buffers.plan.chunks}"] = r
+            os.environ.pop(MAX_SSBO_ENV_VAR)
         os.environ.pop(BUILDER_ENV_VAR)
-    best = {b: float("inf") for b in builders}
+    best = {b: float("inf") for b in renderers}
     images = {}
     for _ in range(repeat):
         for b, r in renderers.items():   # interleaved: load changes hit every builder alike
@@ -168,9 +178,10 @@ def trace_times(n: int, builders, size, spp: int, repeat: int, mesh: Path) -> di
             images[b] = r.render(spp=spp)
             best[b] = min(best[b], (time.perf_counter() - t0) / spp)
     ref = images.get("sah", next(iter(images.values())))
+    base = "sah" if "sah" in best else builders[0]
     out = {"triangles": n, "mesh": name, "size": list(size), "spp": spp, "repeat": repeat, "builders": {}}
     for b, r in renderers.items():
-        out["builders"][b] = {"frame_ms": 1e3 * best[b], "relative_to_sah": best[b] / best["sah"] if "sah" in best else None,
+        out["builders"][b] = {"frame_ms": 1e3 * best[b], "relative_to": base, "relative": best[b] / best[base],
                               "bvh_depth": r.packed.bvh_depth, "nodes": int(r.packed.bvh_nodes.shape[0]),
                               "mean_abs_image_difference_to_sah": float(np.abs(images[b] - ref).mean()),
                               "gpu_buffer_bytes": int(sum(s for _, _, s in r.buffers.memory()))}
@@ -235,6 +246,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="trace rounds (best frame of each)")
     ap.add_argument("--no-trace", action="store_true")
     ap.add_argument("--no-builds", action="store_true", help="only the trace comparison")
+    ap.add_argument("--split-bytes", type=int, help="trace also the first builder's tree split into buffers this big")
     ap.add_argument("--json", type=Path, help="write the results here")
     ap.add_argument("--render", type=int, metavar="TRIANGLES",
                     help="only render a mesh this big (--trace-size, --trace-spp) and report its buffers")
@@ -288,12 +300,12 @@ def main(argv=None) -> int:
 
     if not args.no_trace:
         w, h = (int(v) for v in args.trace_size.lower().split("x"))
-        tr = trace_times(args.trace_triangles, builders, (w, h), args.trace_spp, args.repeat, args.mesh)
+        tr = trace_times(args.trace_triangles, builders, (w, h), args.trace_spp, args.repeat, args.mesh,
+                         args.split_bytes)
         result["trace"] = tr
         print(f"\ntrace: {tr['triangles']:,} triangles ({tr['mesh']}), pt {w}x{h}, {tr['spp']} spp, best of {tr['repeat']}")
         for b, r in tr["builders"].items():
-            rel = f"{r['relative_to_sah']:.3f}" if r["relative_to_sah"] is not None else "-"
-            print(f"  {b:<9} {r['frame_ms']:>9.1f} ms/frame  x{rel} of sah   depth {r['bvh_depth']}  "
+            print(f"  {b:<18} {r['frame_ms']:>9.1f} ms/frame  x{r['relative']:.3f} of {r['relative_to']}   depth {r['bvh_depth']}  "
                   f"GPU buffers {r['gpu_buffer_bytes'] / 2**20:,.1f} MiB")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
