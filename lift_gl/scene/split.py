@@ -27,6 +27,10 @@ MAX_HEAP_CHUNKS = 8
 ROW_BYTES = 16
 HEAP_UNIFORMS = {"bvh_nodes": "u_heap_nodes", "tri_pos": "u_heap_pos", "tri_normal": "u_heap_normal",
                  "tri_uv": "u_heap_uv", "tri_info": "u_heap_info"}
+# Each array's first and last chunk are compiled in (LIFT_HEAP_<NAME>_LO/_HI), so that its
+# accessor tests only the chunks it spans: a single load when it lies in one chunk.
+HEAP_DEFINE_NAMES = {"bvh_nodes": "NODES", "tri_pos": "POS", "tri_normal": "NORMAL", "tri_uv": "UV",
+                     "tri_info": "INFO"}
 
 
 def heap_rows_of(array: np.ndarray) -> np.ndarray:
@@ -43,6 +47,7 @@ class BufferPlan:
     shift: int = 0                 # log2 of rows per heap chunk
     chunks: int = 0
     bases: dict = field(default_factory=dict)   # first heap row of each HEAP_ARRAYS array
+    spans: dict = field(default_factory=dict)   # first and last chunk of each
     heap_rows: int = 0
 
     @property
@@ -56,7 +61,11 @@ class BufferPlan:
     def defines(self) -> dict:
         if not self.split:
             return {}
-        return {"LIFT_SPLIT_SCENE": True, "LIFT_HEAP_CHUNKS": self.chunks, "LIFT_HEAP_SHIFT": self.shift}
+        out = {"LIFT_SPLIT_SCENE": True, "LIFT_HEAP_CHUNKS": self.chunks, "LIFT_HEAP_SHIFT": self.shift}
+        for name, (lo, hi) in self.spans.items():
+            out[f"LIFT_HEAP_{HEAP_DEFINE_NAMES[name]}_LO"] = f"{lo}u"
+            out[f"LIFT_HEAP_{HEAP_DEFINE_NAMES[name]}_HI"] = f"{hi}u"
+        return out
 
     def uniforms(self) -> dict:
         return {HEAP_UNIFORMS[name]: int(base) for name, base in self.bases.items()}
@@ -74,11 +83,13 @@ def plan_buffers(packed, max_buffer_bytes: int) -> BufferPlan:
         return BufferPlan()
     rows_allowed = max(int(max_buffer_bytes) // ROW_BYTES, 1)
     shift = rows_allowed.bit_length() - 1
-    bases, row = {}, 0
+    bases, spans, row = {}, {}, 0
     for name in HEAP_ARRAYS:
+        rows = -(-sizes[name] // ROW_BYTES)
         bases[name] = row
-        row += -(-sizes[name] // ROW_BYTES)
-    return BufferPlan(shift=shift, chunks=-(-row // (1 << shift)), bases=bases, heap_rows=row)
+        spans[name] = (row >> shift, (row + max(rows, 1) - 1) >> shift)
+        row += rows
+    return BufferPlan(shift=shift, chunks=-(-row // (1 << shift)), bases=bases, spans=spans, heap_rows=row)
 
 
 def heap_chunks(packed, plan: BufferPlan):

@@ -61,39 +61,62 @@ uniform uint u_heap_normal;
 uniform uint u_heap_uv;
 uniform uint u_heap_info;
 // Separate blocks, not an array of blocks: indexing one with a non-uniform index is not
-// allowed in GLSL 4.30, and rays of one work group read different chunks.
-vec4 heap_row(uint r) {
+// allowed in GLSL 4.30, and rays of one work group read different chunks. lo and hi are the
+// first and last chunk the array spans, compile-time constants: the tests of chunks outside
+// them fold away, and an array in one chunk is a single load.
+vec4 heap_row(uint r, const uint lo, const uint hi) {
     uint i = r & ((1u << LIFT_HEAP_SHIFT) - 1u);
-#if LIFT_HEAP_CHUNKS > 1
     uint c = r >> LIFT_HEAP_SHIFT;
-    if (c == 1u) return heap1[i];
+    if (0u >= lo && 0u < hi && c == 0u) return heap0[i];
+#if LIFT_HEAP_CHUNKS > 1
+    if (1u >= lo && 1u < hi && c == 1u) return heap1[i];
+#endif
 #if LIFT_HEAP_CHUNKS > 2
-    if (c == 2u) return heap2[i];
+    if (2u >= lo && 2u < hi && c == 2u) return heap2[i];
 #endif
 #if LIFT_HEAP_CHUNKS > 3
-    if (c == 3u) return heap3[i];
+    if (3u >= lo && 3u < hi && c == 3u) return heap3[i];
 #endif
 #if LIFT_HEAP_CHUNKS > 4
-    if (c == 4u) return heap4[i];
+    if (4u >= lo && 4u < hi && c == 4u) return heap4[i];
 #endif
 #if LIFT_HEAP_CHUNKS > 5
-    if (c == 5u) return heap5[i];
+    if (5u >= lo && 5u < hi && c == 5u) return heap5[i];
 #endif
 #if LIFT_HEAP_CHUNKS > 6
-    if (c == 6u) return heap6[i];
+    if (6u >= lo && 6u < hi && c == 6u) return heap6[i];
+#endif
+    // the span's last chunk: no test of c
+    if (hi == 0u) return heap0[i];
+#if LIFT_HEAP_CHUNKS > 1
+    if (hi == 1u) return heap1[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 2
+    if (hi == 2u) return heap2[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 3
+    if (hi == 3u) return heap3[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 4
+    if (hi == 4u) return heap4[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 5
+    if (hi == 5u) return heap5[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 6
+    if (hi == 6u) return heap6[i];
 #endif
 #if LIFT_HEAP_CHUNKS > 7
-    if (c == 7u) return heap7[i];
+    if (hi == 7u) return heap7[i];
 #endif
-#endif
-    return heap0[i];
+    return vec4(0.0);
 }
-vec4 bvh_node_row(uint r) { return heap_row(u_heap_nodes + r); }
-vec4 tri_pos_row(uint r) { return heap_row(u_heap_pos + r); }
-vec4 tri_normal_row(uint r) { return heap_row(u_heap_normal + r); }
-vec4 tri_uv_row(uint r) { return heap_row(u_heap_uv + r); }
+vec4 bvh_node_row(uint r) { return heap_row(u_heap_nodes + r, LIFT_HEAP_NODES_LO, LIFT_HEAP_NODES_HI); }
+vec4 tri_pos_row(uint r) { return heap_row(u_heap_pos + r, LIFT_HEAP_POS_LO, LIFT_HEAP_POS_HI); }
+vec4 tri_normal_row(uint r) { return heap_row(u_heap_normal + r, LIFT_HEAP_NORMAL_LO, LIFT_HEAP_NORMAL_HI); }
+vec4 tri_uv_row(uint r) { return heap_row(u_heap_uv + r, LIFT_HEAP_UV_LO, LIFT_HEAP_UV_HI); }
 uvec2 tri_info_at(uint t) {
-    vec4 row = heap_row(u_heap_info + (t >> 1u));
+    vec4 row = heap_row(u_heap_info + (t >> 1u), LIFT_HEAP_INFO_LO, LIFT_HEAP_INFO_HI);
     return floatBitsToUint((t & 1u) == 0u ? row.xy : row.zw);
 }
 #endif
