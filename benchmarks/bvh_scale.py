@@ -6,9 +6,15 @@ the trace time of each tree on a mesh scene, relative to the binned-SAH build.
         [--trace-spp 4] [--repeat 3] [--json FILE] [--no-trace]
 
 Headless (EGL llvmpipe here, EGL on the GPU machine). Meshes: the dragon of
-../shared/assets/meshes (100k triangles) subdivided twice (1.6M, each triangle into four),
-copied as often as needed on a grid, each copy turned differently, and cut to the size asked;
-an icosphere when the dragon is absent. Nothing is written but the JSON.
+../shared/assets/meshes (100k triangles; --mesh names another copy) subdivided twice (1.6M,
+each triangle into four), copied as often as needed on a grid, each copy turned differently,
+and cut to the size asked; an icosphere when the dragon is absent. Nothing is written but the
+JSON. The LBVH rows need pyopencl and an OpenCL driver (PoCL); without them they report the
+error and the rest goes on.
+
+Also: --render N renders an N-triangle mesh and reports its buffers (a split scene on
+llvmpipe); --split-bytes B adds the first builder's tree split into buffers of B bytes to
+the trace comparison (the cost of the heap accessors).
 
 Build: each (size, builder) runs in a child process of its own, so that its peak memory is
 its own: `peak_build_bytes` is the growth of the resident set during the build (VmHWM after
@@ -156,11 +162,17 @@ def trace_times(n: int, builders, size, spp: int, repeat: int, mesh: Path, split
     renderers = {}
     with tempfile.TemporaryDirectory() as cache:
         os.environ[ENV_VAR] = cache   # builds from scratch, and no big files left behind
+        failed = {}
         for b in builders:
             os.environ[BUILDER_ENV_VAR] = b
-            r = Renderer(scene, size=size, integrator="pt", seed=1)
+            try:
+                r = Renderer(scene, size=size, integrator="pt", seed=1)
+            except Exception as exc:  # e.g. no pyopencl on this machine: report, go on
+                failed[b] = f"{type(exc).__name__}: {exc}"
+                continue
             r.render(spp=1)   # warm-up: shader compilation
             renderers[b] = r
+        builders = [b for b in builders if b in renderers]
         if split_bytes:
             os.environ[BUILDER_ENV_VAR] = builders[0]
             os.environ[MAX_SSBO_ENV_VAR] = str(split_bytes)
@@ -179,7 +191,8 @@ def trace_times(n: int, builders, size, spp: int, repeat: int, mesh: Path, split
             best[b] = min(best[b], (time.perf_counter() - t0) / spp)
     ref = images.get("sah", next(iter(images.values())))
     base = "sah" if "sah" in best else builders[0]
-    out = {"triangles": n, "mesh": name, "size": list(size), "spp": spp, "repeat": repeat, "builders": {}}
+    out = {"triangles": n, "mesh": name, "size": list(size), "spp": spp, "repeat": repeat, "builders": {},
+           "failed": failed}
     for b, r in renderers.items():
         out["builders"][b] = {"frame_ms": 1e3 * best[b], "relative_to": base, "relative": best[b] / best[base],
                               "bvh_depth": r.packed.bvh_depth, "nodes": int(r.packed.bvh_nodes.shape[0]),
