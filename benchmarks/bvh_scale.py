@@ -285,7 +285,8 @@ def main(argv=None) -> int:
 
     builders = [b for b in args.builders.split(",") if b]
     sizes = [int(float(s)) for s in args.sizes.split(",") if s]
-    result = {"machine": machine(), "command": " ".join([Path(sys.argv[0]).name, *(argv or sys.argv[1:])]),
+    args_text = [Path(a).name if os.path.isabs(a) else a for a in (argv or sys.argv[1:])]   # no machine paths
+    result = {"machine": machine(), "command": " ".join([Path(sys.argv[0]).name, *args_text]),
               "builds": [], "trace": None}
     print(f"{'triangles':>11} {'builder':<9} {'seconds':>8} {'cpu s':>8} {'peak MiB':>9} {'nodes':>11} {'depth':>5} "
           f"{'leaf':>5} {'SAH':>7} {'SAH/sah':>8} {'time/sah':>8}")
