@@ -3,14 +3,22 @@
 - the film: each side at most the GL's texture / framebuffer / viewport size, and all of its
   buffers together at most MAX_FILM_BYTES;
 - the scene: every shader storage buffer at most GL_MAX_SHADER_STORAGE_BLOCK_SIZE (128 MiB on
-  llvmpipe, 2 GiB on NVIDIA), checked from the triangle count before the BVH is built and
-  again, exactly, after packing. (Splitting big scenes across buffers is a later issue.)
+  llvmpipe, 2 GiB on NVIDIA). The BVH and per-triangle arrays may be split across up to
+  split.MAX_HEAP_CHUNKS buffers (lift_gl/scene/split.py); a scene that needs more is refused,
+  from the triangle count before the BVH is built and again, exactly, after packing.
+
+$LIFT_GL_MAX_SSBO_BYTES lowers the per-buffer limit below the GL's: tests force a split with
+it, and it shows on a GPU with 2 GiB buffers how a scene is split on llvmpipe.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 from .errors import LimitError
+from .scene.split import HEAP_ARRAYS, MAX_HEAP_CHUNKS, ROW_BYTES, plan_buffers
+
+MAX_SSBO_ENV_VAR = "LIFT_GL_MAX_SSBO_BYTES"
 
 # Bytes per film pixel: trace frame and accumulation sum + compensation (RGBA32F each),
 # G-buffer visibility (RGBA32UI), normal/depth (RGBA32F), albedo (RGBA16F), depth (32 bit),
@@ -21,6 +29,9 @@ MAX_FILM_BYTES = 4 << 30  # 4 GiB, so that a typo in --size cannot eat the machi
 # tri_uv) and per BVH node (two vec4); a BVH over T triangles has at most 2T - 1 nodes.
 TRIANGLE_BYTES = 48
 BVH_NODE_BYTES = 32
+# The per-triangle arrays together (tri_pos, tri_normal, tri_uv, tri_info), without the BVH:
+# a lower bound on the heap a split scene needs, used before the BVH exists.
+TRIANGLE_HEAP_BYTES = 3 * TRIANGLE_BYTES + 8
 
 
 @dataclass(frozen=True)
@@ -40,7 +51,21 @@ class GlLimits:
                    max_framebuffer=(int(info.get("GL_MAX_FRAMEBUFFER_WIDTH", 1 << 14)),
                                     int(info.get("GL_MAX_FRAMEBUFFER_HEIGHT", 1 << 14))),
                    max_viewport=(int(viewport[0]), int(viewport[1])),
-                   max_ssbo_bytes=int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)))
+                   max_ssbo_bytes=_lowered(int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27))))
+
+
+def _lowered(gl_max: int) -> int:
+    """The GL's per-buffer limit, or $LIFT_GL_MAX_SSBO_BYTES where that is lower."""
+    text = os.environ.get(MAX_SSBO_ENV_VAR, "").strip()
+    if not text:
+        return gl_max
+    try:
+        value = int(text)
+    except ValueError:
+        raise LimitError(f"${MAX_SSBO_ENV_VAR} must be a whole number of bytes, not {text!r}") from None
+    if value < ROW_BYTES:
+        raise LimitError(f"${MAX_SSBO_ENV_VAR} = {value} is below one row ({ROW_BYTES} bytes)")
+    return min(gl_max, value)
 
 
 def _mib(n: int) -> str:
@@ -68,20 +93,44 @@ def check_film(size, limits: GlLimits, where=None) -> None:
 def _ssbo_error(what: str, need: int, limits: GlLimits, where) -> LimitError:
     return LimitError(f"{what} needs {_mib(need)} in one shader storage buffer, more than this GL "
                       f"allows: GL_MAX_SHADER_STORAGE_BLOCK_SIZE = {_mib(limits.max_ssbo_bytes)} on "
-                      f"{limits.renderer} (splitting a scene across buffers is not implemented yet)",
+                      f"{limits.renderer} (only the BVH and triangle arrays are split across buffers)",
                       where)
 
 
+def _heap_bytes_allowed(limits: GlLimits) -> int:
+    rows = max(limits.max_ssbo_bytes // ROW_BYTES, 1)
+    return MAX_HEAP_CHUNKS * (1 << (rows.bit_length() - 1)) * ROW_BYTES
+
+
+def _heap_error(what: str, need: int, limits: GlLimits, where) -> LimitError:
+    allowed = _heap_bytes_allowed(limits)
+    return LimitError(f"{what} needs {_mib(need)} of BVH and triangle buffers, more than this GL can "
+                      f"hold: at most {MAX_HEAP_CHUNKS} buffers of {_mib(allowed // MAX_HEAP_CHUNKS)} "
+                      f"({_mib(allowed)}; GL_MAX_SHADER_STORAGE_BLOCK_SIZE = {_mib(limits.max_ssbo_bytes)} "
+                      f"on {limits.renderer})", where)
+
+
 def check_triangle_count(triangles: int, limits: GlLimits, where=None) -> None:
-    """Before packing: the per-triangle buffers grow by TRIANGLE_BYTES a triangle."""
-    need = triangles * TRIANGLE_BYTES
-    if need > limits.max_ssbo_bytes:
-        raise _ssbo_error(f"a scene of {triangles:,} triangles", need, limits, where)
+    """Before packing: the per-triangle arrays alone (the BVH comes on top) must fit in the
+    split heap, at TRIANGLE_HEAP_BYTES a triangle."""
+    need = triangles * TRIANGLE_HEAP_BYTES
+    if need > _heap_bytes_allowed(limits):
+        raise _heap_error(f"a scene of {triangles:,} triangles", need, limits, where)
 
 
-def check_packed(packed, limits: GlLimits, names, where=None) -> None:
-    """After packing: every buffer the shaders read, exactly."""
+def check_packed(packed, limits: GlLimits, names, where=None):
+    """After packing: every buffer the shaders read, exactly. Returns the split plan
+    (lift_gl/scene/split.py) the scene needs under these limits."""
+    plan = plan_buffers(packed, limits.max_ssbo_bytes)
+    if plan.split and plan.chunks > MAX_HEAP_CHUNKS:
+        raise _heap_error(f"the scene ({packed.num_triangles:,} triangles)", plan.heap_rows * ROW_BYTES,
+                          limits, where)
     for name in names:
+        if plan.split and name in HEAP_ARRAYS:
+            continue
         need = int(getattr(packed, name).nbytes)
         if need > limits.max_ssbo_bytes:
             raise _ssbo_error(f"the scene's '{name}' buffer", need, limits, where)
+    if packed.motion is not None and packed.motion.nbytes > limits.max_ssbo_bytes:
+        raise _ssbo_error("the scene's 'motion' buffer", int(packed.motion.nbytes), limits, where)
+    return plan

@@ -141,7 +141,8 @@ class Renderer:
         if uniform_blocks is None:
             uniform_blocks = is_software(self.ctx)
         block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
-        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes)
+        self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes,
+                                    max_buffer_bytes=self.limits.max_ssbo_bytes)  # a big scene is split
         self.defines = self._shader_defines()
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
@@ -158,7 +159,8 @@ class Renderer:
         self.watcher = FileWatcher(self._watched_files())
 
     def _shader_defines(self) -> dict:
-        defines = dict(self.features.defines(), **self.buffers.defines())
+        # features, arrays in uniform blocks (CPU rasterizers), a big scene's split (scene/split.py)
+        defines = dict(self.features.defines(), **self.buffers.defines(), **self.buffers.plan.defines())
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines
@@ -449,6 +451,7 @@ class Renderer:
         if self.buffers.in_uniform_block:
             lines.append("scene arrays in uniform blocks, which a CPU rasterizer reads faster than storage "
                          f"buffers (docs/cpu-speed.md): {', '.join(sorted(self.buffers.in_uniform_block))}")
+        lines += self._explain_memory()
         return "\n".join(lines)
 
     def _denoise_reason(self) -> str:
@@ -464,6 +467,20 @@ class Renderer:
         else:
             how = f"{self.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
         return f"--denoise {self.denoise_mode}: {how}, {when}; guides from an unjittered G-buffer"
+
+    def _explain_memory(self) -> list[str]:
+        """The scene's storage buffers, each with its size, and how a big scene was split."""
+        p, plan = self.packed, self.buffers.plan
+        buffers = self.buffers.memory()
+        total = sum(size for _, _, size in buffers)
+        lines = [f"BVH: {p.bvh_nodes.shape[0]:,} nodes, depth {p.bvh_depth}, built by {p.bvh_builder} "
+                 f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER chooses)",
+                 f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
+                 f"(limit {self.limits.max_ssbo_bytes / (1 << 20):,.0f} MiB a buffer)"
+                 + (f"; BVH and triangles split into {plan.chunks} buffers of up to "
+                    f"{plan.chunk_rows * 16 / (1 << 20):,.1f} MiB" if plan.split else "")]
+        lines += [f"  {name:<40} binding {binding:>2}  {size:>14,} bytes" for name, binding, size in buffers]
+        return lines
 
     def _trace_device(self) -> str:
         if self.plugin.language != "opencl":

@@ -102,11 +102,13 @@ def test_limits_come_from_the_context():
         assert lim.max_ssbo_bytes == 128 << 20  # FACTS.md
 
 
-def test_scene_over_the_ssbo_limit_is_refused_before_the_bvh_is_built(monkeypatch):
-    """A real one: one triangle more than GL_MAX_SHADER_STORAGE_BLOCK_SIZE / 48 bytes (the
-    corner positions of 2.8 million triangles on llvmpipe), all sharing three vertices."""
+def test_scene_over_the_split_heap_is_refused_before_the_bvh_is_built(monkeypatch):
+    """A real one: one triangle more than the split heap can hold even without a BVH
+    (split.MAX_HEAP_CHUNKS buffers of GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 152 bytes of triangle
+    data a triangle: 7.1 million triangles on llvmpipe), all sharing three vertices. Scenes
+    below that are split across buffers (tests/test_split_buffers.py)."""
     lim = limits.GlLimits.query(create_context())
-    count = lim.max_ssbo_bytes // limits.TRIANGLE_BYTES + 1
+    count = limits._heap_bytes_allowed(lim) // limits.TRIANGLE_HEAP_BYTES + 1
     mesh = Mesh("many", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.zeros((count, 3), np.int32) + [0, 1, 2], 0)
     scene = Scene(camera=Camera([0, 0, 3], [0, 0, 0]), materials=[Material("m")], meshes=[mesh])
     forbid(monkeypatch, "lift_gl.renderer.pack_scene")

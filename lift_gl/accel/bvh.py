@@ -114,7 +114,7 @@ def _sah_sweep(n_rows: int, width: int, flat: np.ndarray, count: np.ndarray, lo:
 
 
 def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int = MAX_LEAF,
-              max_depth: int = MAX_DEPTH) -> BVH:
+              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
     More generally (T, K, 3): primitive i is bounded by the box of its K points. A moving
@@ -124,7 +124,8 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
     axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits. A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
-    does not pay, or at depth max_depth (the traversal stack size). When all centroids
+    does not pay, or at depth max_depth (the traversal stack size); `min_split` = 2 with
+    max_leaf = 1 gives one primitive a leaf (lbvh.py builds over clusters so). When all centroids
     coincide (duplicated or degenerate triangles) no plane separates them and the node is cut
     in half by count, so the build always terminates.
     Non-finite coordinates are treated as 0 for the build (callers should drop such triangles).
@@ -181,7 +182,7 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         # Small nodes get few bins: with <= SMALL_NODE triangles, SMALL_NODE bins are nearly an
         # exact sweep, and the dense per-node bin grids below are then 4x smaller. Deep levels
         # hold mostly small nodes, so this roughly halves the build time.
-        forced = (act_count < MIN_SPLIT) | (level >= max_depth)
+        forced = (act_count < min_split) | (level >= max_depth)
         n_bins = np.where(act_count <= SMALL_NODE, min(SMALL_NODE, bins), bins)
         # float64 here: extents of nearly coincident float32 centroids may be denormal-small
         c_lo = np.minimum.reduceat(c, seg_off, axis=0).astype(np.float64)
@@ -248,12 +249,18 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     return BVH(nodes=nodes[:n_nodes].copy(), order=order.astype(np.uint32), depth=level)
 
 
-def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray | None,
+                tri_boxes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The node boxes of the same tree over other positions of its triangles: float32 (T, K, 3)
     in the tree's order. Returns (lo, hi), float32 (N, 3) each. Motion blur keeps one tree and
-    two sets of boxes, at shutter open and at shutter close (shaders/lift/bvh.glsl)."""
-    pts = np.asarray(tri_points_reordered, np.float32)
-    if pts.shape[0] == 0:
+    two sets of boxes, at shutter open and at shutter close (shaders/lift/bvh.glsl).
+    `tri_boxes`: the triangles' boxes (lo, hi), (T, 3) each in tree order, instead of points."""
+    if tri_boxes is None:
+        pts = np.asarray(tri_points_reordered, np.float32)
+        tri_lo, tri_hi = (pts.min(axis=1), pts.max(axis=1)) if pts.shape[0] else (None, None)
+    else:
+        tri_lo, tri_hi = tri_boxes
+    if tri_lo is None or tri_lo.shape[0] == 0:
         return bvh.bmin.copy(), bvh.bmax.copy()
     n = bvh.num_nodes
     first = bvh.first.astype(np.int64)
@@ -264,8 +271,8 @@ def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray) -> tuple[np.ndarray,
     # reduction over the ranges' sorted starts gives every leaf box.
     leaves = np.flatnonzero(count > 0)
     leaves = leaves[np.argsort(first[leaves])]
-    lo[leaves] = np.minimum.reduceat(pts.min(axis=1), first[leaves], axis=0)
-    hi[leaves] = np.maximum.reduceat(pts.max(axis=1), first[leaves], axis=0)
+    lo[leaves] = np.minimum.reduceat(tri_lo, first[leaves], axis=0)
+    hi[leaves] = np.maximum.reduceat(tri_hi, first[leaves], axis=0)
     # Interior nodes, deepest level first: a child's box is ready before its parent's.
     levels, frontier = [], np.zeros(1, np.int64)
     while frontier.size:

@@ -1,8 +1,8 @@
 """On-disk cache of BVH builds, so that re-opening a big scene skips the build.
 
-The key is a hash of the exact triangle bytes, their shape and bvh.LAYOUT_VERSION: any change
-to the geometry or to the node layout/build gives a different file, so stale entries are
-never read (they are simply left behind). A file that cannot be read or fails the sanity
+The key is a hash of the exact triangle bytes, their shape, the builder and
+bvh.LAYOUT_VERSION: any change to the geometry, the builder or the node layout gives a
+different file, so stale entries are never read (they are simply left behind). A file that cannot be read or fails the sanity
 checks is rebuilt and overwritten; the cache is an optimisation and never a reason to fail.
 """
 from __future__ import annotations
@@ -17,6 +17,39 @@ import numpy as np
 from .bvh import BVH, LAYOUT_VERSION, build_bvh
 
 ENV_VAR = "LIFT_GL_CACHE_DIR"
+BUILDER_ENV_VAR = "LIFT_GL_BVH_BUILDER"
+# sah: binned SAH in numpy (bvh.py); lbvh: Morton-code LBVH through OpenCL (lbvh.py);
+# lbvh+sah: the LBVH with its top levels rebuilt by SAH; auto: sah below AUTO_LBVH_TRIANGLES,
+# lbvh from there on when pyopencl is installed. Not lbvh+sah: its lower SAH cost did not
+# make it trace faster on llvmpipe (docs/bvh.md has the measurements).
+BUILDERS = ("auto", "sah", "lbvh", "lbvh+sah")
+AUTO_LBVH_TRIANGLES = 1_000_000
+
+
+def _opencl_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("pyopencl") is not None
+
+
+def resolve_builder(builder: str | None, n_tris: int) -> str:
+    """The concrete builder for `builder` (None: $LIFT_GL_BVH_BUILDER, else auto)."""
+    name = (builder or os.environ.get(BUILDER_ENV_VAR) or "auto").strip().lower()
+    if name not in BUILDERS:
+        raise ValueError(f"unknown BVH builder {name!r} (from {'$' + BUILDER_ENV_VAR if builder is None else 'the caller'}); "
+                         f"choose one of {', '.join(BUILDERS)}")
+    if name == "auto":
+        return "lbvh" if n_tris >= AUTO_LBVH_TRIANGLES and _opencl_available() else "sah"
+    return name
+
+
+def build_with(tri_positions: np.ndarray, builder: str) -> BVH:
+    """Build with a concrete builder name (not auto)."""
+    if builder == "sah":
+        return build_bvh(tri_positions)
+    from .lbvh import build_lbvh  # pyopencl, only for these builders
+
+    return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
 
 
 def default_cache_dir() -> Path:
@@ -27,10 +60,12 @@ def default_cache_dir() -> Path:
     return Path.home() / ".cache" / "lift-gl" / "bvh"
 
 
-def cache_key(tri_positions: np.ndarray) -> str:
+def cache_key(tri_positions: np.ndarray, builder: str = "sah") -> str:
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     h = hashlib.blake2b(digest_size=20)
     h.update(LAYOUT_VERSION.encode())
+    if builder != "sah":  # the SAH keys stay what they were before there were other builders
+        h.update(builder.encode())
     h.update(repr(pos.shape).encode())
     h.update(pos.reshape(-1).view(np.uint8))
     return h.hexdigest()
@@ -67,18 +102,19 @@ def _store(path: Path, bvh: BVH) -> None:
         pass
 
 
-def cache_path(tri_positions: np.ndarray, cache_dir=None) -> Path:
+def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah") -> Path:
     root = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
-    return root / f"{cache_key(tri_positions)}.npz"
+    return root / f"{cache_key(tri_positions, builder)}.npz"
 
 
-def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None) -> BVH:
-    """build_bvh(tri_positions), read from / written to `cache_dir` (default:
-    default_cache_dir())."""
+def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | None = None) -> BVH:
+    """The BVH of tri_positions by `builder` (see resolve_builder), read from / written to
+    `cache_dir` (default: default_cache_dir())."""
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
-    path = cache_path(pos, cache_dir)
+    builder = resolve_builder(builder, pos.shape[0] if pos.ndim == 3 else 0)
+    path = cache_path(pos, cache_dir, builder)
     bvh = _load(path, pos.shape[0] if pos.ndim == 3 else -1)
     if bvh is None:
-        bvh = build_bvh(pos)
+        bvh = build_with(pos, builder)
         _store(path, bvh)
     return bvh

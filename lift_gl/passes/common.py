@@ -6,6 +6,7 @@ import time
 import numpy as np
 
 from ..scene.pack import PackedScene, still_motion
+from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chunks, plan_buffers
 
 # Binding points declared in shaders/lift/scene_data.glsl.
 SCENE_BINDINGS = {
@@ -65,17 +66,26 @@ class SceneBuffers:
     `motion`: the shaders are compiled with HAS_MOTION (default: when the scene moves), so
     they read `motion`. A still scene compiled with every feature gets still_motion().
 
+    `max_buffer_bytes`: the GL's limit per buffer; a scene whose big arrays pass it is split
+    (lift_gl/scene/split.py), and `plan.defines()` must then be compiled into the shaders.
+
     `uniform_block_bytes` > 0 (CPU rasterizers): each of the UNIFORM_ARRAYS that fits in that
     many bytes goes into a uniform block rather than a storage buffer, which Mesa's llvmpipe
     reads far faster (shaders/lift/scene_data.glsl says why); defines() tells the shaders which.
+    A split scene is far too big for that: none of its arrays go into uniform blocks.
     """
 
-    def __init__(self, ctx, packed: PackedScene, motion: bool | None = None, uniform_block_bytes: int = 0):
+    def __init__(self, ctx, packed: PackedScene, motion: bool | None = None, uniform_block_bytes: int = 0,
+                 max_buffer_bytes: int | None = None):
         self.ctx = ctx
         self.packed = packed
         self.uniform_block_bytes = uniform_block_bytes
-        self.in_uniform_block = self._uniform_arrays(packed)
-        self.buffers = {name: ctx.buffer(self._bytes(name, getattr(packed, name))) for name in SCENE_BINDINGS}
+        self.max_buffer_bytes = max_buffer_bytes if max_buffer_bytes is not None else 1 << 62
+        self.plan = plan_buffers(packed, self.max_buffer_bytes)
+        self.in_uniform_block = self._uniform_arrays(packed, self.plan)
+        self.buffers = {name: ctx.buffer(self._bytes(name, getattr(packed, name)))
+                        for name in self._own_buffers(self.plan)}
+        self.heap = [ctx.buffer(chunk.tobytes()) for chunk in heap_chunks(packed, self.plan)]
         self.motion = None
         if packed.has_motion if motion is None else motion:
             rows = packed.motion if packed.has_motion else still_motion(packed)
@@ -83,7 +93,9 @@ class SceneBuffers:
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()
 
-    def _uniform_arrays(self, packed: PackedScene) -> set:
+    def _uniform_arrays(self, packed: PackedScene, plan: BufferPlan) -> set:
+        if plan.split:
+            return set()
         return {name for name in UNIFORM_ARRAYS
                 if 0 < getattr(packed, name).shape[0] and
                 glsl_length(name, getattr(packed, name)) * 16 * UNIFORM_ARRAYS[name][1] <= self.uniform_block_bytes}
@@ -101,25 +113,45 @@ class SceneBuffers:
         return {UNIFORM_ARRAYS[name][0]: glsl_length(name, getattr(self.packed, name))
                 for name in sorted(self.in_uniform_block)}
 
+    @staticmethod
+    def _own_buffers(plan: BufferPlan) -> list[str]:
+        """The arrays that get a buffer of their own: all, unless the heap holds some."""
+        return [name for name in SCENE_BINDINGS if not (plan.split and name in HEAP_ARRAYS)]
+
     def upload(self, packed: PackedScene) -> list[str]:
         """Take an edited scene's arrays: rewrite the buffers whose contents changed (in place
         when the size is the same) and return their names. The motion buffer follows only
-        if the scene moves. Where an array's length changes, so may defines(): the caller
-        recompiles its shaders then."""
+        if the scene moves. The split plan, and which arrays sit in uniform blocks, may change
+        with the scene: `plan.defines()` and `defines()` are then different, and the caller
+        recompiles its shaders."""
         written = []
-        old_uniform, self.in_uniform_block = self.in_uniform_block, self._uniform_arrays(packed)
-        for name in SCENE_BINDINGS:
-            new = np.ascontiguousarray(getattr(packed, name))
-            old = getattr(self.packed, name)
-            if new.shape == old.shape and np.array_equal(new, old) and (name in old_uniform) == (name in self.in_uniform_block):
+        plan = plan_buffers(packed, self.max_buffer_bytes)
+        old_uniform, self.in_uniform_block = self.in_uniform_block, self._uniform_arrays(packed, plan)
+        changed = {name for name in SCENE_BINDINGS
+                   if not (getattr(packed, name).shape == getattr(self.packed, name).shape
+                           and np.array_equal(getattr(packed, name), getattr(self.packed, name)))}
+        own = self._own_buffers(plan)
+        for name in list(self.buffers):
+            if name not in own:   # now in the heap
+                self.buffers.pop(name).release()
+        for name in own:
+            if name in self.buffers and name not in changed \
+                    and (name in old_uniform) == (name in self.in_uniform_block):
                 continue
             written.append(name)
-            data = self._bytes(name, new)
-            if len(data) == self.buffers[name].size:
+            data = self._bytes(name, getattr(packed, name))
+            if name in self.buffers and len(data) == self.buffers[name].size:
                 self.buffers[name].write(data)
             else:
-                self.buffers[name].release()
+                if name in self.buffers:
+                    self.buffers[name].release()
                 self.buffers[name] = self.ctx.buffer(data)
+        if plan != self.plan or (plan.split and changed & set(HEAP_ARRAYS)):
+            for b in self.heap:
+                b.release()
+            self.heap = [self.ctx.buffer(chunk.tobytes()) for chunk in heap_chunks(packed, plan)]
+            written += [name for name in HEAP_ARRAYS if plan.split and name in changed]
+        self.plan = plan
         if self.motion is not None:
             rows = packed.motion if packed.has_motion else still_motion(packed)
             data = np.ascontiguousarray(rows).tobytes()
@@ -132,20 +164,34 @@ class SceneBuffers:
         return written
 
     def bind(self) -> None:
-        for name, binding in SCENE_BINDINGS.items():
+        for name, buffer in self.buffers.items():
             if name in self.in_uniform_block:
-                self.buffers[name].bind_to_uniform_block(binding)
+                buffer.bind_to_uniform_block(SCENE_BINDINGS[name])
             else:
-                self.buffers[name].bind_to_storage_buffer(binding)
+                buffer.bind_to_storage_buffer(SCENE_BINDINGS[name])
+        for k, buffer in enumerate(self.heap):
+            buffer.bind_to_storage_buffer(HEAP_FIRST_BINDING + k)
         if self.motion is not None:
             self.motion.bind_to_storage_buffer(MOTION_BINDING)
         self.stats.bind_to_storage_buffer(STATS_BINDING)
+
+    def memory(self) -> list[tuple[str, int, int]]:
+        """(name, binding, bytes) of every storage buffer the scene occupies."""
+        out = [(name, SCENE_BINDINGS[name], b.size) for name, b in self.buffers.items()]
+        for k, b in enumerate(self.heap):
+            held = [name for name in HEAP_ARRAYS
+                    if _overlaps(self.plan, name, k, getattr(self.packed, name).nbytes)]
+            out.append((f"heap[{k}] ({', '.join(held)})", HEAP_FIRST_BINDING + k, b.size))
+        if self.motion is not None:
+            out.append(("motion", MOTION_BINDING, self.motion.size))
+        out.append(("stats", STATS_BINDING, self.stats.size))
+        return out
 
     def uniforms(self, environment_radiance) -> dict:
         p = self.packed
         centre = (p.bounds[0] + p.bounds[1]) / 2
         radius = float(np.linalg.norm(p.bounds[1] - p.bounds[0])) / 2
-        return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres,
+        return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres, **self.plan.uniforms(),
                 "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance),
                 **p.uniforms,
 
@@ -159,11 +205,17 @@ class SceneBuffers:
         return np.frombuffer(self.stats.read(), np.uint32).copy()
 
     def release(self) -> None:
-        for b in self.buffers.values():
+        for b in [*self.buffers.values(), *self.heap]:
             b.release()
         if self.motion is not None:
             self.motion.release()
         self.stats.release()
+
+
+def _overlaps(plan: BufferPlan, name: str, chunk: int, nbytes: int) -> bool:
+    start, stop = plan.chunk_ranges()[chunk]
+    base = plan.bases[name]
+    return base < stop and base + -(-nbytes // 16) > start
 
 
 class GpuTimer:

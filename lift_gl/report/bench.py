@@ -107,6 +107,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
 
     renderer = make()
     spf = renderer.samples_per_frame
+    buffers = renderer.buffers.memory()
     frame_seconds = []
     for _ in range(max(repeat, 1)):
         renderer.reset()
@@ -142,7 +143,11 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             "pass_ms_sync": pass_sync, "pass_ms_query": pass_query,
             "paths_per_second": paths_per_second, "rays_per_path": rays_per_path,
             "rays_per_second": paths_per_second * rays_per_path, "counted_paths": paths,
-            "dropped_samples": dropped, "denoise_ms": denoise_ms}
+            "dropped_samples": dropped, "denoise_ms": denoise_ms,
+            # every storage buffer of the scene: name, binding, bytes (split scenes: heap[k])
+            "gpu_buffers": [{"name": n, "binding": b, "bytes": int(size)} for n, b, size in buffers],
+            "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
+            "bvh_builder": renderer.packed.bvh_builder}
 
 
 def table(results: list[dict]) -> str:

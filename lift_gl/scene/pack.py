@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..accel.bvh import build_bvh, refit_boxes
-from ..accel.cache import build_bvh_cached
+from ..accel.cache import build_bvh_cached, resolve_builder
 from .images import pack_images
 from .light_choice import light_uniforms
 from .model import Camera, Scene
@@ -59,6 +59,7 @@ class PackedScene:
     # Each packed triangle's index in the meshes' concatenated order (before the BVH's
     # reordering): temporal reprojection matches triangles across frames with it.
     tri_order: np.ndarray | None = None  # int (T,)
+    bvh_builder: str = "sah"  # which builder made the tree (accel/cache.py BUILDERS)
 
     def to_gpu_camera(self, camera: Camera) -> Camera:
         """The camera in the rebased coordinates the GPU uses."""
@@ -162,8 +163,9 @@ def still_motion(packed: PackedScene) -> np.ndarray:
     return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
 
 
-def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:
-    """`origin`: the world point that becomes the GPU's zero; default: the scene's centre."""
+def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None) -> PackedScene:
+    """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
+    `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto)."""
     origin = scene_origin(scene) if origin is None else np.asarray(origin, dtype=np.float64)
     positions, normals, uvs, material_ids, tri_velocity = _triangles(scene, origin)
     has_motion = scene.has_motion
@@ -174,7 +176,9 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:
     if has_motion:
         # Corners at shutter open and at close: the BVH bounds the box each triangle sweeps.
         bvh_input = np.concatenate([positions, positions + tri_move[:, None, :].astype(np.float32)], axis=1)
-    bvh = build_bvh_cached(bvh_input, cache_dir=cache_dir) if len(positions) else build_bvh(positions)
+    bvh_builder = resolve_builder(bvh_builder, len(bvh_input))
+    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder) if len(positions)
+           else build_bvh(positions))
     order = bvh.order
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
     T, S = len(positions), len(scene.spheres)
@@ -266,4 +270,5 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:
         uniforms=uniforms,
         origin=origin,
         tri_order=np.asarray(order[:T]),
+        bvh_builder=bvh_builder,
     )

@@ -46,9 +46,9 @@ uint lift_rays_traced = 0u;
 bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
-    vec3 p0 = tri_pos[i].xyz;
-    vec3 e1 = tri_pos[i + 1u].xyz - p0;
-    vec3 e2 = tri_pos[i + 2u].xyz - p0;
+    vec3 p0 = tri_pos_row(i).xyz;
+    vec3 e1 = tri_pos_row(i + 1u).xyz - p0;
+    vec3 e2 = tri_pos_row(i + 2u).xyz - p0;
     vec3 pv = cross(ray.dir, e2);
     float det = dot(e1, pv);
     if (det == 0.0) return false;
@@ -94,8 +94,8 @@ vec3 lift_bvh_inv_dir(vec3 d) {
 
 // Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
 bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
-    vec3 bmin = bvh_nodes[2u * n].xyz;
-    vec3 bmax = bvh_nodes[2u * n + 1u].xyz;
+    vec3 bmin = bvh_node_row(2u * n).xyz;
+    vec3 bmax = bvh_node_row(2u * n + 1u).xyz;
 #ifdef HAS_MOTION
     // The node's boxes at shutter open and close, blended to the ray's moment: for linear
     // motion this bounds every triangle below the node at that moment, and it stays as
@@ -134,8 +134,8 @@ bool trace_closest(Ray ray, out Hit hit) {
         float troot;
         bool live = lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot);
         while (live) {
-            uint first = floatBitsToUint(bvh_nodes[2u * node].w);
-            uint count = floatBitsToUint(bvh_nodes[2u * node + 1u].w);
+            uint first = floatBitsToUint(bvh_node_row(2u * node).w);
+            uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
             if (count > 0u) {
                 for (uint i = first; i < first + count; ++i) {
                     vec2 bary;
@@ -193,8 +193,8 @@ bool trace_occluded(Ray ray) {
     if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
     uint node = 0u;
     while (true) {
-        uint first = floatBitsToUint(bvh_nodes[2u * node].w);
-        uint count = floatBitsToUint(bvh_nodes[2u * node + 1u].w);
+        uint first = floatBitsToUint(bvh_node_row(2u * node).w);
+        uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
         if (count > 0u) {
             for (uint i = first; i < first + count; ++i) {
                 vec2 bary;

@@ -53,10 +53,10 @@ bool sample_light_point(vec3 u, out LightPoint lp) {
     if (prim < u_num_triangles) {
         vec2 b = sample_uniform_triangle(u.yz);
         uint i = 3u * prim;
-        vec3 p0 = tri_pos[i].xyz, p1 = tri_pos[i + 1u].xyz, p2 = tri_pos[i + 2u].xyz;
+        vec3 p0 = tri_pos_row(i).xyz, p1 = tri_pos_row(i + 1u).xyz, p2 = tri_pos_row(i + 2u).xyz;
         lp.p = (1.0 - b.x - b.y) * p0 + b.x * p1 + b.y * p2;
         lp.n = normalize(cross(p1 - p0, p2 - p0));
-        material = tri_info[prim].x;
+        material = tri_info_at(prim).x;
     }
 #ifdef HAS_SPHERES
     else {

@@ -17,6 +17,14 @@
 // Two vec4 per node: (bmin.xyz, first), (bmax.xyz, count); first and count are uint bits.
 // count == 0: interior node, children are nodes `first` and `first + 1`.
 // count > 0: leaf holding triangles first .. first + count - 1.
+// Three vec4 per triangle in tri_pos (corner positions, xyz), tri_normal (corner shading
+// normals, xyz) and tri_uv (corner texture coordinates, xy); one uvec2 per triangle in
+// tri_info: (material id, uint bits of the probability that light sampling picks this
+// triangle; 0 for triangles that do not emit).
+// Read them through the accessors below (bvh_node_row, tri_pos_row, tri_normal_row,
+// tri_uv_row, tri_info_at), never the arrays: a scene too big for one buffer a kind keeps
+// them all in a heap of several buffers (LIFT_SPLIT_SCENE, lift_gl/scene/split.py).
+#ifndef LIFT_SPLIT_SCENE
 #ifdef LIFT_UBO_BVH_NODES
 layout(std140, binding = 0) uniform BvhNodes { vec4 bvh_nodes[LIFT_UBO_BVH_NODES]; };
 #else
@@ -46,6 +54,101 @@ layout(std430, binding = 3) readonly buffer TriUVs { vec4 tri_uv[]; };
 layout(std140, binding = 4) uniform TriInfo { uvec2 tri_info[LIFT_UBO_TRI_INFO]; };
 #else
 layout(std430, binding = 4) readonly buffer TriInfo { uvec2 tri_info[]; };
+#endif
+vec4 bvh_node_row(uint r) { return bvh_nodes[r]; }
+vec4 tri_pos_row(uint r) { return tri_pos[r]; }
+vec4 tri_normal_row(uint r) { return tri_normal[r]; }
+vec4 tri_uv_row(uint r) { return tri_uv[r]; }
+uvec2 tri_info_at(uint t) { return tri_info[t]; }
+#else
+// The heap: vec4 rows, LIFT_HEAP_CHUNKS buffers of 2^LIFT_HEAP_SHIFT rows from binding 24
+// (lift_gl/scene/split.py HEAP_FIRST_BINDING); each array starts at the row in its uniform.
+layout(std430, binding = 24) readonly buffer Heap0 { vec4 heap0[]; };
+#if LIFT_HEAP_CHUNKS > 1
+layout(std430, binding = 25) readonly buffer Heap1 { vec4 heap1[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 2
+layout(std430, binding = 26) readonly buffer Heap2 { vec4 heap2[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 3
+layout(std430, binding = 27) readonly buffer Heap3 { vec4 heap3[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 4
+layout(std430, binding = 28) readonly buffer Heap4 { vec4 heap4[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 5
+layout(std430, binding = 29) readonly buffer Heap5 { vec4 heap5[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 6
+layout(std430, binding = 30) readonly buffer Heap6 { vec4 heap6[]; };
+#endif
+#if LIFT_HEAP_CHUNKS > 7
+layout(std430, binding = 31) readonly buffer Heap7 { vec4 heap7[]; };
+#endif
+uniform uint u_heap_nodes;
+uniform uint u_heap_pos;
+uniform uint u_heap_normal;
+uniform uint u_heap_uv;
+uniform uint u_heap_info;
+// Separate blocks, not an array of blocks: indexing one with a non-uniform index is not
+// allowed in GLSL 4.30, and rays of one work group read different chunks. lo and hi are the
+// first and last chunk the array spans, compile-time constants: the tests of chunks outside
+// them fold away, and an array in one chunk is a single load.
+vec4 heap_row(uint r, const uint lo, const uint hi) {
+    uint i = r & ((1u << LIFT_HEAP_SHIFT) - 1u);
+    uint c = r >> LIFT_HEAP_SHIFT;
+    if (0u >= lo && 0u < hi && c == 0u) return heap0[i];
+#if LIFT_HEAP_CHUNKS > 1
+    if (1u >= lo && 1u < hi && c == 1u) return heap1[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 2
+    if (2u >= lo && 2u < hi && c == 2u) return heap2[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 3
+    if (3u >= lo && 3u < hi && c == 3u) return heap3[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 4
+    if (4u >= lo && 4u < hi && c == 4u) return heap4[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 5
+    if (5u >= lo && 5u < hi && c == 5u) return heap5[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 6
+    if (6u >= lo && 6u < hi && c == 6u) return heap6[i];
+#endif
+    // the span's last chunk: no test of c
+    if (hi == 0u) return heap0[i];
+#if LIFT_HEAP_CHUNKS > 1
+    if (hi == 1u) return heap1[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 2
+    if (hi == 2u) return heap2[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 3
+    if (hi == 3u) return heap3[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 4
+    if (hi == 4u) return heap4[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 5
+    if (hi == 5u) return heap5[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 6
+    if (hi == 6u) return heap6[i];
+#endif
+#if LIFT_HEAP_CHUNKS > 7
+    if (hi == 7u) return heap7[i];
+#endif
+    return vec4(0.0);
+}
+vec4 bvh_node_row(uint r) { return heap_row(u_heap_nodes + r, LIFT_HEAP_NODES_LO, LIFT_HEAP_NODES_HI); }
+vec4 tri_pos_row(uint r) { return heap_row(u_heap_pos + r, LIFT_HEAP_POS_LO, LIFT_HEAP_POS_HI); }
+vec4 tri_normal_row(uint r) { return heap_row(u_heap_normal + r, LIFT_HEAP_NORMAL_LO, LIFT_HEAP_NORMAL_HI); }
+vec4 tri_uv_row(uint r) { return heap_row(u_heap_uv + r, LIFT_HEAP_UV_LO, LIFT_HEAP_UV_HI); }
+uvec2 tri_info_at(uint t) {
+    vec4 row = heap_row(u_heap_info + (t >> 1u), LIFT_HEAP_INFO_LO, LIFT_HEAP_INFO_HI);
+    return floatBitsToUint((t & 1u) == 0u ? row.xy : row.zw);
+}
 #endif
 
 struct Material {

@@ -23,7 +23,7 @@ Surface surface_at(Ray ray, Hit hit) {
     if (hit.prim < u_num_triangles) {
         uint i = 3u * hit.prim;
         vec3 moved = prim_displacement(hit.prim);
-        vec3 p0 = tri_pos[i].xyz + moved, p1 = tri_pos[i + 1u].xyz + moved, p2 = tri_pos[i + 2u].xyz + moved;
+        vec3 p0 = tri_pos_row(i).xyz + moved, p1 = tri_pos_row(i + 1u).xyz + moved, p2 = tri_pos_row(i + 2u).xyz + moved;
         float b0 = 1.0 - hit.bary.x - hit.bary.y;
         // The barycentric point is more accurate than origin + t * dir far from the camera.
         s.p = b0 * p0 + hit.bary.x * p1 + hit.bary.y * p2;
@@ -31,12 +31,12 @@ Surface surface_at(Ray ray, Hit hit) {
         float len = length(n);
         s.ng = len > 0.0 ? n / len : -ray.dir;
         s.area = 0.5 * len;
-        vec3 ns = b0 * tri_normal[i].xyz + hit.bary.x * tri_normal[i + 1u].xyz + hit.bary.y * tri_normal[i + 2u].xyz;
+        vec3 ns = b0 * tri_normal_row(i).xyz + hit.bary.x * tri_normal_row(i + 1u).xyz + hit.bary.y * tri_normal_row(i + 2u).xyz;
         float ns_len = length(ns);
         s.ns = ns_len > 0.0 ? ns / ns_len : s.ng;
         if (dot(s.ns, s.ng) < 0.0) s.ns = -s.ns;  // authored normals may disagree with the winding
-        s.uv = b0 * tri_uv[i].xy + hit.bary.x * tri_uv[i + 1u].xy + hit.bary.y * tri_uv[i + 2u].xy;
-        uvec2 info = tri_info[hit.prim];
+        s.uv = b0 * tri_uv_row(i).xy + hit.bary.x * tri_uv_row(i + 1u).xy + hit.bary.y * tri_uv_row(i + 2u).xy;
+        uvec2 info = tri_info_at(hit.prim);
         s.material = info.x;
         s.light_select_pdf = uintBitsToFloat(info.y);
     }
@@ -78,7 +78,7 @@ vec3 offset_ray_origin(vec3 p, vec3 n) {
 float surface_coordinate_scale(Surface s) {
     if (s.prim < u_num_triangles) {
         uint i = 3u * s.prim;
-        vec3 m = max(max(abs(tri_pos[i].xyz), abs(tri_pos[i + 1u].xyz)), abs(tri_pos[i + 2u].xyz));
+        vec3 m = max(max(abs(tri_pos_row(i).xyz), abs(tri_pos_row(i + 1u).xyz)), abs(tri_pos_row(i + 2u).xyz));
         return max(m.x, max(m.y, m.z));
     }
 #ifdef HAS_SPHERES

@@ -19,7 +19,7 @@ in vec3 v_prev_world;
 layout(location = 3) out vec4 o_motion;
 #endif
 void main() {
-    uint material = tri_info[v_prim].x;
+    uint material = tri_info_at(v_prim).x;
     o_visibility = uvec4(v_prim + 1u, floatBitsToUint(v_bary.x), floatBitsToUint(v_bary.y), material);
     vec3 n = length(v_normal) > 0.0 ? normalize(v_normal) : vec3(0.0, 0.0, 1.0);
     if (dot(n, u_cam_pos - v_world) < 0.0) n = -n;
@@ -30,6 +30,6 @@ void main() {
     o_motion = motion_vector(v_world, v_prev_world, view_depth);
 #endif
     uint i = 3u * v_prim;
-    vec2 uv = (1.0 - v_bary.x - v_bary.y) * tri_uv[i].xy + v_bary.x * tri_uv[i + 1u].xy + v_bary.y * tri_uv[i + 2u].xy;
+    vec2 uv = (1.0 - v_bary.x - v_bary.y) * tri_uv_row(i).xy + v_bary.x * tri_uv_row(i + 1u).xy + v_bary.y * tri_uv_row(i + 2u).xy;
     o_albedo = vec4(bsdf_albedo(material_at(material, uv)), 1.0);
 }

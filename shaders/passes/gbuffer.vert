@@ -15,8 +15,8 @@ void main() {
     uint corner = uint(gl_VertexID) % 3u;
     v_prim = uint(gl_VertexID) / 3u;
     v_bary = corner == 1u ? vec2(1.0, 0.0) : (corner == 2u ? vec2(0.0, 1.0) : vec2(0.0));
-    v_normal = tri_normal[gl_VertexID].xyz;
-    v_world = tri_pos[gl_VertexID].xyz;
+    v_normal = tri_normal_row(uint(gl_VertexID)).xyz;
+    v_world = tri_pos_row(uint(gl_VertexID)).xyz;
     gl_Position = u_view_proj * vec4(v_world, 1.0);
 #ifdef LIFT_MOTION_VECTORS
     v_prev_world = prev_positions[gl_VertexID].xyz;  // the same corner where the last frame saw it
