@@ -22,23 +22,45 @@ SPP_LEVELS = (1, 2, 4, 8, 16, 32, 64)
 F16_MAX = 60000.0  # stored as float16: clip the rare brighter pixel (an emitter seen directly)
 
 
-def render_views(scene, size, spp_levels, ref_spp: int, seed: int, ctx=None, ref_spp_per_frame: int = 32):
+class IncompleteRender(RuntimeError):
+    """Some pixel's accumulated sample count is not the number of samples asked for."""
+
+
+def _checked(r, spp: int, label: str) -> np.ndarray:
+    """The mean so far, after checking that every pixel holds spp valid samples (on the H200 a
+    reference once came back with no samples in any pixel: such an image must not be a target)."""
+    count = r.accumulate.read_totals()[..., 3]
+    dropped = r.buffers.read_stats()[0]
+    if not np.all(np.abs(count - spp) <= 0.5 + dropped):
+        raise IncompleteRender(f"{label}: sample count {count.min():.0f}..{count.max():.0f}, expected {spp}")
+    return r.image()
+
+
+def render_views(scene, size, spp_levels, ref_spp: int, seed: int, ctx=None, ref_spp_per_frame: int = 8):
     """Noisy radiance at each spp level, albedo, normal and the reference radiance (float32 H x W x 3)."""
     from ...renderer import Renderer
     r = Renderer(scene, size=size, integrator="pt", seed=2 * seed, samples_per_frame=1, ctx=ctx)
+    finish = lambda renderer, done: None  # a progress callback: the renderer then waits for each frame
     try:
         noisy, done = [], 0
         for spp in spp_levels:
-            noisy.append(r.render(spp=spp - done))
+            r.render(spp=spp - done, progress=finish, readback=False)
+            noisy.append(_checked(r, spp, f"{spp} spp input"))
             done = spp
         albedo, normal = r.aov("albedo"), r.aov("normal")
-        r.reset(seed=2 * seed + 1)  # the target's samples are independent of the inputs'
-        r.samples_per_frame = min(ref_spp_per_frame, ref_spp)
-        reference = r.render(spp=ref_spp)
-        stats = r.stats.dropped_samples
+        dropped = r.stats.dropped_samples
     finally:
         r.release()
-    return noisy, albedo, normal, reference, stats
+    # The target: a renderer of its own with an independent seed.
+    ref = Renderer(scene, size=size, integrator="pt", seed=2 * seed + 1,
+                   samples_per_frame=min(ref_spp_per_frame, ref_spp), ctx=ctx)
+    try:
+        ref.render(spp=ref_spp, progress=finish, readback=False)
+        reference = _checked(ref, ref_spp, "reference")
+        dropped += ref.stats.dropped_samples
+    finally:
+        ref.release()
+    return noisy, albedo, normal, reference, dropped
 
 
 def example_arrays(noisy, albedo, normal, reference) -> dict:
@@ -86,7 +108,11 @@ def _task(args):
     path, seed, size, ref_spp, backend, deadline = args
     if deadline is not None and time.time() > deadline:
         return None
-    return render_example(path, seed, size, ref_spp, backend)
+    try:
+        return render_example(path, seed, size, ref_spp, backend)
+    except IncompleteRender as e:  # left out of the data set, and said so
+        path.with_suffix(".failed").write_text(str(e) + "\n")
+        return f"scene {seed}: LEFT OUT, {e}"
 
 
 def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend: str = "auto",
@@ -109,14 +135,17 @@ def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend
         from concurrent.futures import ProcessPoolExecutor
         with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
             for i, line in enumerate(pool.map(_task, tasks)):
-                if line is not None and ((i + 1) % 25 == 0 or i + 1 == len(tasks)):
+                if line is not None and ((i + 1) % 25 == 0 or i + 1 == len(tasks) or "LEFT OUT" in line):
                     log(f"data: {i + 1}/{len(tasks)} scenes, {time.perf_counter() - start:.0f} s ({line})")
     else:
         for i, task in enumerate(tasks):
             line = _task(task)
-            if line is not None and ((i + 1) % 25 == 0 or i + 1 == len(tasks)):
+            if line is not None and ((i + 1) % 25 == 0 or i + 1 == len(tasks) or "LEFT OUT" in line):
                 log(f"data: {i + 1}/{len(tasks)} scenes, {time.perf_counter() - start:.0f} s ({line})")
     done = 0
-    while done < len(paths) and paths[done].exists():
+    while done < len(paths) and (paths[done].exists() or paths[done].with_suffix(".failed").exists()):
         done += 1
-    return paths[:done]
+    failed = [p for p in paths[:done] if not p.exists()]
+    if failed:
+        log(f"data: {len(failed)} scenes left out (incomplete renders): {', '.join(p.stem for p in failed)}")
+    return [p for p in paths[:done] if p.exists()]
