@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import sys
 import time
 from pathlib import Path
@@ -150,7 +149,7 @@ def table(rows, denoisers, scenes) -> str:
     methods = ["noisy"] + denoisers
     get = {(r["scene"], r["spp"], r["method"]): r for r in rows}
     head = "| scene | size | spp | " + " | ".join(f"{m} SSIM | {m} relMSE" for m in methods) + " |"
-    lines = [f"Denoiser quality against converged references ({platform.node() and 'CPU: ' + platform.processor() or ''})",
+    lines = ["Denoiser quality against converged references (SSIM on sRGB clipped to [0, 1]; relMSE on linear RGB)",
              "", head, "|" + " --- |" * (3 + 2 * len(methods))]
     for name, s in scenes.items():
         h, w = s["reference"].shape[:2]

@@ -1,10 +1,14 @@
-"""Reproduce the shipped denoiser weights in one command (torch: the `train` extra):
+"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
 
-    python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx
+    python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
+        --stop-at 2604 --workers 10 --backend egl
 
 renders the training and validation scenes (resumable: existing files are kept), trains
 (resuming from --out/checkpoint.pt), exports the ONNX model and its sidecar JSON. The
-defaults are the settings of the shipped model (docs/denoiser.md).
+defaults are the settings of the shipped model; it was cut short at step 2604 of its 10000-step
+schedule by the GPU time of its session (docs/denoiser.md): without --stop-at the run goes on
+to the end of the schedule (assets/denoiser/train_checkpoint.pt copied to --out/checkpoint.pt
+resumes at step 2604).
 """
 from __future__ import annotations
 
@@ -21,11 +25,11 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m lift_gl.denoise.train", description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True, help="working folder: data, checkpoint, log")
     p.add_argument("--onnx", type=Path, default=None, help="where to write the model (default: OUT/lift_unet.onnx)")
-    p.add_argument("--scenes", type=int, default=480, help="training scenes")
+    p.add_argument("--scenes", type=int, default=166, help="training scenes")
     p.add_argument("--val-scenes", type=int, default=8, help="validation scenes (never trained on)")
     p.add_argument("--size", type=int, default=256, help="image size of each scene (square)")
-    p.add_argument("--ref-spp", type=int, default=2048, help="samples per pixel of the targets")
-    p.add_argument("--steps", type=int, default=12000)
+    p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
+    p.add_argument("--steps", type=int, default=10000)
     p.add_argument("--batch", type=int, default=16)
     p.add_argument("--crop", type=int, default=128)
     p.add_argument("--lr", type=float, default=2e-3)
@@ -35,6 +39,8 @@ def main(argv=None) -> int:
     p.add_argument("--data-minutes", type=float, default=None,
                    help="stop rendering training scenes after this long (the record says how many were made)")
     p.add_argument("--minutes", type=float, default=None, help="stop training after this long (resumable)")
+    p.add_argument("--stop-at", type=int, default=None,
+                   help="stop at this step (the schedule still spans --steps; resumable)")
     p.add_argument("--no-export", action="store_true")
     a = p.parse_args(argv)
     log = lambda msg: print(msg, flush=True)
@@ -51,12 +57,13 @@ def main(argv=None) -> int:
     data_seconds = time.perf_counter() - t0
 
     from .train import train
-    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log)
+    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at)
     model = result.pop("model")
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
               "train_scenes": result["train_scenes"], "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
-              "reproduce": f"--scenes {len(train_paths)} --steps {result['steps']}",
+              "reproduce": f"--scenes {len(train_paths)} --ref-spp {a.ref_spp} --steps {a.steps}"
+                           + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
               "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],

@@ -66,8 +66,12 @@ def lr_at(step: int, steps: int, peak: float, warmup: int = 200) -> float:
 
 
 def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, crop: int = 128, lr: float = 2e-3,
-          seed: int = 0, minutes: float | None = None, log=print) -> dict:
-    """Train (resuming from out_dir/checkpoint.pt when present); returns a summary dict."""
+          seed: int = 0, minutes: float | None = None, log=print, stop_at: int | None = None) -> dict:
+    """Train (resuming from out_dir/checkpoint.pt when present); returns a summary dict.
+
+    The learning rate follows a cosine over `steps`; `stop_at` ends the run earlier at that
+    step (a resumable checkpoint; also how the shipped weights, cut short by a time cap, are
+    reproduced exactly)."""
     device = "cuda" if torch.cuda.is_available() else "cpu"
     torch.manual_seed(seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
@@ -81,7 +85,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
         model.load_state_dict(ckpt["model"])
         opt.load_state_dict(ckpt["optimizer"])
         step, seconds_before = ckpt["step"], ckpt.get("seconds", 0.0)
-        gen.set_state(ckpt["generator"])
+        gen.set_state(ckpt["generator"].cpu())  # map_location moved it; the generator lives on the CPU
         log(f"train: resumed at step {step}")
     examples = Examples(train_paths, device)
     val = Examples(val_paths, device) if val_paths else None
@@ -93,7 +97,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
                     "seconds": seconds_before + time.perf_counter() - start, "generator": gen.get_state()}, ckpt_path)
 
     losses = []
-    while step < steps:
+    while step < min(steps, stop_at or steps):
         if minutes is not None and time.perf_counter() - start > 60 * minutes:
             log(f"train: time cap of {minutes} min reached at step {step}")
             break
@@ -110,7 +114,8 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
         step += 1
         if step % 500 == 0 or step == steps:
             vl = validation_loss(model, val, amp) if val is not None else float("nan")
-            log(f"train: step {step}/{steps}, loss {np.nanmean([v for v in losses[-500:] if v is not None]):.4f}, "
+            recent = [v for v in losses[-500:] if v is not None] or [float("nan")]
+            log(f"train: step {step}/{steps}, loss {np.mean(recent):.4f}, "
                 f"val loss {vl:.4f}, {time.perf_counter() - start:.0f} s")
             save()
     save()
