@@ -11,6 +11,10 @@ Two steps, so that the rendering can run on a GPU machine and the denoising on a
     python benchmarks/denoise_quality.py evaluate eval/*.npz --denoisers onnx,oidn,atrous \
         [--out benchmarks/results/denoise_quality.md] [--images DIR]
 
+Each npz holds, per scene NAME: NAME/noisy1, noisy4, noisy16, albedo, normal, depth (G-buffer),
+reference (float16). Denoisers get color, albedo, normal and depth (no variance: the inputs
+are single snapshots). `add-depth FILES` adds the depth guide to files made before it was stored.
+
 The goal line checks that at 4 spp the ONNX model's SSIM is within 0.01 of OIDN's on every
 validation scene.
 """
@@ -55,8 +59,9 @@ def get_denoiser(name: str):
         registry = None
     if registry is not None:
         try:
-            return registry(name)
-        except (KeyError, ValueError, LookupError):
+            found = registry(name)
+            return found() if isinstance(found, type) else found
+        except Exception:  # not registered there (whatever error the registry raises): the built-ins
             pass
     if name == "onnx":
         from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
@@ -79,18 +84,53 @@ def render_set(scenes: dict, out: Path, size_of, ref_spp: int, backend: str, see
         noisy, albedo, normal, ref, dropped = render_views(scene, size_of(scene), SPP, ref_spp, seed, ctx)
         for spp, img in zip(SPP, noisy):
             arrays[f"{name}/noisy{spp}"] = img
-        arrays.update({f"{name}/albedo": albedo, f"{name}/normal": normal, f"{name}/reference": ref})
+        arrays.update({f"{name}/albedo": albedo, f"{name}/normal": normal, f"{name}/reference": ref,
+                       f"{name}/depth": depth_guide(scene, size_of(scene), ctx)})
         print(f"rendered {name} {size_of(scene)} ({ref_spp} spp reference, {dropped} samples dropped) "
               f"in {time.perf_counter() - t:.1f} s", flush=True)
     f16 = {k: np.clip(np.nan_to_num(v), -60000, 60000).astype(np.float16) for k, v in arrays.items()}
     np.savez_compressed(out, **f16)
 
 
-def render(args) -> None:
+def depth_guide(scene, size, ctx) -> np.ndarray:
+    """The G-buffer's depth (H, W) for denoisers that use it (the à-trous filter's edge stop)."""
+    from lift_gl.renderer import Renderer
+    r = Renderer(scene, size=size, integrator="pt", ctx=ctx)
+    try:
+        return r.aov("depth")[..., 0]
+    finally:
+        r.release()
+
+
+def scene_of(name: str, shared_dir: Path):
+    """The scene an npz entry was rendered from: valK (validation seed K) or a shared scene's name."""
     from lift_gl.denoise.train.scenes import VALIDATION_SEEDS, random_scene
     from lift_gl.scene.loader import load_scene
+    if name.startswith("val") and name[3:].isdigit():
+        return random_scene(VALIDATION_SEEDS[0] + int(name[3:]))
+    return load_scene(shared_dir / name / "scene.pbrt")
+
+
+def add_depth(args) -> None:
+    """Add the depth guide to npz files rendered before it was stored (a raster pass: cheap anywhere)."""
+    from lift_gl.gl.context import create_context
+    ctx = create_context(args.backend)
+    for path in args.inputs:
+        with np.load(path) as data:
+            arrays = {k: data[k] for k in data.files}
+        for name in sorted({k.split("/")[0] for k in arrays}):
+            if f"{name}/depth" in arrays:
+                continue
+            h, w = arrays[f"{name}/reference"].shape[:2]
+            arrays[f"{name}/depth"] = depth_guide(scene_of(name, args.shared_dir), (w, h), ctx).astype(np.float16)
+            print(f"{path}: depth of {name} ({w}x{h})", flush=True)
+        np.savez_compressed(path, **arrays)
+
+
+def render(args) -> None:
+    from lift_gl.denoise.train.scenes import VALIDATION_SEEDS
     args.out.mkdir(parents=True, exist_ok=True)
-    val = {f"val{seed - VALIDATION_SEEDS[0]}": random_scene(seed) for seed in VALIDATION_SEEDS[: args.val_scenes]}
+    val = {f"val{k}": scene_of(f"val{k}", args.shared_dir) for k in range(len(VALIDATION_SEEDS[: args.val_scenes]))}
     square = lambda s: (args.size, args.size)
     names = list(val)
     for part in range(0, len(names), args.per_file):  # files of a few scenes: each under 16 MiB
@@ -101,7 +141,7 @@ def render(args) -> None:
         if not path.is_file():
             print(f"skipped {name}: {path} is absent")
             continue
-        scene = load_scene(path)
+        scene = scene_of(name, args.shared_dir)
         scaled = lambda s: tuple(max(16, int(round(v * args.shared_scale))) for v in s.film_size)
         render_set({name: scene}, args.out / f"{name}.npz", scaled, args.ref_spp, args.backend)
 
@@ -130,7 +170,7 @@ def evaluate(args) -> None:
             results = {"noisy": noisy}
             for dname, d in denoisers.items():
                 t = time.perf_counter()
-                results[dname] = d.denoise(noisy, s["albedo"], s["normal"])
+                results[dname] = d.denoise(noisy, s["albedo"], s["normal"], depth=s.get("depth"))
                 seconds[dname].append(time.perf_counter() - t)
             for method, img in results.items():
                 rows.append({"scene": name, "spp": spp, "method": method,
@@ -193,8 +233,12 @@ def main(argv=None) -> None:
     e.add_argument("--denoisers", default="onnx,oidn")
     e.add_argument("--out", type=Path)
     e.add_argument("--images", type=Path, help="write noisy | denoisers | reference strips here")
+    g = sub.add_parser("add-depth", help="add the depth guide to npz files that lack it")
+    g.add_argument("inputs", nargs="+", type=Path)
+    g.add_argument("--shared-dir", type=Path, default=SHARED)
+    g.add_argument("--backend", default="auto")
     a = p.parse_args(argv)
-    render(a) if a.cmd == "render" else evaluate(a)
+    {"render": render, "evaluate": evaluate, "add-depth": add_depth}[a.cmd](a)
 
 
 if __name__ == "__main__":
