@@ -17,6 +17,7 @@ import numpy as np
 
 from ...scene import primitives as prim
 from ...scene.model import Camera, DistantLight, Environment, Material, Mesh, Scene, Texture
+from ...scene.toml_loader import METALS as TOML_METALS
 
 REPO = Path(__file__).resolve().parents[3]
 REPO_MESHES = ("tests/data/icosphere_smooth.obj", "scenes/stress/mesh_clean.ply")
@@ -25,12 +26,9 @@ SKY = "assets/env/sky.exr"
 
 TRAIN_SEEDS = range(0, 1_000_000)
 VALIDATION_SEEDS = range(1_000_000, 1_000_100)
-# Complex IORs (eta, k) of metals at R, G, B, as the TOML loader's table.
-METALS = {
-    "gold": ((0.143119, 0.374957, 1.442479), (3.983160, 2.385721, 1.603215)),
-    "silver": ((0.155265, 0.116723, 0.138342), (4.828350, 3.122250, 2.146960)),
-    "copper": ((0.200438, 0.924033, 1.102212), (3.912949, 2.452848, 2.142188)),
-}
+# The metals drawn from (their complex IORs from the TOML loader's table); the order matters:
+# a seed's scene, hence the shipped model's training set, depends on it.
+METALS = {name: TOML_METALS[name] for name in ("gold", "silver", "copper")}
 
 
 @lru_cache(maxsize=None)
