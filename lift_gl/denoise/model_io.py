@@ -1,0 +1,55 @@
+"""What the ONNX denoiser's network sees and gives back, in numpy (shared by training and
+inference, so that both prepare inputs the same way).
+
+Input (1, 9, H, W) float32: demodulated radiance times an exposure (3), albedo clipped to
+[0, 1] (3), world-space normal in [-1, 1] (3). The network itself applies log1p to the colour
+and expm1 to its output (that transform is inside the ONNX graph). Output (1, 3, H, W): the
+denoised demodulated radiance times the same exposure. The sidecar JSON beside the .onnx file
+says the same for other programs.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .demodulate import demodulate, remodulate
+
+EXPOSURE_KEY = 0.18  # the exposure maps the image's log-average luminance to this
+EXPOSURE_BLOCK = 16  # luminance is averaged over blocks first, so 1-spp noise does not bias the key
+EXPOSURE_RANGE = (1e-4, 1e4)
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+
+
+def clean(image: np.ndarray) -> np.ndarray:
+    """Finite, non-negative float32 (a stray NaN/Inf or negative sample must not reach the network)."""
+    image = np.nan_to_num(np.asarray(image, dtype=np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+    return np.maximum(image, 0.0)
+
+
+def autoexposure(color: np.ndarray) -> float:
+    """The scale that brings the image's log-average luminance (of 16x16 block means) to 0.18."""
+    lum = clean(color) @ LUMINANCE
+    h, w = lum.shape
+    b = EXPOSURE_BLOCK
+    hb, wb = max(h // b, 1), max(w // b, 1)
+    blocks = lum[: hb * b, : wb * b].reshape(hb, min(b, h), wb, min(b, w)).mean(axis=(1, 3))
+    lit = blocks[blocks > 1e-8]
+    if lit.size == 0:
+        return 1.0
+    key = float(np.exp(np.mean(np.log(lit))))
+    return float(np.clip(EXPOSURE_KEY / key, *EXPOSURE_RANGE))
+
+
+def network_input(color, albedo, normal) -> tuple[np.ndarray, float]:
+    """(1, 9, H, W) float32 network input and the exposure used (see the module docstring)."""
+    albedo = np.clip(clean(albedo), 0.0, 1.0)
+    demod = demodulate(clean(color), albedo)
+    exposure = autoexposure(demod)
+    normal = np.clip(np.nan_to_num(np.asarray(normal, dtype=np.float32)), -1.0, 1.0)
+    x = np.concatenate([demod * np.float32(exposure), albedo, normal], axis=2)
+    return np.ascontiguousarray(x.transpose(2, 0, 1)[None]), exposure
+
+
+def network_output(y: np.ndarray, exposure: float, albedo) -> np.ndarray:
+    """Radiance (H, W, 3) float32 from the network's output (1, 3, H, W)."""
+    demod = clean(y[0].transpose(1, 2, 0)) / np.float32(exposure)
+    return remodulate(demod, np.clip(clean(albedo), 0.0, 1.0))

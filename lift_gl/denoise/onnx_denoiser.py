@@ -1,0 +1,105 @@
+"""The albedo-demodulated U-Net denoiser, run with onnxruntime (the `denoise` extra).
+
+    OnnxDenoiser().denoise(color, albedo, normal)  # (H, W, 3) float32 each
+
+The model (assets/denoiser/lift_unet.onnx, trained by lift_gl/denoise/train) and its sidecar
+JSON are read on the first denoise() call, with the best execution provider onnxruntime
+offers here (CUDA, DirectML, CoreML, else CPU). Inputs are padded to the network's multiple;
+images larger than `tile` a side are denoised in overlapping tiles (lift_gl/denoise/tiling.py).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import LiftError
+from .model_io import network_input, network_output
+from .tiling import pad_to_multiple, run_tiled
+
+DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "assets" / "denoiser" / "lift_unet.onnx"
+PREFERRED_PROVIDERS = ("CUDAExecutionProvider", "DmlExecutionProvider", "CoreMLExecutionProvider",
+                       "CPUExecutionProvider")
+DEFAULT_TILE = 2048  # a 1080p frame runs in one pass; larger images in tiles (memory)
+
+
+class DenoiserModelError(LiftError):
+    """A denoiser model file (or its sidecar JSON) that is missing or cannot be loaded."""
+
+
+def best_providers(available) -> list[str]:
+    """onnxruntime providers in order of preference, those available here only."""
+    chosen = [p for p in PREFERRED_PROVIDERS if p in available]
+    return chosen or list(available)
+
+
+class OnnxDenoiser:
+    name = "onnx"
+
+    def __init__(self, model_path=None, tile: int = DEFAULT_TILE, providers=None, threads: int | None = None):
+        self.model_path = Path(model_path) if model_path is not None else DEFAULT_MODEL
+        self.tile = int(tile)
+        self._providers = providers
+        self._threads = threads
+        self._session = None
+        self.meta: dict | None = None
+
+    # ---- loading (lazy) ----
+    def _load(self) -> None:
+        path = self.model_path
+        if not path.is_file():
+            raise DenoiserModelError("denoiser model file not found (train one with "
+                                     "`python -m lift_gl.denoise.train`, see docs/denoiser.md)", path)
+        json_path = path.with_suffix(".json")
+        try:
+            meta = json.loads(json_path.read_text())
+            multiple, overlap = int(meta["multiple"]), int(meta["receptive_radius"])
+        except FileNotFoundError:
+            raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
+        except (ValueError, KeyError, TypeError) as e:
+            raise DenoiserModelError(f"the model's sidecar JSON is not valid ({e})", json_path) from None
+        try:
+            import onnxruntime as ort
+        except ImportError:
+            raise DenoiserModelError("the ONNX denoiser needs onnxruntime: pip install 'lift-gl[denoise]'",
+                                     path) from None
+        options = ort.SessionOptions()
+        if self._threads:
+            options.intra_op_num_threads = int(self._threads)
+        providers = self._providers or best_providers(ort.get_available_providers())
+        try:
+            session = ort.InferenceSession(path.read_bytes(), options, providers=providers)
+        except Exception as e:  # onnxruntime raises its own types for truncated or foreign files
+            raise DenoiserModelError(f"not a loadable ONNX model ({type(e).__name__}: "
+                                     f"{str(e).strip().splitlines()[0][:200]})", path) from None
+        self.meta, self._multiple = meta, multiple
+        # tiles and their context are aligned to the network's multiple so that pooling grids agree
+        self._overlap = -(-overlap // multiple) * multiple
+        self._tile = max(multiple, self.tile // multiple * multiple)
+        self._session = session
+
+    @property
+    def providers(self) -> list[str]:
+        if self._session is None:
+            self._load()
+        return self._session.get_providers()
+
+    # ---- denoising ----
+    def _run(self, x: np.ndarray) -> np.ndarray:
+        return self._session.run(None, {"input": x})[0]
+
+    def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
+        """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
+        if self._session is None:
+            self._load()
+        color = np.asarray(color, dtype=np.float32)
+        if color.ndim != 3 or color.shape[2] != 3:
+            raise ValueError(f"color must be (H, W, 3), not {color.shape}")
+        for label, guide in (("albedo", albedo), ("normal", normal)):
+            if np.shape(guide) != color.shape:
+                raise ValueError(f"{label} must have the colour's shape {color.shape}, not {np.shape(guide)}")
+        h, w = color.shape[:2]
+        x, exposure = network_input(color, albedo, normal)
+        y = run_tiled(self._run, pad_to_multiple(x, self._multiple), self._tile, self._overlap)
+        return network_output(y[:, :, :h, :w], exposure, albedo)

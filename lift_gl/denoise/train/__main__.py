@@ -1,0 +1,84 @@
+"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
+
+    python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
+        --stop-at 2604 --workers 10 --backend egl
+
+renders the training and validation scenes (resumable: existing files are kept), trains
+(resuming from --out/checkpoint.pt), exports the ONNX model and its sidecar JSON. The
+defaults are the settings of the shipped model; it was cut short at step 2604 of its 10000-step
+schedule by the GPU time of its session (docs/denoiser.md): without --stop-at the run goes on
+to the end of the schedule (assets/denoiser/train_checkpoint.pt copied to --out/checkpoint.pt
+resumes at step 2604).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from .scenes import TRAIN_SEEDS, VALIDATION_SEEDS
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m lift_gl.denoise.train", description=__doc__.splitlines()[0])
+    p.add_argument("--out", type=Path, required=True, help="working folder: data, checkpoint, log")
+    p.add_argument("--onnx", type=Path, default=None, help="where to write the model (default: OUT/lift_unet.onnx)")
+    p.add_argument("--scenes", type=int, default=166, help="training scenes")
+    p.add_argument("--val-scenes", type=int, default=8, help="validation scenes (never trained on)")
+    p.add_argument("--size", type=int, default=256, help="image size of each scene (square)")
+    p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
+    p.add_argument("--steps", type=int, default=10000)
+    p.add_argument("--batch", type=int, default=16)
+    p.add_argument("--crop", type=int, default=128)
+    p.add_argument("--lr", type=float, default=2e-3)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--backend", default="auto", help="OpenGL backend for rendering (auto|egl|osmesa)")
+    p.add_argument("--workers", type=int, default=1, help="rendering processes (one GL context each)")
+    p.add_argument("--data-minutes", type=float, default=None,
+                   help="stop rendering training scenes after this long (the record says how many were made)")
+    p.add_argument("--minutes", type=float, default=None, help="stop training after this long (resumable)")
+    p.add_argument("--stop-at", type=int, default=None,
+                   help="stop at this step (the schedule still spans --steps; resumable)")
+    p.add_argument("--no-export", action="store_true")
+    a = p.parse_args(argv)
+    log = lambda msg: print(msg, flush=True)
+
+    from .render_data import generate
+    size = (a.size, a.size)
+    t0 = time.perf_counter()
+    val_paths = generate(a.out / "val", VALIDATION_SEEDS[: a.val_scenes], size, a.ref_spp, a.backend, log,
+                         a.workers)
+    train_seeds = list(TRAIN_SEEDS[: a.scenes])
+    train_paths = generate(a.out / "train", train_seeds, size, a.ref_spp, a.backend, log, a.workers,
+                           a.data_minutes)
+    log(f"data: {len(train_paths)} training scenes (seeds {train_seeds[0]}..{train_seeds[len(train_paths) - 1]})")
+    data_seconds = time.perf_counter() - t0
+
+    from .train import train
+    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at)
+    model = result.pop("model")
+    data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
+    record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
+              "train_scenes": result["train_scenes"], "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
+              "reproduce": f"--scenes {len(train_paths)} --ref-spp {a.ref_spp} --steps {a.steps}"
+                           + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
+              "val_scenes": result["val_scenes"],
+              "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
+              "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
+              "steps": result["steps"], "batch": a.batch, "crop": a.crop, "lr": a.lr,
+              "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),
+              "data_bytes": data_bytes, "device": result["device"]}
+    (a.out / "record.json").write_text(json.dumps(record, indent=2) + "\n")
+    log("record: " + json.dumps(record))
+    if not a.no_export:
+        from .export import export
+        onnx = a.onnx or a.out / "lift_unet.onnx"
+        export(model, onnx, record)
+        log(f"exported {onnx} ({onnx.stat().st_size} bytes)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

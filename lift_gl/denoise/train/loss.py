@@ -1,0 +1,37 @@
+"""The training loss, in the manner of OIDN's: L1 plus an image-gradient L1 and an SSIM term,
+all on tone-mapped (log1p of exposed radiance) values, so that dark and bright regions weigh alike."""
+from __future__ import annotations
+
+import torch
+from torch.nn import functional as F
+
+W_GRADIENT = 0.5
+W_SSIM = 0.2
+
+
+def tonemap(radiance: torch.Tensor) -> torch.Tensor:
+    return torch.log1p(torch.clamp(radiance, min=0.0))
+
+
+def ssim(a: torch.Tensor, b: torch.Tensor, window: int = 7) -> torch.Tensor:
+    """Mean SSIM with a uniform window (as scikit-image's default), data range 1."""
+    c1, c2 = 0.01 ** 2, 0.03 ** 2
+    pool = lambda t: F.avg_pool2d(t, window, stride=1)
+    mu_a, mu_b = pool(a), pool(b)
+    var_a = pool(a * a) - mu_a ** 2
+    var_b = pool(b * b) - mu_b ** 2
+    cov = pool(a * b) - mu_a * mu_b
+    s = ((2 * mu_a * mu_b + c1) * (2 * cov + c2)) / ((mu_a ** 2 + mu_b ** 2 + c1) * (var_a + var_b + c2))
+    return s.mean()
+
+
+def gradient_l1(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    dx = lambda t: t[..., :, 1:] - t[..., :, :-1]
+    dy = lambda t: t[..., 1:, :] - t[..., :-1, :]
+    return F.l1_loss(dx(a), dx(b)) + F.l1_loss(dy(a), dy(b))
+
+
+def denoise_loss(pred_radiance: torch.Tensor, target_radiance: torch.Tensor) -> torch.Tensor:
+    p, t = tonemap(pred_radiance), tonemap(target_radiance)
+    return (F.l1_loss(p, t) + W_GRADIENT * gradient_l1(p, t)
+            + W_SSIM * (1.0 - ssim(torch.clamp(p, 0, 1), torch.clamp(t, 0, 1))))
