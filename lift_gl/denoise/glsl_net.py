@@ -23,7 +23,10 @@ from .onnx_graph import ModelError, Plan, Step
 SHADER_DIR = shaders.SHADER_DIR / "denoise"
 LOCAL_SIZE = 8
 MAX_PARTS = 4  # input images of one conv or gather (shaders/denoise/conv.comp)
-DEFAULT_OUT_BLOCK = 2  # output layers (of 4 channels) per conv invocation; see benchmarks/glsl_denoiser.py
+# conv invocation's work: output layers (of 4 channels) and pixels of a row; chosen by
+# benchmarks/glsl_denoiser.py --variants (docs/glsl-denoiser.md)
+DEFAULT_OUT_BLOCK = 1
+DEFAULT_PIXELS = 8
 NEAREST_MODES = ("floor", "ceil", "round_prefer_floor", "round_prefer_ceil")
 
 
@@ -53,11 +56,12 @@ def pack_weights(weight: np.ndarray, part_channels: list[int], out_block: int) -
 class GlslNet:
     """The steps of an ONNX model as compute dispatches on a moderngl context."""
 
-    def __init__(self, ctx, model_path, out_block: int = DEFAULT_OUT_BLOCK):
+    def __init__(self, ctx, model_path, out_block: int = DEFAULT_OUT_BLOCK, pixels: int = DEFAULT_PIXELS):
         self.ctx = ctx
         self.model_path = Path(model_path)
         self.plan = Plan(self.model_path)
         self.out_block = int(out_block)
+        self.pixels = int(pixels)
         self.multiple = self.plan.multiple
         self.input_channels = self.plan.input_channels
         self.output_channels = self.plan.output_channels
@@ -93,7 +97,7 @@ class GlslNet:
             kh, kw = step.params["weight"].shape[2:]
             parts = step.params["part_channels"]
             defines.update(KERNEL_H=kh, KERNEL_W=kw, PAD_TOP=step.params["pad"][0], PAD_LEFT=step.params["pad"][1],
-                           OUT_BLOCK=self.out_block, NUM_PARTS=len(parts))
+                           OUT_BLOCK=self.out_block, PIXELS=self.pixels, NUM_PARTS=len(parts))
             source = "conv.comp"
         elif step.kind in ("map", "binary"):
             source = "pointwise.comp"
@@ -199,7 +203,8 @@ class GlslNet:
                 set_uniform(program, "u_coord_x", _coordinate_map(step.params, in_w, out_w))
                 set_uniform(program, "u_coord_y", _coordinate_map(step.params, in_h, out_h))
                 set_uniform(program, "u_nearest_mode", NEAREST_MODES.index(step.params["nearest"]))
-            program.run(-(-out_w // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
+            columns = -(-out_w // self.pixels) if step.kind == "conv" else out_w
+            program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
             # the next step reads what this one wrote through image loads
             self.ctx.memory_barrier()
 
