@@ -14,6 +14,8 @@ channel or weight) changes values by O(1), orders of magnitude above that.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -44,11 +46,42 @@ def forward_float64(model, x):
     from onnx import helper, numpy_helper
 
     consts = {t.name: numpy_helper.to_array(t).astype(np.float64) for t in model.graph.initializer}
-    env = {"input": (x[0].astype(np.float64), np.zeros(x[0].shape))}  # (C, H, W) value, variance
+    env = {model.graph.input[0].name: (x[0].astype(np.float64), np.zeros(x[0].shape))}  # (C, H, W) value, variance
     for node in model.graph.node:
         attrs = {a.name: helper.get_attribute_value(a) for a in node.attribute}
         op, ins = node.op_type, node.input
-        if op == "Conv":
+        if op == "Constant":
+            consts[node.output[0]] = numpy_helper.to_array(attrs["value"]).astype(np.float64)
+        elif op in ("Add", "Sub", "Mul", "Div") and (ins[0] in consts or ins[1] in consts):
+            (v, var), c = (env[ins[0]], consts[ins[1]]) if ins[1] in consts else (env[ins[1]], consts[ins[0]])
+            c = float(c.reshape(()))
+            y = {"Add": v + c, "Sub": v - c if ins[1] in consts else c - v, "Mul": v * c,
+                 "Div": v / c if ins[1] in consts else c / v}[op]
+            slope = {"Add": 1.0, "Sub": 1.0, "Mul": c, "Div": 1 / c if ins[1] in consts else c / v ** 2}[op]
+            env[node.output[0]] = (y, slope ** 2 * var + U ** 2 / 3 * y ** 2)
+        elif op == "Log":  # GLSL: absolute error < 2^-21 in [0.5, 2], else 3 ULP (<= 6 u |y|)
+            v, var = env[ins[0]]
+            y = np.log(v)
+            own = np.where((v >= 0.5) & (v <= 2.0), 2.0 ** -21, 6 * U * np.abs(y))
+            env[node.output[0]] = (y, var / v ** 2 + own ** 2)
+        elif op == "Exp":  # GLSL: (3 + 2 |x|) ULP
+            v, var = env[ins[0]]
+            y = np.exp(v)
+            env[node.output[0]] = (y, y ** 2 * var + ((3 + 2 * np.abs(v)) * 2 * U * y) ** 2)
+        elif op == "Clip":
+            v, var = env[ins[0]]
+            lo = consts[ins[1]] if len(ins) > 1 and ins[1] else -np.inf
+            hi = consts[ins[2]] if len(ins) > 2 and ins[2] else np.inf
+            env[node.output[0]] = (np.clip(v, lo, hi), var)
+        elif op == "Cast":
+            env[node.output[0]] = env[ins[0]]
+        elif op == "Slice":
+            v, var = env[ins[0]]
+            start, end = int(consts[ins[1]].reshape(-1)[0]), int(consts[ins[2]].reshape(-1)[0])
+            assert int(consts[ins[3]].reshape(-1)[0]) == 1, "the test's reference slices channels only"
+            step = int(consts[ins[4]].reshape(-1)[0]) if len(ins) > 4 and ins[4] else 1
+            env[node.output[0]] = (v[start:end:step], var[start:end:step])
+        elif op == "Conv":
             (v, var), w = env[ins[0]], consts[ins[1]]
             b = consts[ins[2]]
             k, p = w.shape[2], w.shape[2] // 2
@@ -171,6 +204,35 @@ def test_weight_packing_order():
     assert packed[0, 0, 1, 2, 0, 1, 3] == weight[3, 1, 1, 2]      # part 0's channel 1
     assert packed[1, 1, 0, 0, 0, 2, 1] == weight[5, 4, 0, 0]      # part 1 (layer 1) channel 2 = input 4
     assert packed[1, 0, 0, 0, 0, 0, 2] == 0.0                     # output channel 6 does not exist
+
+
+SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "denoiser" / "lift_unet.onnx"
+
+
+def test_shipped_denoiser_matches_onnxruntime(gl_ctx):
+    """The trained model (Slice, Log, Exp, Clip around the U-Net) within its rounding bound."""
+    if not SHIPPED.is_file():
+        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
+    model = onnx.load(str(SHIPPED))
+    rng = np.random.default_rng(2)
+    h, w = 29, 37
+    x = rng.random((1, 9, h, w)).astype(np.float32)
+    x[:, :3] *= 4.0  # exposed colour, albedo in [0, 1], normals in [-1, 1]
+    x[:, 6:] = 2 * x[:, 6:] - 1
+    net = GlslNet(gl_ctx, SHIPPED)
+    try:
+        got = net.run_numpy(x)
+    finally:
+        net.release()
+    padded = pad_edge(x, net.multiple)
+    session = ort.InferenceSession(str(SHIPPED), providers=["CPUExecutionProvider"])
+    want = session.run(None, {session.get_inputs()[0].name: padded})[0][:, :, :h, :w]
+    exact, variance = forward_float64(model, padded)
+    bound = 6 * np.sqrt(2 * variance[:, :, :h, :w])
+    diff = np.abs(got - want)
+    worst = np.unravel_index(np.argmax(diff / bound), diff.shape)
+    assert (diff <= bound).all(), f"diff {diff[worst]:.3g} > bound {bound[worst]:.3g} at {worst}"
+    assert (np.abs(want - exact[:, :, :h, :w]) <= bound).all()
 
 
 def _save(tmp_path, nodes, inits=(), name="bad.onnx"):
