@@ -95,7 +95,7 @@ def main() -> None:
         input_name = session.get_inputs()[0].name if session else None
         for width, height in sizes:
             x = network_input(width, height)
-            row = {"model": name, "size": f"{width}x{height}", "glsl_ms": {}, "glsl_ms_all": {}}
+            row = {"model": Path(name).name, "size": f"{width}x{height}", "glsl_ms": {}, "glsl_ms_all": {}}
             multiple = nets[blocks[0]].multiple
             padded = np.pad(x, ((0, 0), (0, 0), (0, -height % multiple), (0, -width % multiple)), mode="edge")
             outputs = {}
@@ -123,7 +123,7 @@ def main() -> None:
                 row["max_abs_diff"] = {b: float(np.abs(outputs[b] - reference).max()) for b in blocks}
                 row["max_abs_output"] = float(np.abs(reference).max())
             results.append(row)
-            line = f"{name:13s} {width}x{height}: GLSL " + ", ".join(
+            line = f"{Path(name).name:13s} {width}x{height}: GLSL " + ", ".join(
                 f"{b}: {row['glsl_ms'][b]:.1f} ms" for b in blocks)
             if session is not None:
                 line += (f" | onnxruntime CPU {row['onnxruntime_cpu_ms']:.1f} ms | max |GLSL - ort| "

@@ -165,6 +165,8 @@ def compare(gl_ctx, tmp_path, model, size, out_block, pixels):
     net = GlslNet(gl_ctx, path, out_block=out_block, pixels=pixels)
     try:
         got = net.run_numpy(x)
+        with pytest.raises(ValueError, match="multiple"):  # the GPU path takes padded sizes only
+            net.allocate(w, h)
     finally:
         net.release()
     # the same edge padding to the network's multiple as run_numpy, then the same crop

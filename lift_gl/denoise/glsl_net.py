@@ -68,10 +68,9 @@ class GlslNet:
         self._programs: dict[tuple, object] = {}
         self._weights: dict[int, tuple] = {}  # id(step) -> (weights buffer, bias buffer)
         for step in self.plan.steps:
-            for name in self._inputs(step):
-                if len(self._inputs(step)) > MAX_PARTS:
-                    raise ModelError(f"{step.output!r} reads {len(self._inputs(step))} concatenated tensors; "
-                                     f"at most {MAX_PARTS} are supported", self.model_path)
+            if len(self._inputs(step)) > MAX_PARTS:
+                raise ModelError(f"{step.output!r} reads {len(self._inputs(step))} concatenated tensors; "
+                                 f"at most {MAX_PARTS} are supported", self.model_path)
             self._program(step)  # compile everything now: errors at load, not at the first frame
             if step.kind == "conv":
                 packed, groups = pack_weights(step.params["weight"], step.params["part_channels"], self.out_block)
