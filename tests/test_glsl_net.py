@@ -237,6 +237,36 @@ def test_shipped_denoiser_matches_onnxruntime(gl_ctx):
     assert (np.abs(want - exact[:, :, :h, :w]) <= bound).all()
 
 
+def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
+    """GlslDenoiser and OnnxDenoiser (lift_gl/denoise/onnx_denoiser.py) on one noisy frame: the
+    network's bound carried through the output transform (divide by the exposure, times albedo)."""
+    if not SHIPPED.is_file():
+        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
+    from lift_gl.denoise.demodulate import safe_albedo
+    from lift_gl.denoise.glsl_denoiser import GlslDenoiser
+    from lift_gl.denoise.model_io import network_input
+    from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
+
+    rng = np.random.default_rng(4)
+    h, w = 23, 41
+    albedo = rng.random((h, w, 3)).astype(np.float32)
+    color = (albedo * rng.exponential(1.0, (h, w, 1))).astype(np.float32)
+    normal = rng.standard_normal((h, w, 3)).astype(np.float32)
+    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    glsl = GlslDenoiser(ctx=gl_ctx)
+    try:
+        got = glsl.denoise(color, albedo, normal)
+    finally:
+        glsl.release()
+    want = OnnxDenoiser(providers=["CPUExecutionProvider"]).denoise(color, albedo, normal)
+    x, exposure = network_input(color, albedo, normal)
+    _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16))
+    bound = 6 * np.sqrt(2 * variance[0, :, :h, :w]).transpose(1, 2, 0) / exposure * safe_albedo(np.clip(albedo, 0, 1))
+    bound += 4 * U * np.abs(want)  # the two roundings of the output transform, on each side
+    assert got.shape == want.shape == (h, w, 3)
+    assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
+
+
 def _save(tmp_path, nodes, inits=(), name="bad.onnx"):
     from onnx import TensorProto, helper
 
