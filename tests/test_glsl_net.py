@@ -1,0 +1,307 @@
+"""The GLSL denoiser executor (lift_gl/denoise/glsl_net.py) against onnxruntime on random
+U-Net-shaped ONNX models (lift_gl/denoise/random_unet.py), on odd image sizes.
+
+Tolerance, from float32 rounding (u = 2^-24). A float32 K-term dot product rounds each of its
+K partial sums s_k once, by s_k * delta_k with |delta_k| <= u; modelling the delta_k as
+independent and uniform (Higham and Mary's probabilistic rounding analysis) gives an error
+variance of (u^2 / 3) * sum_k s_k^2 <= (u^2 / 3) * K * (sum |w x| + |b|)^2. The next layers
+carry that error through their weights: variance W^2 * var, summed with their own rounding.
+A float64 numpy forward pass of the same graph propagates this variance alongside the values
+(tests' own executor, a third independent implementation), and the two float32 executors may
+differ by 6 * sqrt(2) * sigma elementwise (6 standard deviations of a difference of two
+independent errors: about 1e-9 per element to fail by chance). An indexing bug (a wrong tap,
+channel or weight) changes values by O(1), orders of magnitude above that.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+onnx = pytest.importorskip("onnx")
+ort = pytest.importorskip("onnxruntime")
+
+from lift_gl.denoise.glsl_net import GlslNet, pack_weights  # noqa: E402
+from lift_gl.denoise.onnx_graph import ModelError, Plan  # noqa: E402
+from lift_gl.denoise.random_unet import random_unet  # noqa: E402
+
+U = 2.0 ** -24
+
+
+@pytest.fixture(scope="module")
+def gl_ctx():
+    from lift_gl.gl.context import create_context
+
+    return create_context()
+
+
+def onnxruntime_run(model, x):
+    session = ort.InferenceSession(model.SerializeToString(), providers=["CPUExecutionProvider"])
+    return session.run(None, {"input": x})[0]
+
+
+def forward_float64(model, x):
+    """The graph in float64 numpy, with the float32 rounding variance of every value."""
+    from onnx import helper, numpy_helper
+
+    consts = {t.name: numpy_helper.to_array(t).astype(np.float64) for t in model.graph.initializer}
+    env = {model.graph.input[0].name: (x[0].astype(np.float64), np.zeros(x[0].shape))}  # (C, H, W) value, variance
+    for node in model.graph.node:
+        attrs = {a.name: helper.get_attribute_value(a) for a in node.attribute}
+        op, ins = node.op_type, node.input
+        if op == "Constant":
+            consts[node.output[0]] = numpy_helper.to_array(attrs["value"]).astype(np.float64)
+        elif op in ("Add", "Sub", "Mul", "Div") and (ins[0] in consts or ins[1] in consts):
+            (v, var), c = (env[ins[0]], consts[ins[1]]) if ins[1] in consts else (env[ins[1]], consts[ins[0]])
+            c = float(c.reshape(()))
+            y = {"Add": v + c, "Sub": v - c if ins[1] in consts else c - v, "Mul": v * c,
+                 "Div": v / c if ins[1] in consts else c / v}[op]
+            slope = {"Add": 1.0, "Sub": 1.0, "Mul": c, "Div": 1 / c if ins[1] in consts else c / v ** 2}[op]
+            env[node.output[0]] = (y, slope ** 2 * var + U ** 2 / 3 * y ** 2)
+        elif op == "Log":  # GLSL: absolute error < 2^-21 in [0.5, 2], else 3 ULP (<= 6 u |y|)
+            v, var = env[ins[0]]
+            y = np.log(v)
+            own = np.where((v >= 0.5) & (v <= 2.0), 2.0 ** -21, 6 * U * np.abs(y))
+            env[node.output[0]] = (y, var / v ** 2 + own ** 2)
+        elif op == "Exp":  # GLSL: (3 + 2 |x|) ULP
+            v, var = env[ins[0]]
+            y = np.exp(v)
+            env[node.output[0]] = (y, y ** 2 * var + ((3 + 2 * np.abs(v)) * 2 * U * y) ** 2)
+        elif op == "Clip":
+            v, var = env[ins[0]]
+            lo = consts[ins[1]] if len(ins) > 1 and ins[1] else -np.inf
+            hi = consts[ins[2]] if len(ins) > 2 and ins[2] else np.inf
+            env[node.output[0]] = (np.clip(v, lo, hi), var)
+        elif op == "Cast":
+            env[node.output[0]] = env[ins[0]]
+        elif op == "Slice":
+            v, var = env[ins[0]]
+            start, end = int(consts[ins[1]].reshape(-1)[0]), int(consts[ins[2]].reshape(-1)[0])
+            assert int(consts[ins[3]].reshape(-1)[0]) == 1, "the test's reference slices channels only"
+            step = int(consts[ins[4]].reshape(-1)[0]) if len(ins) > 4 and ins[4] else 1
+            env[node.output[0]] = (v[start:end:step], var[start:end:step])
+        elif op == "Conv":
+            (v, var), w = env[ins[0]], consts[ins[1]]
+            b = consts[ins[2]]
+            k, p = w.shape[2], w.shape[2] // 2
+            c, h, wd = v.shape
+            vp = np.pad(v, ((0, 0), (p, p), (p, p)))
+            varp = np.pad(var, ((0, 0), (p, p), (p, p)))
+            out, carried = np.zeros((w.shape[0], h, wd)), np.zeros((w.shape[0], h, wd))
+            size = np.broadcast_to(np.abs(b)[:, None, None], out.shape)  # sum |w x| + |b|
+            for dy in range(k):
+                for dx in range(k):
+                    tap = vp[:, dy:dy + h, dx:dx + wd]
+                    out += np.einsum("oc,chw->ohw", w[:, :, dy, dx], tap)
+                    carried += np.einsum("oc,chw->ohw", w[:, :, dy, dx] ** 2, varp[:, dy:dy + h, dx:dx + wd])
+                    size = size + np.einsum("oc,chw->ohw", np.abs(w[:, :, dy, dx]), np.abs(tap))
+            terms = c * k * k + 1
+            env[node.output[0]] = (out + b[:, None, None], carried + U ** 2 / 3 * terms * size ** 2)
+        elif op in ("Relu", "LeakyRelu", "Identity"):
+            v, var = env[ins[0]]
+            alpha = {"Relu": 0.0, "LeakyRelu": attrs.get("alpha", 0.01), "Identity": 1.0}[op]
+            env[node.output[0]] = (np.where(v >= 0, v, alpha * v), var)  # slopes <= 1: var kept
+        elif op in ("MaxPool", "AveragePool"):
+            v, var = env[ins[0]]
+            c, h, wd = v.shape
+            blocks = v.reshape(c, h // 2, 2, wd // 2, 2)
+            vb = var.reshape(c, h // 2, 2, wd // 2, 2)
+            if op == "MaxPool":
+                env[node.output[0]] = (blocks.max(axis=(2, 4)), vb.max(axis=(2, 4)))
+            else:
+                mean = blocks.mean(axis=(2, 4))
+                env[node.output[0]] = (mean, vb.mean(axis=(2, 4)) + U ** 2 * 4 * mean ** 2)
+        elif op == "Resize":
+            v, var = env[ins[0]]
+            mode, transform = attrs["mode"].decode(), attrs["coordinate_transformation_mode"].decode()
+            c, h, wd = v.shape
+
+            def coords(n):
+                out = np.arange(2 * n, dtype=np.float64)
+                if transform == "align_corners":
+                    x = out * (n - 1) / (2 * n - 1)
+                elif transform == "half_pixel":
+                    x = (out + 0.5) / 2 - 0.5
+                else:
+                    x = out / 2
+                if mode == "nearest":
+                    return np.clip(np.floor(x), 0, n - 1).astype(int), None, None
+                x = np.clip(x, 0, n - 1)
+                lo = np.floor(x).astype(int)
+                return lo, np.minimum(lo + 1, n - 1), x - lo
+
+            (y0, y1, ty), (x0, x1, tx) = coords(h), coords(wd)
+            if mode == "nearest":
+                env[node.output[0]] = (v[:, y0][:, :, x0], var[:, y0][:, :, x0])
+            else:
+                ty, tx = ty[None, :, None], tx[None, None, :]
+                weights = [((1 - ty) * (1 - tx), y0, x0), ((1 - ty) * tx, y0, x1), (ty * (1 - tx), y1, x0), (ty * tx, y1, x1)]
+                out = sum(wt * v[:, yy][:, :, xx] for wt, yy, xx in weights)
+                carried = sum(wt ** 2 * var[:, yy][:, :, xx] for wt, yy, xx in weights)
+                env[node.output[0]] = (out, carried + U ** 2 * 4 * out ** 2)
+        elif op == "Concat":
+            env[node.output[0]] = tuple(np.concatenate([env[i][j] for i in ins]) for j in (0, 1))
+        elif op == "Add":
+            (a, va), (b, vb) = env[ins[0]], env[ins[1]]
+            env[node.output[0]] = (a + b, va + vb + U ** 2 / 3 * (a + b) ** 2)
+        else:
+            raise AssertionError(f"the test's reference has no {op}")
+    v, var = env[model.graph.output[0].name]
+    return v[None], var[None]
+
+
+def pad_edge(x, multiple):
+    h, w = x.shape[2:]
+    return np.pad(x, ((0, 0), (0, 0), (0, -h % multiple), (0, -w % multiple)), mode="edge")
+
+
+def compare(gl_ctx, tmp_path, model, size, out_block, pixels):
+    path = tmp_path / "net.onnx"
+    onnx.save(model, path)
+    rng = np.random.default_rng(1)
+    w, h = size
+    x = rng.standard_normal((1, 9, h, w)).astype(np.float32)
+    net = GlslNet(gl_ctx, path, out_block=out_block, pixels=pixels)
+    try:
+        got = net.run_numpy(x)
+        with pytest.raises(ValueError, match="multiple"):  # the GPU path takes padded sizes only
+            net.allocate(w, h)
+    finally:
+        net.release()
+    # the same edge padding to the network's multiple as run_numpy, then the same crop
+    padded = pad_edge(x, net.multiple)
+    want = onnxruntime_run(model, padded)[:, :, :h, :w]
+    exact, variance = forward_float64(model, padded)
+    bound = 6 * np.sqrt(2 * variance[:, :, :h, :w])
+    assert got.shape == want.shape == (1, 3, h, w)
+    assert np.isfinite(got).all()
+    for label, result in (("onnxruntime vs float64", want), ("GLSL vs float64", got), ("GLSL vs onnxruntime", got)):
+        reference = exact[:, :, :h, :w] if "float64" in label else want
+        diff = np.abs(result - reference)
+        worst = np.unravel_index(np.argmax(diff / bound), diff.shape)
+        assert (diff <= bound).all(), f"{label}: diff {diff[worst]:.3g} > bound {bound[worst]:.3g} at {worst}"
+    # the comparison means something: the output is not flat, and the bound is far below it
+    assert want.std() > 0.1 and bound.max() < 1e-3 * np.abs(want).max()
+
+
+def test_unet_concat_maxpool_nearest_matches_onnxruntime(gl_ctx, tmp_path):
+    model = random_unet(encoder=(8, 12, 16), bottleneck=20, seed=3)
+    compare(gl_ctx, tmp_path, model, (37, 29), out_block=1, pixels=8)  # the defaults
+
+
+def test_unet_add_avgpool_bilinear_leaky_matches_onnxruntime(gl_ctx, tmp_path):
+    # one decoder level per coordinate transform; 1x1 convs before the Add skips; a 1x1 output conv
+    ups = [("linear", "half_pixel"), ("linear", "align_corners"), ("nearest", "asymmetric")]
+    model = random_unet(encoder=(4, 8, 12), bottleneck=16, pool="AveragePool", upsample=ups,
+                        activation="LeakyRelu", add_skips=True, final_kernel=1, seed=5)
+    compare(gl_ctx, tmp_path, model, (29, 19), out_block=3, pixels=3)  # 3 does not divide 12 or 29
+
+
+def test_weight_packing_order():
+    # mat4 column c = input channel, row r = output channel (column-major in the buffer)
+    weight = np.arange(6 * 5 * 3 * 3, dtype=np.float32).reshape(6, 5, 3, 3)
+    packed, groups = pack_weights(weight, [2, 3], out_block=1)
+    assert groups == 2 and packed.shape == (2, 2, 3, 3, 1, 4, 4)  # g, input layer, ky, kx, j, c, r
+    assert packed[0, 0, 1, 2, 0, 1, 3] == weight[3, 1, 1, 2]      # part 0's channel 1
+    assert packed[1, 1, 0, 0, 0, 2, 1] == weight[5, 4, 0, 0]      # part 1 (layer 1) channel 2 = input 4
+    assert packed[1, 0, 0, 0, 0, 0, 2] == 0.0                     # output channel 6 does not exist
+
+
+SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "denoiser" / "lift_unet.onnx"
+
+
+def test_shipped_denoiser_matches_onnxruntime(gl_ctx):
+    """The trained model (Slice, Log, Exp, Clip around the U-Net) within its rounding bound."""
+    if not SHIPPED.is_file():
+        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
+    model = onnx.load(str(SHIPPED))
+    rng = np.random.default_rng(2)
+    h, w = 29, 37
+    x = rng.random((1, 9, h, w)).astype(np.float32)
+    x[:, :3] *= 4.0  # exposed colour, albedo in [0, 1], normals in [-1, 1]
+    x[:, 6:] = 2 * x[:, 6:] - 1
+    net = GlslNet(gl_ctx, SHIPPED)
+    try:
+        got = net.run_numpy(x)
+    finally:
+        net.release()
+    padded = pad_edge(x, net.multiple)
+    session = ort.InferenceSession(str(SHIPPED), providers=["CPUExecutionProvider"])
+    want = session.run(None, {session.get_inputs()[0].name: padded})[0][:, :, :h, :w]
+    exact, variance = forward_float64(model, padded)
+    bound = 6 * np.sqrt(2 * variance[:, :, :h, :w])
+    diff = np.abs(got - want)
+    worst = np.unravel_index(np.argmax(diff / bound), diff.shape)
+    assert (diff <= bound).all(), f"diff {diff[worst]:.3g} > bound {bound[worst]:.3g} at {worst}"
+    assert (np.abs(want - exact[:, :, :h, :w]) <= bound).all()
+
+
+def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
+    """GlslDenoiser and OnnxDenoiser (lift_gl/denoise/onnx_denoiser.py) on one noisy frame: the
+    network's bound carried through the output transform (divide by the exposure, times albedo)."""
+    if not SHIPPED.is_file():
+        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
+    from lift_gl.denoise.demodulate import safe_albedo
+    from lift_gl.denoise.glsl_denoiser import GlslDenoiser
+    from lift_gl.denoise.model_io import network_input
+    from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
+
+    rng = np.random.default_rng(4)
+    h, w = 23, 41
+    albedo = rng.random((h, w, 3)).astype(np.float32)
+    color = (albedo * rng.exponential(1.0, (h, w, 1))).astype(np.float32)
+    normal = rng.standard_normal((h, w, 3)).astype(np.float32)
+    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    glsl = GlslDenoiser(ctx=gl_ctx)
+    try:
+        got = glsl.denoise(color, albedo, normal)
+    finally:
+        glsl.release()
+    want = OnnxDenoiser(providers=["CPUExecutionProvider"]).denoise(color, albedo, normal)
+    x, exposure = network_input(color, albedo, normal)
+    _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16))
+    bound = 6 * np.sqrt(2 * variance[0, :, :h, :w]).transpose(1, 2, 0) / exposure * safe_albedo(np.clip(albedo, 0, 1))
+    bound += 4 * U * np.abs(want)  # the two roundings of the output transform, on each side
+    assert got.shape == want.shape == (h, w, 3)
+    assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
+
+
+def _save(tmp_path, nodes, inits=(), name="bad.onnx"):
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("input", TensorProto.FLOAT, [1, 4, "h", "w"])],
+                              [helper.make_tensor_value_info("output", TensorProto.FLOAT, [1, 4, "h", "w"])],
+                              list(inits))
+    path = tmp_path / name
+    onnx.save(helper.make_model(graph), path)
+    return path
+
+
+def test_unsupported_op_names_op_and_file(tmp_path):
+    from onnx import helper
+
+    path = _save(tmp_path, [helper.make_node("Softmax", ["input"], ["output"], axis=1, name="attention")])
+    with pytest.raises(ModelError) as info:
+        Plan(path)
+    message = str(info.value)
+    assert "Softmax" in message and "bad.onnx" in message and "attention" in message
+
+
+def test_unsupported_conv_attribute_is_clear(tmp_path):
+    from onnx import helper, numpy_helper
+
+    w = numpy_helper.from_array(np.zeros((4, 4, 3, 3), np.float32), "w")
+    path = _save(tmp_path, [helper.make_node("Conv", ["input", "w"], ["output"], kernel_shape=[3, 3],
+                                             pads=[1, 1, 1, 1], strides=[2, 2])], [w])
+    with pytest.raises(ModelError, match=r"bad\.onnx.*Conv.*strides 1"):
+        Plan(path)
+
+
+def test_missing_and_corrupt_model_files(tmp_path):
+    with pytest.raises(ModelError, match="not found"):
+        Plan(tmp_path / "absent.onnx")
+    corrupt = tmp_path / "corrupt.onnx"
+    corrupt.write_bytes(b"\x08\x07this is not a protobuf")
+    with pytest.raises(ModelError, match="corrupt.onnx"):
+        Plan(corrupt)
