@@ -27,15 +27,14 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
         Surface s = surface_at(ray, hit);
         Material m = materials[s.material];
         vec3 wo = -ray.dir;
-        vec3 ns = bsdf_type(m) != MAT_DIELECTRIC && dot(wo, s.ng) < 0.0 ? -s.ns : s.ns;
-        bdpt_path[i] = PathVertex(s.p, s.ng, ns, wo, beta, 0.0, 0.0, pdf_light_point(s), s.material,
+        bdpt_path[i] = PathVertex(s.p, s.ng, shading_normal(s, m, wo), wo, beta, 0.0, 0.0, pdf_light_point(s), s.material,
                                   VERTEX_SURFACE, false);
         bdpt_path[i].pdf_fwd = i == last + 1 && first_pdf_pos > 0.0 ? first_pdf_pos * abs(dot(ray.dir, s.ng))
                                                                      : area_density(pdf_dir, bdpt_path[i - 1].p, i);
         if (i + 1 >= end) return i + 1;
 
         // ---- BSDF sampling: the next direction ----
-        Frame frame = frame_from_normal(ns);
+        Frame frame = frame_from_normal(bdpt_path[i].ns);
         vec3 wo_local = to_local(frame, wo);
         BsdfSample bs;
         if (!bsdf_sample(m, wo_local, rng_next3(rng), bs)) return i + 1;

@@ -17,7 +17,7 @@ const uint VERTEX_ENV = 3u;      // at infinity: the environment
 struct PathVertex {
     vec3 p;             // world position; VERTEX_ENV: the unit direction towards the environment
     vec3 ng;            // geometric normal (triangle winding, sphere outward); emitter: front normal
-    vec3 ns;            // shading normal, turned to wo's side on opaque surfaces (as pt does)
+    vec3 ns;            // shading normal: shading_normal (lift/surface.glsl), as pt shades
     vec3 wo;            // unit direction towards the previous vertex of the same subpath
     vec3 beta;          // throughput of the subpath up to this vertex, this vertex's BSDF excluded
     float pdf_fwd;      // area density of this vertex, sampled from the previous one
@@ -54,7 +54,7 @@ float area_density(float pdf_dir, vec3 from, int i) {
 // Opaque surfaces pass no light from one side of their geometry to the other, whatever the
 // shading normal says.
 bool vertex_blocks(int i, vec3 wo, vec3 wi) {
-    return bsdf_type(materials[bdpt_path[i].material]) != MAT_DIELECTRIC
+    return is_opaque(materials[bdpt_path[i].material])
         && dot(wi, bdpt_path[i].ng) * dot(wo, bdpt_path[i].ng) <= 0.0;
 }
 
