@@ -25,7 +25,7 @@
 vec3 direct_light(Surface s, Material m, Frame frame, vec3 wo_world, bool branch_goes_on, inout Rng rng) {
     vec3 wo = to_local(frame, wo_world);
     vec3 sum = vec3(0.0);
-#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
+#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
     float n_light = float(light_samples);
     for (int k = 0; k < light_samples; ++k) {
         LightSample ls;
@@ -36,7 +36,8 @@ vec3 direct_light(Surface s, Material m, Frame frame, vec3 wo_world, bool branch
         if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) continue;
         if (!any(greaterThan(f, vec3(0.0)))) continue;
         if (trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) continue;  // in shadow
-        float w = branch_goes_on ? power_heuristic(n_light * ls.pdf, bsdf_pdf(m, wo, wi)) : 1.0;
+        // A delta light (distant) can't be found by BSDF sampling: no MIS.
+        float w = branch_goes_on && !ls.is_delta ? power_heuristic(n_light * ls.pdf, bsdf_pdf(m, wo, wi)) : 1.0;
         sum += f * ls.radiance * (w / ls.pdf);
     }
     sum /= n_light;

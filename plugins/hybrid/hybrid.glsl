@@ -42,7 +42,7 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
         Frame frame = shading_frame(s, m, wo_world);
         vec3 wo = to_local(frame, wo_world);
         // ---- Next event estimation (bounce depth + 1): a shadow ray ----
-#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
+#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
             if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls) && depth + 1 >= first_bounce) {
@@ -50,7 +50,8 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
                 vec3 f = bsdf_eval(m, wo, wi);
                 if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
-                    L += throughput * f * ls.radiance * (power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi)) / ls.pdf);
+                    float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));  // distant: no MIS
+                    L += throughput * f * ls.radiance * (w / ls.pdf);
                 }
             }
         }
