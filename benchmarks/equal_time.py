@@ -106,8 +106,8 @@ def load_reference(out: Path):
 
 
 def compare(args) -> None:
-    ref, ref_noise, ref_info = load_reference(args.out)
     path = scene_path(args.scene)
+    ref, ref_noise, ref_info = load_reference(args.out)
     scene = load_scene(path)
     size = image_size(scene, args.size)
     if ref.shape[:2] != size[::-1]:
