@@ -146,7 +146,7 @@ def compare(args) -> None:
     if external is not None:
         print(f"against {args.ref}: relMSE pt {rows['pt']['rel_mse_vs_external']:.4f}, "
               f"bdpt {rows['bdpt']['rel_mse_vs_external']:.4f}, our reference {rel_mse(ref, external):.4f}")
-    shown = str(path.relative_to(REPO)) if path.is_relative_to(REPO) else str(path.relative_to(REPO.parent))
+    shown = str(path.relative_to(REPO)) if path.is_relative_to(REPO) else f"../{path.relative_to(REPO.parent)}"
     result = {"machine": machine(renderers["pt"]), "scene": shown, "size": list(size),
               "seconds_each": args.seconds, "reference": ref_info, "reference_rel_mse_noise": ref_noise,
               "rows": rows, "rel_mse_ratio_pt_over_bdpt": ratio,
