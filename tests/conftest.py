@@ -31,6 +31,13 @@ def sphere_pixel_cosines(scene, size, subpixels=4):
 
     Returns (H, W, subpixels**2), row 0 = top, computed in numpy from the camera alone.
     """
+    normals, dirs = sphere_pixel_normals(scene, size, subpixels)
+    return -(normals * dirs).sum(-1)
+
+
+def sphere_pixel_normals(scene, size, subpixels=4):
+    """The sphere's normals (NaN: a miss) and the ray directions for a grid of subpixel rays:
+    two (H, W, subpixels**2, 3) arrays, row 0 = top, from the camera alone."""
     cam = scene.camera
     right, up, forward = cam.basis()
     w, h = size
@@ -51,7 +58,8 @@ def sphere_pixel_cosines(scene, size, subpixels=4):
     with np.errstate(invalid="ignore"):
         t_hit = -b - np.sqrt(disc)
         p = cam.position + t_hit[..., None] * d
-        n = (p - sphere.center) / sphere.radius
-        cos = np.where(disc > 0, -(n * d).sum(-1), np.nan)
-    cos = cos.reshape(h, subpixels, w, subpixels).transpose(0, 2, 1, 3).reshape(h, w, subpixels ** 2)
-    return cos[::-1]
+        n = np.where((disc > 0)[..., None], (p - sphere.center) / sphere.radius, np.nan)
+
+    def per_pixel(a):
+        return a.reshape(h, subpixels, w, subpixels, 3).transpose(0, 2, 1, 3, 4).reshape(h, w, subpixels ** 2, 3)[::-1]
+    return per_pixel(n), per_pixel(d)

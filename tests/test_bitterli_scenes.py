@@ -49,3 +49,17 @@ def test_bitterli_scene_loads_and_renders(shared_dir, name):
     assert r.stats.dropped_samples == 0
     r.release()
     assert np.isfinite(image).all() and image.mean() > 0
+
+
+def test_veach_bidir_renders_with_bdpt(shared_dir):
+    """Veach's bidirectional room, the scene bdpt is for (its equal-time comparison with pt:
+    benchmarks/equal_time.py, docs/bdpt.md): glass, a Beckmann lamp shade, light that reaches
+    the room only off the shade and the ceiling."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        scene = load_scene(shared_dir / "scenes_bitterli" / "veach-bidir" / "scene.xml")
+    r = Renderer(scene, size=(24, 24), integrator="bdpt", seed=1)
+    image = r.render(spp=2)
+    assert r.stats.dropped_samples == 0 and r.stats.dropped_splats == 0
+    r.release()
+    assert np.isfinite(image).all() and image.mean() > 0

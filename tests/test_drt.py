@@ -191,6 +191,19 @@ def test_drt_direct_light_matches_pt_with_one_bounce():
     assert np.array_equal(deeper, drt)
 
 
+def test_drt_direct_light_from_a_distant_light_matches_pt():
+    """A distant (delta) light on diffuse and rough metal surfaces: drt's shadow rays must
+    count it in full (no MIS: BSDF sampling can never find it), as pt's do."""
+    from test_bdpt_lights import porch
+    scene = porch("distant")
+    scene.spheres[0].material = scene.material_index("metal")  # glossy, where drt weighs by MIS
+    size, seeds = (32, 32), range(1, 9)
+    drt = _renders(scene, "drt", seeds, size, 16, max_depth=1)
+    pt = _renders(scene, "pt", [100 + s for s in seeds], size, 16, max_depth=1)
+    assert drt.mean() > 0.05
+    _assert_same_expectation(drt, pt, "drt vs pt, direct light from a distant light")
+
+
 def test_clear_glass_is_invisible_in_a_white_furnace():
     """A smooth glass sphere in a constant environment of radiance 1: every branch of the
     ray tree (mirror or refraction, weights F/F and (1-F)/(1-F) with the eta^2 radiance

@@ -42,6 +42,16 @@ def test_without_indirect_light_hybrid_is_pts_direct_light():
     np.testing.assert_allclose(hybrid, pt, rtol=1e-6, atol=1e-7)
 
 
+def test_under_a_distant_light_hybrid_is_pts_direct_light():
+    """The same with a distant (delta) light, which neither may weight by MIS."""
+    from test_bdpt_lights import porch
+    scene = porch("distant")
+    hybrid = _render(scene, 4, seed=5, max_depth=1)
+    pt = _render(scene, 4, seed=5, integrator="pt", max_depth=1)
+    assert hybrid.mean() > 0.05
+    np.testing.assert_allclose(hybrid, pt, rtol=1e-6, atol=1e-7)
+
+
 @pytest.mark.parametrize("scale", [2, 4])
 def test_in_a_glowing_box_hybrid_converges_to_the_analytic_radiance(scale):
     """Every wall emits Le and reflects a: L = Le / (1 - a) everywhere, indirect light

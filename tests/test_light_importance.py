@@ -1,6 +1,7 @@
 """Densities of the light-tracing samplers against what they sample, by the identity
 E_p[g / p] = integral of g: shaders/lift/camera_importance.glsl (the pinhole's importance and
-direction density) and shaders/lift/emission.glsl (rays leaving emitters and the sky).
+direction density) and shaders/lift/emission.glsl (rays leaving emitters, the sky, an
+environment map and a distant light).
 A density that does not match its sampler, or a wrong normalisation, moves these means."""
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 
 from conftest import REPO
 from lift_gl.renderer import Renderer
-from lift_gl.scene import Environment
+from lift_gl.scene import DistantLight, Environment
 from lift_gl.scene.loader import load_scene
 
 SIZE = (32, 32)
@@ -37,10 +38,11 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     }
     EmissionSample es;
     if (!sample_emission(rng_next3(rng), rng_next2(rng), es)) return vec3(-1.0);
-    bool wanted = es.light.is_env == (mode == 2);
+    bool wanted = mode == 1 ? !es.light.infinite : mode == 2 ? es.light.infinite && !es.light.delta : es.light.delta;
     // Emitters: 1 / origin density integrates to their area, 1 / direction density to the
-    // hemisphere (2 pi); the sky: to its disk (pi R^2) and the sphere (4 pi). Both are
-    // picked with their choice probabilities, which the densities include.
+    // hemisphere (2 pi); the sky or a map: to its disk (pi R^2) and the sphere (4 pi); a
+    // distant light: to the disk and to 1 (a discrete choice). All are picked with their
+    // choice probabilities, which the densities include.
     return wanted ? vec3(1.0 / es.pdf_pos, 1.0 / es.pdf_dir, 1.0) : vec3(0.0);
 }
 """
@@ -62,13 +64,23 @@ def estimates(plugin, scene, mode, size=SIZE):
     # (lift_gl/scene/light_choice.py: by estimated power).
     weights = np.array(r.scene_uniforms["u_light_weights"][:3])
     r.release()
-    # Pixels are independent means of SPP samples each.
-    return image.mean(axis=0), image.std(axis=0, ddof=1) / math.sqrt(len(image)), weights[0] / weights.sum()
+    # Pixels are independent means of SPP samples each. The choice probabilities of the
+    # environment, the distant lights and the emitters, as light_choice.py sets them.
+    return image.mean(axis=0), image.std(axis=0, ddof=1) / math.sqrt(len(image)), weights / weights.sum()
 
 
-def cornell_with_sky():
+def cornell_with(light):
+    """The Cornell box's emitter and one light at infinity, each picked with its probability."""
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    scene.environment = Environment([1.0, 1.0, 1.0])
+    if light == "sky":
+        scene.environment = Environment([1.0, 1.0, 1.0])
+    elif light == "map":
+        from test_envmap import TO_WORLD, env_image
+        img = env_image()
+        img[9:14, 20:28] = 0.5  # no black texels: the map's density covers the whole sphere
+        scene.environment = Environment([1.0, 1.0, 1.0], image=img, to_world=TO_WORLD)
+    else:
+        scene.distant_lights = [DistantLight([0.3, 1.0, 0.8], [2.0, 2.0, 2.0])]
     return scene
 
 
@@ -80,10 +92,12 @@ def test_camera_importance_and_direction_density_integrate_to_one(plugin, fov, s
     assert np.all(np.abs(mean[:2] - 1.0) < 4 * se[:2]), (mean, se)
 
 
-@pytest.mark.parametrize("mode", [1, 2], ids=["emitter", "sky"])
-def test_emitted_rays_have_the_densities_they_claim(plugin, mode):
-    scene = cornell_with_sky()  # sky and emitters, each picked with its probability
-    mean, se, p_sky = estimates(plugin, scene, mode)
+@pytest.mark.parametrize("mode, light", [(1, "sky"), (2, "sky"), (2, "map"), (3, "distant")],
+                         ids=["emitter", "sky", "map", "distant"])
+def test_emitted_rays_have_the_densities_they_claim(plugin, mode, light):
+    scene = cornell_with(light)
+    mean, se, choice = estimates(plugin, scene, mode)
+    p_sky = choice[0] + choice[1]  # the light at infinity, whichever
     assert 0.05 < p_sky < 0.95
     light_area = 0.94 * 0.76
     lo, hi = (np.min([m.positions.min(0) for m in scene.meshes], axis=0),
@@ -92,5 +106,5 @@ def test_emitted_rays_have_the_densities_they_claim(plugin, mode):
     if mode == 1:
         expected = np.array([light_area, (1 - p_sky) * 2 * math.pi, 1 - p_sky])
     else:
-        expected = np.array([p_sky * math.pi * radius ** 2, 4 * math.pi, p_sky])
+        expected = np.array([p_sky * math.pi * radius ** 2, 4 * math.pi if mode == 2 else 1.0, p_sky])
     assert np.all(np.abs(mean - expected) < 4 * se + 1e-4 * expected), (mean, expected, se)

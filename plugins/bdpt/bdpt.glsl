@@ -1,7 +1,8 @@
 // bdpt: bidirectional path tracing (Veach 1997, ch. 10; the structure of pbrt-v3, ch. 16).
 //
 // Each sample traces a camera subpath z0 z1 ... (z0 the pinhole, z1 the G-buffer's hit) and a
-// light subpath y0 y1 ... (y0 on an emitter picked by power, or a ray of the environment),
+// light subpath y0 y1 ... (y0 on an emitter picked by power, or a direction of the environment
+// or of a distant light, whose ray starts on a disk across the scene: lift/emission.glsl),
 // then makes a full path of every pair of prefixes: s light vertices and t camera vertices.
 //   s = 0        the camera subpath hit a light by itself
 //   s = 1        a fresh light sample joined to z_{t-1} (next event estimation, as in pt)
@@ -10,6 +11,8 @@
 // Every (s, t) is an unbiased estimate of the paths it can make; multiple importance sampling
 // (bdpt_mis.glsl) weights them so that together they count each path once. Delta vertices
 // (mirrors, smooth glass) are never joined; the strategies that would need it get weight 0.
+// A distant light is a delta in direction: no camera subpath can hit it (s = 0 gets weight 0),
+// but it can be sampled (s = 1) and can start light subpaths (s >= 2, t = 1).
 // Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, mis_power, only_s, only_depth.
 #include "lift/emission.glsl"
 #include "lift/camera_importance.glsl"
@@ -26,7 +29,7 @@ vec3 strategy_emitted(int t) {
     float pt_minus_rev = 0.0;  // ... and reaching z_{t-2} from there
     if (v.kind == VERTEX_ENV) {
         emitted = env_radiance(v.p);
-        pt_rev = pdf_light_env_dir();
+        pt_rev = env_light_pdf(v.p);
         if (t > 2) pt_minus_rev = pdf_env_emission_pos() * abs(dot(bdpt_path[z - 1].ng, v.p));
     } else if (v.kind == VERTEX_SURFACE && v.emitter_pdf > 0.0 && dot(v.wo, v.ng) > 0.0) {
         emitted = materials[v.material].emission_alpha.rgb;  // emitters emit from the front
@@ -36,7 +39,7 @@ vec3 strategy_emitted(int t) {
         return vec3(0.0);
     }
     if (all(equal(emitted, vec3(0.0)))) return vec3(0.0);
-    return v.beta * emitted * mis_weight(0, t, pt_rev, pt_minus_rev, 0.0, 0.0, 0.0);
+    return v.beta * emitted * mis_weight(0, t, pt_rev, pt_minus_rev, 0.0, 0.0, 0.0, false);
 }
 
 // ---- s = 1: a light point sampled afresh, joined to camera vertex t-1 ----
@@ -48,8 +51,8 @@ vec3 strategy_light_sample(int t, inout Rng rng) {
     PathVertex v = bdpt_path[z];
     vec3 wi;                     // from z_{t-1} towards the light
     float dist = 1e30;
-    float cos_light_over_d2 = 1.0;  // the light's half of the geometry term (1: environment)
-    if (light.is_env) {
+    float cos_light_over_d2 = 1.0;  // the light's half of the geometry term (1: at infinity)
+    if (light.infinite) {
         wi = light.p;
     } else {
         vec3 d = light.p - v.p;
@@ -66,10 +69,10 @@ vec3 strategy_light_sample(int t, inout Rng rng) {
 
     float qs_rev = at_z.pdf_out * cos_light_over_d2;  // the camera subpath going on to the light
     float cos_z = abs(dot(v.ng, wi));
-    float pt_rev = light.is_env ? pdf_env_emission_pos() * cos_z
+    float pt_rev = light.infinite ? pdf_env_emission_pos() * cos_z
                                 : pdf_emission_dir(light.n, -wi) * cos_z / (dist * dist);
     float pt_minus_rev = area_density(at_z.pdf_back, v.p, z - 1);
-    return contribution * mis_weight(1, t, pt_rev, pt_minus_rev, qs_rev, 0.0, light.pdf);
+    return contribution * mis_weight(1, t, pt_rev, pt_minus_rev, qs_rev, 0.0, light.pdf, light.delta);
 }
 
 // ---- t = 1: light vertex s-1 seen by the pinhole, splatted to its pixel ----
@@ -91,7 +94,7 @@ void strategy_light_tracing(int s) {
 
     float qs_rev = camera_pdf_dir(-wi) * abs(dot(v.ng, wi)) / dist2;  // a camera ray reaching y
     float qs_minus_rev = area_density(at_y.pdf_back, v.p, y - 1);
-    splat(pixel_pos, contribution * mis_weight(s, 1, 0.0, 0.0, qs_rev, qs_minus_rev, 0.0));
+    splat(pixel_pos, contribution * mis_weight(s, 1, 0.0, 0.0, qs_rev, qs_minus_rev, 0.0, false));
 }
 
 // ---- s >= 2, t >= 2: light vertex s-1 and camera vertex t-1 joined by a shadow ray ----
@@ -113,7 +116,7 @@ vec3 strategy_connect(int s, int t) {
     float pt_minus_rev = area_density(at_z.pdf_back, bdpt_path[z].p, z - 1);
     float qs_rev = area_density(at_z.pdf_out, bdpt_path[z].p, y);
     float qs_minus_rev = area_density(at_y.pdf_back, bdpt_path[y].p, y - 1);
-    return contribution * mis_weight(s, t, pt_rev, pt_minus_rev, qs_rev, qs_minus_rev, 0.0);
+    return contribution * mis_weight(s, t, pt_rev, pt_minus_rev, qs_rev, qs_minus_rev, 0.0, false);
 }
 
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {

@@ -6,7 +6,10 @@
 //
 // The join changes four reverse densities (the two joined vertices and their predecessors):
 // the caller computes them for this path and passes them in. For s = 1 the light vertex was
-// sampled afresh by sample_light_point, whose density the caller passes as light_pdf.
+// sampled afresh by sample_light_point, whose density the caller passes as light_pdf, and
+// light_delta says whether it is a distant light. A delta light can't be reached by a camera
+// subpath, so the strategy s = 0 gets no share (pbrt-v3's IsDeltaLight test); a light
+// vertex itself is never delta in the sense of `delta` (a BSDF's delta lobe).
 
 float mis_term(float ratio) {
     if (mis_power == 2.0) return ratio * ratio;  // the default: spare the pow
@@ -16,7 +19,8 @@ float mis_term(float ratio) {
 // A zero density belongs to a delta lobe; it cancels between numerator and denominator.
 float nonzero(float pdf) { return pdf != 0.0 ? pdf : 1.0; }
 
-float mis_weight(int s, int t, float pt_rev, float pt_minus_rev, float qs_rev, float qs_minus_rev, float light_pdf) {
+float mis_weight(int s, int t, float pt_rev, float pt_minus_rev, float qs_rev, float qs_minus_rev, float light_pdf,
+                 bool light_delta) {
     if (only_s >= 0) return 1.0;  // study mode: one strategy alone, unweighted
     if (s + t == 2) return 1.0;   // an emitter seen directly: only the camera subpath makes it
     float others = 0.0;
@@ -32,13 +36,14 @@ float mis_weight(int s, int t, float pt_rev, float pt_minus_rev, float qs_rev, f
 
     // ---- The join slides towards the light: the camera subpath takes light vertices s-1 .. 0 ----
     ratio = 1.0;
+    if (s >= 2) light_delta = bdpt_path[BDPT_LIGHT_BASE].kind == VERTEX_DISTANT;
     for (int i = s - 1; i >= 0; --i) {
         int k = BDPT_LIGHT_BASE + i;
         float rev = i == s - 1 ? qs_rev : (i == s - 2 ? qs_minus_rev : bdpt_path[k].pdf_rev);
         float fwd = s == 1 ? light_pdf : bdpt_path[k].pdf_fwd;
         ratio *= nonzero(rev) / nonzero(fwd);
         bool delta_here = i != s - 1 && bdpt_path[k].delta;
-        bool delta_before = i > 0 && bdpt_path[k - 1].delta;  // lights themselves are never delta
+        bool delta_before = i > 0 ? bdpt_path[k - 1].delta : light_delta;
         if (!delta_here && !delta_before) others += mis_term(ratio);
     }
     return 1.0 / (1.0 + others);

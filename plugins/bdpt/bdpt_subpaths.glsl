@@ -16,7 +16,7 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
 #ifdef HAS_ENVIRONMENT
             if (!importance) {
                 bdpt_path[i] = PathVertex(ray.dir, vec3(0.0), vec3(0.0), -ray.dir, beta, pdf_dir, 0.0,
-                                          pdf_light_env_dir(), 0u, VERTEX_ENV, false);
+                                          env_light_pdf(ray.dir), 0u, VERTEX_ENV, false);
                 return i + 1;
             }
 #endif
@@ -27,15 +27,14 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
         Surface s = surface_at(ray, hit);
         Material m = materials[s.material];
         vec3 wo = -ray.dir;
-        vec3 ns = bsdf_type(m) != MAT_DIELECTRIC && dot(wo, s.ng) < 0.0 ? -s.ns : s.ns;
-        bdpt_path[i] = PathVertex(s.p, s.ng, ns, wo, beta, 0.0, 0.0, pdf_light_point(s), s.material,
+        bdpt_path[i] = PathVertex(s.p, s.ng, shading_normal(s, m, wo), wo, beta, 0.0, 0.0, pdf_light_point(s), s.material,
                                   VERTEX_SURFACE, false);
         bdpt_path[i].pdf_fwd = i == last + 1 && first_pdf_pos > 0.0 ? first_pdf_pos * abs(dot(ray.dir, s.ng))
                                                                      : area_density(pdf_dir, bdpt_path[i - 1].p, i);
         if (i + 1 >= end) return i + 1;
 
         // ---- BSDF sampling: the next direction ----
-        Frame frame = frame_from_normal(ns);
+        Frame frame = frame_from_normal(bdpt_path[i].ns);
         vec3 wo_local = to_local(frame, wo);
         BsdfSample bs;
         if (!bsdf_sample(m, wo_local, rng_next3(rng), bs)) return i + 1;
@@ -79,6 +78,8 @@ int camera_subpath(Ray ray, Hit hit, int depth, inout Rng rng) {
 }
 
 // ---- The light subpath: y0 on a light, chosen as next event estimation would ----
+// From a light at infinity, y0 is the direction and y1 is where the ray from the disk lands;
+// y1's density is then the disk's times |cos| there (pbrt-v3 does the same).
 // Returns the number of light vertices (0: no light to start from).
 int light_subpath(int depth, inout Rng rng) {
     EmissionSample es;
@@ -87,13 +88,14 @@ int light_subpath(int depth, inout Rng rng) {
     LightPoint light = es.light;
     bdpt_path[BDPT_LIGHT_BASE] = PathVertex(light.p, light.n, light.n, vec3(0.0), light.radiance / light.pdf,
                                             light.pdf, 0.0, light.pdf, 0u,
-                                            light.is_env ? VERTEX_ENV : VERTEX_EMITTER, false);
+                                            light.delta ? VERTEX_DISTANT : light.infinite ? VERTEX_ENV : VERTEX_EMITTER,
+                                            false);
     // Radiance times the cosine at the light, over the density of the ray (origin and direction).
-    float cos_light = light.is_env ? 1.0 : dot(light.n, es.ray.dir);
+    float cos_light = light.infinite ? 1.0 : dot(light.n, es.ray.dir);
     vec3 beta = light.radiance * (cos_light / (es.pdf_pos * es.pdf_dir));
     Hit hit;
     trace_closest(es.ray, hit);
     int end = extend_subpath(BDPT_LIGHT_BASE, BDPT_LIGHT_BASE + depth + 1, es.ray, hit, beta, es.pdf_dir,
-                             light.is_env ? es.pdf_pos : 0.0, true, rng);
+                             light.infinite ? es.pdf_pos : 0.0, true, rng);
     return end - BDPT_LIGHT_BASE;
 }

@@ -13,11 +13,12 @@ const uint VERTEX_CAMERA = 0u;   // the pinhole
 const uint VERTEX_SURFACE = 1u;  // a scattering point on either subpath
 const uint VERTEX_EMITTER = 2u;  // y0 on an emitter's surface
 const uint VERTEX_ENV = 3u;      // at infinity: the environment
+const uint VERTEX_DISTANT = 4u;  // at infinity: a distant light (y0 only; a delta in direction)
 
 struct PathVertex {
-    vec3 p;             // world position; VERTEX_ENV: the unit direction towards the environment
+    vec3 p;             // world position; at infinity: the unit direction towards the light
     vec3 ng;            // geometric normal (triangle winding, sphere outward); emitter: front normal
-    vec3 ns;            // shading normal, turned to wo's side on opaque surfaces (as pt does)
+    vec3 ns;            // shading normal: shading_normal (lift/surface.glsl), as pt shades
     vec3 wo;            // unit direction towards the previous vertex of the same subpath
     vec3 beta;          // throughput of the subpath up to this vertex, this vertex's BSDF excluded
     float pdf_fwd;      // area density of this vertex, sampled from the previous one
@@ -40,10 +41,14 @@ bool vertex_connectible(int i) {
     return bdpt_path[i].kind == VERTEX_SURFACE && !bdpt_path[i].delta;
 }
 
+bool vertex_at_infinity(int i) {
+    return bdpt_path[i].kind == VERTEX_ENV || bdpt_path[i].kind == VERTEX_DISTANT;
+}
+
 // A solid-angle density at point `from`, towards vertex i, as an area density at vertex i.
-// Directions to the environment keep their solid-angle density (pbrt does the same).
+// Directions to lights at infinity keep their solid-angle density (pbrt does the same).
 float area_density(float pdf_dir, vec3 from, int i) {
-    if (bdpt_path[i].kind == VERTEX_ENV) return pdf_dir;
+    if (vertex_at_infinity(i)) return pdf_dir;
     vec3 d = bdpt_path[i].p - from;
     float dist2 = dot(d, d);
     if (!(dist2 > 0.0)) return 0.0;
@@ -54,7 +59,7 @@ float area_density(float pdf_dir, vec3 from, int i) {
 // Opaque surfaces pass no light from one side of their geometry to the other, whatever the
 // shading normal says.
 bool vertex_blocks(int i, vec3 wo, vec3 wi) {
-    return bsdf_type(materials[bdpt_path[i].material]) != MAT_DIELECTRIC
+    return is_opaque(materials[bdpt_path[i].material])
         && dot(wi, bdpt_path[i].ng) * dot(wo, bdpt_path[i].ng) <= 0.0;
 }
 

@@ -18,30 +18,26 @@
 // interreflection, caustics) is left out, as in Whitted's and Cook's tracers. pt adds it.
 // Parameters (plugin.toml): max_depth, light_samples.
 
-// Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
-// that wo.z < 0 tells the BSDF the ray is inside.
-Frame shading_frame(Surface s, Material m, vec3 wo_world) {
-    vec3 n = s.ns;
-    if (bsdf_type(m) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
-    return frame_from_normal(n);
-}
-
 // Light arriving at s directly from the emitters and the environment, reflected towards wo:
 // the mean of light_samples shadow rays. Where the branch goes on (a glossy surface), the
 // bounce may hit the same light, so both estimates are weighted by multiple importance
 // sampling (power heuristic, light_samples light samples against one BSDF sample).
-vec3 direct_light(Surface s, Material m, Frame frame, vec3 wo, bool branch_goes_on, inout Rng rng) {
+vec3 direct_light(Surface s, Material m, Frame frame, vec3 wo_world, bool branch_goes_on, inout Rng rng) {
+    vec3 wo = to_local(frame, wo_world);
     vec3 sum = vec3(0.0);
-#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
+#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
     float n_light = float(light_samples);
     for (int k = 0; k < light_samples; ++k) {
         LightSample ls;
         if (!sample_light(s.p, rng_next3(rng), ls)) continue;
         vec3 wi = to_local(frame, ls.wi);
         vec3 f = bsdf_eval(m, wo, wi);  // BSDF times the cosine at s
+        // Through the true surface of an opaque one: nothing (BSDF sampling agrees).
+        if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) continue;
         if (!any(greaterThan(f, vec3(0.0)))) continue;
         if (trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) continue;  // in shadow
-        float w = branch_goes_on ? power_heuristic(n_light * ls.pdf, bsdf_pdf(m, wo, wi)) : 1.0;
+        // A delta light (distant) can't be found by BSDF sampling: no MIS.
+        float w = branch_goes_on && !ls.is_delta ? power_heuristic(n_light * ls.pdf, bsdf_pdf(m, wo, wi)) : 1.0;
         sum += f * ls.radiance * (w / ls.pdf);
     }
     sum /= n_light;
@@ -86,7 +82,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         bool diffuse = bsdf_type(m) == MAT_DIFFUSE;
 
         // ---- Direct light with soft shadows (mirrors and clear glass have none) ----
-        if (!bsdf_is_delta(m)) L += throughput * direct_light(s, m, frame, wo, !diffuse, rng);
+        if (!bsdf_is_delta(m)) L += throughput * direct_light(s, m, frame, wo_world, !diffuse, rng);
 
         // ---- A diffuse surface ends the branch ----
         if (diffuse) break;
@@ -96,7 +92,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         if (!bsdf_sample(m, wo, rng_next3(rng), bs)) break;
         vec3 wi_world = to_world(frame, bs.wi);
         // A reflection that the shading normal allows but the true surface does not.
-        if (bsdf_type(m) != MAT_DIELECTRIC && dot(wi_world, s.ng) * dot(wo_world, s.ng) <= 0.0) break;
+        if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
         throughput *= bs.weight;
         specular_prev = bs.is_delta;
         bsdf_pdf_prev = bs.pdf;

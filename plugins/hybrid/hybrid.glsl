@@ -10,13 +10,6 @@
 // each pixel's own albedo and adds it to radiance(). Both halves are pt's estimator (NEE with
 // MIS, Russian roulette), split by bounce: without the filter they would add up to pt.
 
-// Opaque surfaces shade from the side the ray came from; glass keeps its orientation.
-Frame hybrid_frame(Surface s, Material m, vec3 wo_world) {
-    vec3 n = s.ns;
-    if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
-    return frame_from_normal(n);
-}
-
 // Light that reaches the camera after first_bounce..last_bounce scatterings.
 vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_bounce) {
     vec3 L = vec3(0.0);
@@ -46,17 +39,19 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
 #endif
         if (depth >= last_bounce) break;
         Material m = materials[s.material];
-        Frame frame = hybrid_frame(s, m, wo_world);
+        Frame frame = shading_frame(s, m, wo_world);
         vec3 wo = to_local(frame, wo_world);
         // ---- Next event estimation (bounce depth + 1): a shadow ray ----
-#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT)
+#if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
         if (!bsdf_is_delta(m)) {
             LightSample ls;
             if (sample_light(s.p, vec3(rng_next(rng), rng_ld2(rng)), ls) && depth + 1 >= first_bounce) {
                 vec3 wi = to_local(frame, ls.wi);
                 vec3 f = bsdf_eval(m, wo, wi);
+                if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
                 if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
-                    L += throughput * f * ls.radiance * (power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi)) / ls.pdf);
+                    float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));  // distant: no MIS
+                    L += throughput * f * ls.radiance * (w / ls.pdf);
                 }
             }
         }
@@ -65,7 +60,7 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
         BsdfSample bs;
         if (!bsdf_sample(m, wo, vec3(rng_ld2(rng), rng_next(rng)), bs)) break;
         vec3 wi_world = to_world(frame, bs.wi);
-        if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wi_world, s.ng) * dot(wo_world, s.ng) <= 0.0) break;
+        if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
         throughput *= bs.weight;
         bsdf_pdf_prev = bs.pdf;
         specular_prev = bs.is_delta;

@@ -4,18 +4,9 @@
 // seeds, accumulation and the NaN/Inf guard.
 // Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, low_discrepancy.
 
-// Opaque surfaces shade from the side the ray came from (facing_shading_normal, which also
-// rescues normals tilted away from the viewer); glass keeps its orientation so that wo.z < 0
-// tells the BSDF the ray is inside.
-bool is_opaque(Material m) { return int(m.color_type.w) != MAT_DIELECTRIC; }
-
 // Two numbers for a light or BSDF sample: low-discrepancy pairs, or independent ones.
 vec2 sample_pair(inout Rng rng) {
     return low_discrepancy ? rng_ld2(rng) : rng_next2(rng);
-}
-
-Frame shading_frame(Surface s, Material m, vec3 wo_world) {
-    return frame_from_normal(is_opaque(m) ? facing_shading_normal(s, wo_world) : s.ns);
 }
 
 // The bounce window (parameters min_bounce and only_bounce). Bounce k is the light that

@@ -16,6 +16,8 @@
 //   materials[s.material]             -> Material m
 //   bsdf_sample(m, wo, u, bs)         samples wi; bs.weight = f * cos / pdf  (local frame:
 //   bsdf_eval(m, wo, wi), bsdf_pdf     z = normal; wo, wi point away from the surface)
+//   shading_frame(s, m, wo)           the local frame to shade s in, seen from wo (opaque
+//                                        surfaces from wo's side; lift/surface.glsl)
 //   frame_from_normal, to_local, to_world
 //   spawn_ray(s, dir), trace_closest(ray, hit), trace_occluded(shadow_ray)
 //   sample_light(p, u, ls), light_pdf  next event estimation (see plugins/pt)
@@ -25,14 +27,6 @@
 // AS SHIPPED this is the simplest correct path tracer: each sample follows one path by
 // sampling the BSDF and adds whatever light the path runs into. It converges to the same
 // image as pt, only more slowly. The places to start are marked YOUR TURN.
-
-// Opaque surfaces are shaded from the side the ray arrived on; glass keeps its orientation
-// so that wo.z < 0 tells the BSDF the path is inside.
-Frame shading_frame(Surface s, Material m, vec3 wo_world) {
-    vec3 n = s.ns;
-    if (bsdf_type(m) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
-    return frame_from_normal(n);
-}
 
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     vec3 L = vec3(0.0);           // radiance found so far
@@ -62,7 +56,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         if (!bsdf_sample(m, to_local(frame, wo_world), rng_next3(rng), bs)) break;  // absorbed
         vec3 wi_world = to_world(frame, bs.wi);
         // A direction the shading normal allows but the true surface blocks.
-        if (bsdf_type(m) != MAT_DIELECTRIC && dot(wi_world, s.ng) * dot(wo_world, s.ng) <= 0.0) break;
+        if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
         throughput *= bs.weight;
 
         // ---- YOUR TURN: Russian roulette ----

@@ -2,20 +2,18 @@
 // lights.glsl samples a direction towards a light as seen from a point (next event
 // estimation); this file samples the light itself:
 //   sample_light_point  a point on an emitter (picked by power, uniform on its area), or a
-//                       direction towards the constant environment; pdf_light_point and
-//                       pdf_light_env_dir give its density.
+//                       direction towards a light at infinity: the environment (uniform, or
+//                       by an environment map's luminance) or a distant light (by power);
+//                       pdf_light_point and env_light_pdf (lights.glsl) give its density.
 //   sample_emission     a ray leaving a light: from an emitter point, a cosine-weighted
-//                       direction about its front normal (pdf_emission_dir); from the
-//                       environment, a direction uniform over the sphere and an origin
-//                       uniform on a disk of the scene's bounding radius across it
-//                       (pdf_env_emission_pos).
-// The emitter and the environment are chosen with the probabilities next event estimation
-// uses (env_choice_probability), so both see the same light as one distribution.
+//                       direction about its front normal (pdf_emission_dir); from a light at
+//                       infinity, a ray along the sampled direction whose origin is uniform on
+//                       a disk of the scene's bounding radius across it (pdf_env_emission_pos),
+//                       as pbrt-v3 samples its infinite lights.
+// The kind of light and the light are chosen with the probabilities next event estimation
+// uses (light_kind_probabilities), so both see the same lights as one distribution.
 #ifndef LIFT_EMISSION_GLSL
 #define LIFT_EMISSION_GLSL
-#if defined(HAS_ENVIRONMENT_MAP) || defined(HAS_DISTANT_LIGHTS)
-#error light subpaths (bdpt) start only from emissive primitives and a constant environment: environment maps and distant lights are not supported yet
-#endif
 #include "lift/lights.glsl"
 #include "lift/frame.glsl"
 
@@ -23,31 +21,47 @@ uniform vec3 u_scene_center;  // bounding sphere of the scene (the host sets bot
 uniform float u_scene_radius;
 
 struct LightPoint {
-    vec3 p;         // a point on an emitter; for the environment, the unit direction towards it
-    vec3 n;         // the emitter's front normal there (unused for the environment)
-    vec3 radiance;  // radiance leaving the point from its front; of the environment
+    vec3 p;         // a point on an emitter; at infinity, the unit direction towards the light
+    vec3 n;         // the emitter's front normal there (unused at infinity)
+    vec3 radiance;  // radiance leaving the point from its front; of the environment along -p;
+                    // a distant light's irradiance
     float pdf;      // area density of p, light choice included; environment: solid-angle
-                    // density of the direction, choice included
-    bool is_env;
+                    // density of the direction, choice included; distant light: the discrete
+                    // probability of choosing it
+    bool infinite;  // the environment or a distant light: p is a direction
+    bool delta;     // a distant light: a delta in direction, which no path can hit
 };
 
-// ---- A point on a light (or a direction to the environment) ----
+// ---- A point on a light (or a direction to a light at infinity) ----
 bool sample_light_point(vec3 u, out LightPoint lp) {
-    lp = LightPoint(vec3(0.0), vec3(0.0), vec3(0.0), 0.0, false);
-    float p_env = env_choice_probability();
+    lp = LightPoint(vec3(0.0), vec3(0.0), vec3(0.0), 0.0, false, false);
+    vec3 kind = light_kind_probabilities();
 #ifdef HAS_ENVIRONMENT
-    if (u.x < p_env) {
-        lp.p = sample_uniform_sphere(u.yz);
-        lp.radiance = u_env_radiance;
-        lp.pdf = p_env * pdf_uniform_sphere(lp.p);
-        lp.is_env = true;
-        return true;
+    if (u.x < kind.x) {
+        float pdf;
+        if (!sample_env_direction(u.yz, lp.p, pdf)) return false;
+        lp.radiance = env_radiance(lp.p);
+        lp.pdf = kind.x * pdf;
+        lp.infinite = true;
+        return lp.pdf > 0.0 && lp.pdf < 1e30;
     }
-    u.x = (u.x - p_env) / (1.0 - p_env);
 #endif
+    u.x -= kind.x;
+#ifdef HAS_DISTANT_LIGHTS
+    if (u.x < kind.y) {
+        uint k = pick_distant(u.x / kind.y);
+        lp.p = u_distant_dir[k].xyz;
+        lp.radiance = u_distant_irradiance[k].rgb;
+        lp.pdf = kind.y * u_distant_irradiance[k].w;
+        lp.infinite = true;
+        lp.delta = true;
+        return lp.pdf > 0.0;
+    }
+#endif
+    u.x -= kind.y;
 #ifdef HAS_EMISSIVE
-    if (u_num_lights == 0u) return false;
-    vec4 light = lights[pick_light(u.x)];
+    if (u_num_lights == 0u || !(kind.z > 0.0)) return false;
+    vec4 light = lights[pick_light(clamp(u.x / kind.z, 0.0, 1.0))];
     uint prim = floatBitsToUint(light.x);
     uint material;
     if (prim < u_num_triangles) {
@@ -70,7 +84,7 @@ bool sample_light_point(vec3 u, out LightPoint lp) {
     else return false;
 #endif
     lp.radiance = materials[material].emission_alpha.rgb;
-    lp.pdf = (1.0 - p_env) * light.z / light.w;  // choice x 1 / area
+    lp.pdf = kind.z * light.z / light.w;  // choice x 1 / area
     return lp.pdf > 0.0 && lp.pdf < 1e30;
 #else
     return false;
@@ -80,20 +94,15 @@ bool sample_light_point(vec3 u, out LightPoint lp) {
 // Area density with which sample_light_point picks the point of emitter surface `s`.
 float pdf_light_point(Surface s) {
     if (s.light_select_pdf <= 0.0 || !(s.area > 0.0)) return 0.0;
-    return (1.0 - env_choice_probability()) * s.light_select_pdf / s.area;
-}
-
-// Solid-angle density with which sample_light_point picks a direction to the environment.
-float pdf_light_env_dir() {
-    return env_choice_probability() * LIFT_INV_4PI;
+    return light_kind_probabilities().z * s.light_select_pdf / s.area;
 }
 
 // ---- A ray leaving a light ----
 struct EmissionSample {
     Ray ray;        // leaves the light (from an emitter: offset off its surface)
     LightPoint light;
-    float pdf_pos;  // area density of the origin (emitter: light.pdf; environment: the disk's)
-    float pdf_dir;  // solid-angle density of ray.dir (environment: light.pdf)
+    float pdf_pos;  // area density of the origin (emitter: light.pdf; at infinity: the disk's)
+    float pdf_dir;  // solid-angle density of ray.dir (at infinity: light.pdf)
 };
 
 // Solid-angle density of a direction leaving an emitter with front normal n.
@@ -101,7 +110,7 @@ float pdf_emission_dir(vec3 n, vec3 dir) {
     return max(dot(n, dir), 0.0) * LIFT_INV_PI;
 }
 
-// Area density of the origin of an environment ray on its disk (radius: the scene's
+// Area density of the origin of a ray from infinity on its disk (radius: the scene's
 // bounding sphere); a surface point hit by it has the density times |cos| there.
 float pdf_env_emission_pos() {
     return LIFT_INV_PI / (u_scene_radius * u_scene_radius);
@@ -112,7 +121,7 @@ bool sample_emission(vec3 u_point, vec2 u_dir, out EmissionSample es) {
     es.pdf_pos = 0.0;
     es.pdf_dir = 0.0;
     if (!sample_light_point(u_point, es.light)) return false;
-    if (es.light.is_env) {
+    if (es.light.infinite) {
         // Light arrives from direction w, so it travels along -w; its rays cross a disk
         // perpendicular to w that covers the bounding sphere.
         vec3 w = es.light.p;

@@ -147,6 +147,28 @@ float env_map_pdf(vec3 wi) {
 
 vec3 env_radiance(vec3 wi);
 
+#ifdef HAS_ENVIRONMENT
+// A direction towards the environment (world) and its solid-angle pdf, the choice of the
+// environment among the kinds of light excluded: by the map's luminance, else uniform.
+bool sample_env_direction(vec2 u, out vec3 wi, out float pdf) {
+#ifdef HAS_ENVIRONMENT_MAP
+    if (u_env_map_size.x > 0u) return sample_env_map(u, wi, pdf) && pdf > 0.0 && pdf < 1e30;
+#endif
+    wi = sample_uniform_sphere(u);
+    pdf = pdf_uniform_sphere(wi);
+    return true;
+}
+#endif
+
+#ifdef HAS_DISTANT_LIGHTS
+// One of the distant lights, by power: v uniform in [0, 1).
+uint pick_distant(float v) {
+    uint k = 0u;
+    while (k + 1u < u_num_distant && v >= u_distant_dir[k].w) ++k;
+    return k;
+}
+#endif
+
 bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     ls.pdf = 0.0;
     ls.is_delta = false;
@@ -155,28 +177,18 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     // ---- The environment ----
     if (u.x < kind.x) {
         ls.dist = 1e30;
-#ifdef HAS_ENVIRONMENT_MAP
-        if (u_env_map_size.x > 0u) {
-            float pdf;
-            if (!sample_env_map(u.yz, ls.wi, pdf)) return false;
-            ls.radiance = env_radiance(ls.wi);
-            ls.pdf = kind.x * pdf;
-            return ls.pdf > 0.0 && ls.pdf < 1e30;
-        }
-#endif
-        ls.wi = sample_uniform_sphere(u.yz);
-        ls.radiance = u_env_radiance;
-        ls.pdf = kind.x * pdf_uniform_sphere(ls.wi);
-        return true;
+        float pdf;
+        if (!sample_env_direction(u.yz, ls.wi, pdf)) return false;
+        ls.radiance = env_radiance(ls.wi);
+        ls.pdf = kind.x * pdf;
+        return ls.pdf > 0.0 && ls.pdf < 1e30;
     }
 #endif
     u.x -= kind.x;
 #ifdef HAS_DISTANT_LIGHTS
     // ---- A distant light: a delta in direction ----
     if (u.x < kind.y) {
-        float v = u.x / kind.y;
-        uint k = 0u;
-        while (k + 1u < u_num_distant && v >= u_distant_dir[k].w) ++k;
+        uint k = pick_distant(u.x / kind.y);
         ls.wi = u_distant_dir[k].xyz;
         ls.dist = 1e30;
         ls.radiance = u_distant_irradiance[k].rgb;

@@ -124,6 +124,19 @@ vec3 facing_shading_normal(Surface s, vec3 wo) {
 // normal says (light sampling and BSDF sampling must agree on this, or MIS is biased).
 bool same_side_of_surface(Surface s, vec3 a, vec3 b) { return dot(a, s.ng) * dot(b, s.ng) > 0.0; }
 
+// Opaque surfaces shade from the side the ray came from (facing_shading_normal, which also
+// rescues normals tilted away from the viewer); glass keeps its orientation so that wo.z < 0
+// tells the BSDF the ray is inside.
+bool is_opaque(Material m) { return int(m.color_type.w) != MAT_DIELECTRIC; }
+
+vec3 shading_normal(Surface s, Material m, vec3 wo_world) {
+    return is_opaque(m) ? facing_shading_normal(s, wo_world) : s.ns;
+}
+
+Frame shading_frame(Surface s, Material m, vec3 wo_world) {
+    return frame_from_normal(shading_normal(s, m, wo_world));
+}
+
 // Radiance emitted by s towards direction w (world space); emitters emit from the front.
 vec3 surface_emission(Surface s, vec3 w) {
     return dot(w, s.ng) > 0.0 ? materials[s.material].emission_alpha.rgb : vec3(0.0);

@@ -11,14 +11,6 @@
 // added to L, but the path is sampled the same way whatever the window, so the images of
 // the single bounces of one seed add up to the full image.
 
-// Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
-// that wo.z < 0 tells the BSDF the ray is inside.
-Frame shading_frame(Surface s, Material m, vec3 wo_world) {
-    vec3 n = s.ns;
-    if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
-    return frame_from_normal(n);
-}
-
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     vec3 L = vec3(0.0);
     vec3 throughput = vec3(1.0);

@@ -13,7 +13,7 @@
 
 // Opaque surfaces shade from the side the ray came from; glass keeps its orientation so
 // that wo.z < 0 tells the BSDF the ray is inside.
-Frame shading_frame(Surface s, Material m, vec3 wo_world) {
+Frame carol_frame(Surface s, Material m, vec3 wo_world) {
     vec3 n = s.ns;
     if (int(m.color_type.w) != MAT_DIELECTRIC && dot(wo_world, s.ng) < 0.0) n = -n;
     // (carol's own tangent frame: NaN where n is vertical, on floors and ceilings)
@@ -54,7 +54,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
         if (depth >= last_bounce) break;
 
         Material m = materials[s.material];
-        Frame frame = shading_frame(s, m, wo_world);
+        Frame frame = carol_frame(s, m, wo_world);
         vec3 wo = to_local(frame, wo_world);
 
         // ---- Next event estimation: one light sample, weighted against BSDF sampling ----
