@@ -1,0 +1,372 @@
+"""GPU frame times per pass and ray throughput by ray kind, for the GPU machine (issue 10).
+
+    python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt]
+                                     [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
+    python benchmarks/gpu.py table FILE.json... [--md FILE.md]
+
+`measure`, for each scene, integrator and size: lift-gl bench's numbers
+(lift_gl/report/bench.py: pipelined frame time, each pass timed by a GL timer query and by
+the CPU clock around ctx.finish(), rays per path counted by the LIFT_COUNT_RAYS variant), at
+1 sample per pixel and path length --max-depth (the Lift paper's setting: 1 spp, 32).
+Then, per scene and size, Mrays/s by ray kind, measured by a ray-casting shader of this file
+that includes only lift/bvh.glsl (the traversal every plugin uses), one dispatch per kind,
+each timed by a GL timer query:
+  primary  - one closest-hit ray per pixel centre, camera to scene (coherent);
+  shadow   - one any-hit ray from each primary hit to a random point on a random emissive
+             triangle (trace_occluded), or, in a scene without one, along a cosine-distributed
+             direction out to infinity (environment visibility);
+  bounce   - one closest-hit ray from each primary hit in a cosine-distributed direction
+             (incoherent: neighbouring pixels' rays diverge).
+On a CPU rasterizer (llvmpipe) timer queries miss compute work, so there the CPU clock
+between two ctx.finish() calls times each dispatch instead.
+
+`lift_gl` is imported from $LIFT_GL_TREE when set (else this checkout), so one command can
+measure two versions of the renderer, alternately, on the same machine:
+    LIFT_GL_TREE=../base python benchmarks/gpu.py measure ... --label base --out base.json
+`table` prints the results of one or more such files side by side (ratios to the first).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, os.environ.get("LIFT_GL_TREE") or str(Path(__file__).resolve().parent.parent))
+
+# Lift (Soares et al. 2020), RTX 2070 with hardware ray tracing, 1920x1080, 1 spp, path
+# length 32 (the issue quotes them): frame ms by integrator and scene.
+LIFT_PAPER_MS = {
+    "pt": {"cornell-box": 4.8, "dining-room": 6.3, "classroom": 20.2},
+    "bdpt": {"cornell-box": 20.8, "dining-room": 18.6, "classroom": 52.4},
+}
+LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakfast Room",
+                     "classroom": "Japanese Classroom"}
+
+RAY_KINDS = ("primary", "shadow", "bounce")
+
+RAY_SHADER = """
+layout(local_size_x = 8, local_size_y = 8) in;
+#include "lift/bvh.glsl"
+
+uniform vec3 u_cam_pos;
+uniform vec3 u_cam_right;
+uniform vec3 u_cam_up;
+uniform vec3 u_cam_forward;
+uniform float u_tan_half_fov;
+uniform vec2 u_resolution;
+uniform int u_kind;        // 0 primary, 1 shadow, 2 bounce
+uniform uint u_seed;
+uniform float u_eps;       // offset of secondary ray origins, scaled to the scene
+
+// per pixel: primary hit point (xyz) and prim (w bits, NO_HIT for a miss); geometric normal
+layout(std430, binding = 10) buffer PrimaryHits { vec4 primary_hits[]; };  // 2 per pixel
+layout(std430, binding = 11) buffer RayStats { uint ray_count; uint hit_count; uint checksum; };
+
+uint pcg(uint v) {
+    uint s = v * 747796405u + 2891336453u;
+    uint w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    return (w >> 22u) ^ w;
+}
+float rnd(inout uint s) { s = pcg(s); return float(s >> 8) * (1.0 / 16777216.0); }
+
+vec3 cosine_dir(vec3 n, inout uint s) {
+    float u1 = rnd(s), u2 = rnd(s);
+    float r = sqrt(u1), phi = 6.28318530718 * u2;
+    vec3 t = normalize(abs(n.x) > 0.5 ? cross(n, vec3(0, 1, 0)) : cross(n, vec3(1, 0, 0)));
+    vec3 b = cross(n, t);
+    return normalize(r * cos(phi) * t + r * sin(phi) * b + sqrt(max(0.0, 1.0 - u1)) * n);
+}
+
+vec3 geometric_normal(uint prim, vec3 p) {
+    if (prim >= u_num_triangles) return normalize(p - spheres[2u * (prim - u_num_triangles)].xyz);
+    vec3 p0 = tri_pos[3u * prim].xyz;
+    return normalize(cross(tri_pos[3u * prim + 1u].xyz - p0, tri_pos[3u * prim + 2u].xyz - p0));
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= uint(u_resolution.x) || px.y >= uint(u_resolution.y)) return;
+    uint idx = px.y * uint(u_resolution.x) + px.x;
+    uint s = pcg(idx ^ pcg(u_seed));
+    if (u_kind == 0) {
+        vec2 ndc = (vec2(px) + 0.5) / u_resolution * 2.0 - 1.0;
+        float aspect = u_resolution.x / u_resolution.y;
+        vec3 d = normalize(u_cam_forward + ndc.x * u_tan_half_fov * aspect * u_cam_right
+                           + ndc.y * u_tan_half_fov * u_cam_up);
+        Hit hit;
+        bool found = trace_closest(Ray(u_cam_pos, d, 0.0, 1e30), hit);
+        vec3 p = u_cam_pos + hit.t * d;
+        vec3 n = found ? geometric_normal(hit.prim, p) : vec3(0.0);
+        if (dot(n, d) > 0.0) n = -n;
+        primary_hits[2u * idx] = vec4(p, uintBitsToFloat(found ? hit.prim : NO_HIT));
+        primary_hits[2u * idx + 1u] = vec4(n, 0.0);
+        atomicAdd(ray_count, 1u);
+        if (found) { atomicAdd(hit_count, 1u); atomicXor(checksum, hit.prim); }
+        return;
+    }
+    vec4 hp = primary_hits[2u * idx];
+    if (floatBitsToUint(hp.w) == NO_HIT) return;
+    vec3 n = primary_hits[2u * idx + 1u].xyz;
+    vec3 o = hp.xyz + u_eps * n;
+    if (u_kind == 1) {
+        Ray r;
+        if (u_num_lights > 0u) {
+            uint light = floatBitsToUint(lights[min(uint(rnd(s) * float(u_num_lights)), u_num_lights - 1u)].x);
+            vec3 q;
+            if (light < u_num_triangles) {
+                float a = sqrt(rnd(s)), b = rnd(s);
+                vec3 p0 = tri_pos[3u * light].xyz, p1 = tri_pos[3u * light + 1u].xyz, p2 = tri_pos[3u * light + 2u].xyz;
+                q = (1.0 - a) * p0 + a * (1.0 - b) * p1 + a * b * p2;
+            } else {
+                q = spheres[2u * (light - u_num_triangles)].xyz;
+            }
+            vec3 to = q - o;
+            float dist = length(to);
+            r = Ray(o, to / max(dist, 1e-20), 0.0, dist * (1.0 - 1e-4));
+        } else {
+            r = Ray(o, cosine_dir(n, s), 0.0, 1e30);
+        }
+        bool blocked = trace_occluded(r);
+        atomicAdd(ray_count, 1u);
+        if (blocked) atomicAdd(hit_count, 1u);
+    } else {
+        Hit hit;
+        bool found = trace_closest(Ray(o, cosine_dir(n, s), 0.0, 1e30), hit);
+        atomicAdd(ray_count, 1u);
+        if (found) { atomicAdd(hit_count, 1u); atomicXor(checksum, hit.prim); }
+    }
+}
+"""
+
+
+def ray_throughput(renderer, size, repeat: int = 8) -> dict:
+    """Mrays/s of each ray kind (see the module docstring) for the renderer's scene and
+    camera at `size`: the best of `repeat` dispatches (after one warm-up)."""
+    from lift_gl.gl.context import is_software
+    from lift_gl.passes.camera import camera_uniforms
+    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.shaders import assemble, compile_compute
+
+    ctx = renderer.ctx
+    defines = {k: v for k, v in renderer.defines.items() if k in ("HAS_SPHERES",)}
+    program = compile_compute(ctx, assemble(RAY_SHADER, defines, main_name="<gpu.py ray kinds>"))
+    w, h = size
+    hits = ctx.buffer(reserve=32 * w * h)
+    stats = ctx.buffer(reserve=12)
+    hits.bind_to_storage_buffer(10)
+    stats.bind_to_storage_buffer(11)
+    renderer.buffers.bind()
+    p = renderer.packed
+    extent = float(np.max(p.bounds[1] - p.bounds[0])) or 1.0
+    uniforms = dict(renderer.scene_uniforms, **camera_uniforms(renderer.camera, size),
+                    u_eps=1e-4 * extent, u_seed=0)
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    out = {}
+    for kind_index, kind in enumerate(RAY_KINDS):
+        best, counts = None, None
+        for rep in range(repeat + 1):
+            stats.write(np.zeros(3, np.uint32).tobytes())
+            set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
+            ctx.finish()
+            start = time.perf_counter_ns()
+            with query:
+                program.run(*groups(w, h))
+            ctx.finish()
+            ns = time.perf_counter_ns() - start if cpu else query.elapsed
+            if rep == 0:
+                continue  # warm-up
+            if best is None or ns < best:
+                best = ns
+            counts = np.frombuffer(stats.read(), np.uint32)
+        rays = int(counts[0])
+        out[kind] = {"rays": rays, "hits": int(counts[1]), "ms": best / 1e6,
+                     "mrays_per_s": rays / max(best, 1) * 1e3, "checksum": int(counts[2])}
+        # The shadow and bounce kinds start from the primary hits of the last primary dispatch.
+    for b in (hits, stats, program):
+        b.release()
+    return out
+
+
+def scene_name(path: str) -> str:
+    p = Path(path)
+    return p.parent.name if p.stem == "scene" else p.stem
+
+
+def measure(args) -> int:
+    import lift_gl
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe
+    from lift_gl.renderer import Renderer
+    from lift_gl.report.bench import bench_case
+    from lift_gl.report.machine import describe_machine, machine_line
+    from lift_gl.scene.loader import load_scene
+
+    sizes = [_size(s.strip()) for s in args.sizes.split(",")]
+    integrators = [s.strip() for s in args.integrators.split(",")]
+    ctx = create_context(args.backend)
+    machine = describe_machine(ctx)
+    from lift_gl.gl.context import is_software
+    machine["software_gl"] = bool(is_software(ctx))
+    print(f"machine: {machine_line(machine)}; {describe(ctx)}; lift_gl from {Path(lift_gl.__file__).parent.parent}",
+          flush=True)
+    results = []
+    for path in args.scenes:
+        start = time.perf_counter()
+        scene = load_scene(path)
+        load_s = time.perf_counter() - start
+        name = scene_name(path)
+        for size in sizes:
+            if args.rays:
+                start = time.perf_counter()
+                r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+                setup_s = time.perf_counter() - start
+                rays = ray_throughput(r, size, args.ray_repeat)
+                results.append({"kind": "rays", "scene_name": name, "scene": path, "size": list(size),
+                                "triangles": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
+                                "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
+                r.release()
+                print(f"{name} {size[0]}x{size[1]} rays: " + ", ".join(
+                    f"{k} {v['mrays_per_s']:.1f} Mrays/s ({v['ms']:.3f} ms)" for k, v in rays.items()), flush=True)
+            for integrator in integrators:
+                case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames, args.repeat,
+                                  args.backend)
+                case.update(kind="frame", scene_name=name, scene=path, integrator=integrator,
+                            triangles=scene.triangle_count, load_seconds=load_s)
+                results.append(case)
+                print(f"{name} {size[0]}x{size[1]} {integrator}: {case['frame_ms']:.2f} ms/frame; passes (query) "
+                      + ", ".join(f"{k} {v:.3f}" for k, v in case["pass_ms_query"].items()), flush=True)
+    record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
+              "lift_gl_tree": str(Path(lift_gl.__file__).parent.parent), "results": results}
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(json.dumps(record, indent=1))
+    print(render_tables([record]))
+    return 0
+
+
+def _mrays(value: float) -> str:
+    return f"{value:.0f}" if value >= 100 else f"{value:.2g}" if value < 1 else f"{value:.1f}"
+
+
+def _frame_key(r):
+    return (r["scene_name"], tuple(r["size"]), r["integrator"])
+
+
+def render_tables(records: list[dict]) -> str:
+    """Markdown: frame table (per-pass GPU ms by timer query) and ray table; with several
+    records, one column group per record and the ratio of each to the first."""
+    labels = [r.get("label") or f"run{i}" for i, r in enumerate(records)]
+    gpu = "GPU timer queries" if not records[0]["machine"].get("software_gl") else "CPU clock (llvmpipe)"
+    lines = [f"Machine: {records[0]['gl']}; path length {records[0]['max_depth']}, 1 spp; "
+             f"pass times: {gpu}. Runs: {', '.join(labels)}.", ""]
+    frames = [{_frame_key(r): r for r in rec["results"] if r["kind"] == "frame"} for rec in records]
+    keys = list(frames[0])
+    head = ["scene", "size", "integrator", "triangles"]
+    for label in labels:
+        head += [f"{label} gbuffer ms", f"{label} trace ms", f"{label} frame ms", f"{label} Mrays/s"]
+    if len(records) > 1:
+        head += [f"trace {lab}/{labels[0]}" for lab in labels[1:]]
+    head += ["Lift paper ms (RTX 2070)"]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for key in keys:
+        first = frames[0][key]
+        cells = [key[0], f"{key[1][0]}x{key[1][1]}", key[2], f"{first['triangles']:,}"]
+        for table in frames:
+            r = table.get(key)
+            if r is None:
+                cells += ["–"] * 4
+                continue
+            q = r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"]
+            cells += [f"{q.get('gbuffer', 0):.3f}", f"{q.get('trace', 0):.3f}", f"{r['frame_ms']:.3f}",
+                      _mrays(r['rays_per_second'] / 1e6)]
+        for table in frames[1:]:
+            r = table.get(key)
+            qa = first["pass_ms_query"] if not records[0]["machine"].get("software_gl") else first["pass_ms_sync"]
+            qb = None if r is None else (r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"])
+            cells.append("–" if qb is None else f"{qb['trace'] / qa['trace']:.3f}")
+        paper = LIFT_PAPER_MS.get(key[2], {}).get(key[0]) if key[1] == (1920, 1080) else None
+        cells.append("–" if paper is None else f"{paper}")
+        lines.append("| " + " | ".join(cells) + " |")
+    rays = [{(r["scene_name"], tuple(r["size"])): r for r in rec["results"] if r["kind"] == "rays"} for rec in records]
+    if rays[0]:
+        lines += ["", "Mrays/s by ray kind (ray-casting shader over lift/bvh.glsl, best of the dispatches):", ""]
+        head = ["scene", "size", "triangles"]
+        for label in labels:
+            head += [f"{label} {k}" for k in RAY_KINDS]
+        if len(records) > 1:
+            head += [f"{k} {lab}/{labels[0]}" for lab in labels[1:] for k in RAY_KINDS]
+        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for key, first in rays[0].items():
+            cells = [key[0], f"{key[1][0]}x{key[1][1]}", f"{first['triangles']:,}"]
+            for table in rays:
+                r = table.get(key)
+                cells += ["–"] * 3 if r is None else [_mrays(r['rays'][k]['mrays_per_s']) for k in RAY_KINDS]
+            for table in rays[1:]:
+                r = table.get(key)
+                for k in RAY_KINDS:
+                    cells.append("–" if r is None else
+                                 f"{r['rays'][k]['mrays_per_s'] / first['rays'][k]['mrays_per_s']:.3f}")
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def best_of(records: list[dict]) -> dict:
+    """Several runs of the same label merged: each case's fastest (for interleaved repeats)."""
+    out = dict(records[0], results=[])
+    for i, r in enumerate(records[0]["results"]):
+        alts = [rec["results"][i] for rec in records]
+        if r["kind"] == "frame":
+            out["results"].append(min(alts, key=lambda a: a["pass_ms_query"].get("trace", 0)
+                                      if not records[0]["machine"].get("software_gl") else a["pass_ms_sync"]["trace"]))
+        else:
+            merged = dict(r, rays={k: max((a["rays"][k] for a in alts), key=lambda v: v["mrays_per_s"])
+                                   for k in RAY_KINDS})
+            out["results"].append(merged)
+    return out
+
+
+def table_cmd(args) -> int:
+    by_label: dict[str, list] = {}
+    for f in args.files:
+        rec = json.loads(Path(f).read_text())
+        by_label.setdefault(rec.get("label") or f, []).append(rec)
+    records = [best_of(recs) for recs in by_label.values()]
+    text = render_tables(records)
+    print(text)
+    if args.md:
+        args.md.write_text(text + "\n")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    m = sub.add_parser("measure")
+    m.add_argument("scenes", nargs="+")
+    m.add_argument("--sizes", default="1280x720,1920x1080")
+    m.add_argument("--integrators", default="pt,bdpt")
+    m.add_argument("--max-depth", type=int, default=32)
+    m.add_argument("--frames", type=int, default=16)
+    m.add_argument("--repeat", type=int, default=2)
+    m.add_argument("--ray-repeat", type=int, default=8)
+    m.add_argument("--no-rays", dest="rays", action="store_false")
+    m.add_argument("--backend", default="auto")
+    m.add_argument("--label", default="")
+    m.add_argument("--out", type=Path)
+    m.set_defaults(func=measure)
+    t = sub.add_parser("table")
+    t.add_argument("files", nargs="+")
+    t.add_argument("--md", type=Path)
+    t.set_defaults(func=table_cmd)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
