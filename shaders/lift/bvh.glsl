@@ -1,6 +1,6 @@
 #include "lift/scene_data.glsl"
 // lift/bvh.glsl: ray queries against the scene: the triangle BVH (built by
-// lift_gl/accel/bvh.py, layout in scene_data.glsl) and, with HAS_SPHERES, analytic spheres.
+// lift_gl/accel/bvh.py, laid out for the GPU by lift_gl/accel/gpu_layout.py; scene_data.glsl) and, with HAS_SPHERES, analytic spheres.
 #ifndef LIFT_BVH_GLSL
 #define LIFT_BVH_GLSL
 
@@ -92,28 +92,45 @@ vec3 lift_bvh_inv_dir(vec3 d) {
     return 1.0 / (s * max(abs(d), vec3(1e-30)));
 }
 
-// Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
-bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
-    vec3 bmin = bvh_nodes[2u * n].xyz;
-    vec3 bmax = bvh_nodes[2u * n + 1u].xyz;
-#ifdef HAS_MOTION
-    // The node's boxes at shutter open and close, blended to the ray's moment: for linear
-    // motion this bounds every triangle below the node at that moment, and it stays as
-    // tight as a still scene's box where the whole node moves as one.
-    uint close = u_num_triangles + u_num_spheres + 2u * n;
-    bmin = mix(bmin, motion[close].xyz, g_ray_time);
-    bmax = mix(bmax, motion[close + 1u].xyz, g_ray_time);
-#endif
-    vec3 t0 = (bmin - org) * inv;
-    vec3 t1 = (bmax - org) * inv;
-    vec3 lo = min(t0, t1);
-    vec3 hi = max(t0, t1);
-    tn = max(max(lo.x, lo.y), max(lo.z, tmin));
-    float tf = min(min(hi.x, hi.y), min(hi.z, tmax));
+// Slab test of the box lo..hi against the interval (tmin, tmax); tn: entry distance.
+bool lift_bvh_slab(vec3 lo, vec3 hi, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
+    vec3 t0 = (lo - org) * inv;
+    vec3 t1 = (hi - org) * inv;
+    vec3 near = min(t0, t1);
+    vec3 far = max(t0, t1);
+    tn = max(max(near.x, near.y), max(near.z, tmin));
+    float tf = min(min(far.x, far.y), min(far.z, tmax));
     return tn <= tf;
 }
 
+// The two children of BVH record `node` (layout in scene_data.glsl): which of them the ray
+// enters before tmax, at which distances, and their links (ref, count) as in the record.
+void lift_bvh_children(uint node, vec3 org, vec3 inv, float tmin, float tmax,
+                       out bvec2 enter, out vec2 tn, out uvec4 link) {
+    vec4 a_lo = bvh_nodes[4u * node];
+    vec4 a_hi = bvh_nodes[4u * node + 1u];
+    vec4 b_lo = bvh_nodes[4u * node + 2u];
+    vec4 b_hi = bvh_nodes[4u * node + 3u];
+    link = uvec4(floatBitsToUint(a_lo.w), floatBitsToUint(a_hi.w), floatBitsToUint(b_lo.w), floatBitsToUint(b_hi.w));
+#ifdef HAS_MOTION
+    // The children's boxes at shutter open and close, blended to the ray's moment: for linear
+    // motion this bounds every triangle below the child at that moment, and it stays as
+    // tight as a still scene's box where the whole child moves as one.
+    uint close = u_num_triangles + u_num_spheres + 4u * node;
+    a_lo.xyz = mix(a_lo.xyz, motion[close].xyz, g_ray_time);
+    a_hi.xyz = mix(a_hi.xyz, motion[close + 1u].xyz, g_ray_time);
+    b_lo.xyz = mix(b_lo.xyz, motion[close + 2u].xyz, g_ray_time);
+    b_hi.xyz = mix(b_hi.xyz, motion[close + 3u].xyz, g_ray_time);
+#endif
+    float ta, tb;
+    enter.x = lift_bvh_slab(a_lo.xyz, a_hi.xyz, org, inv, tmin, tmax, ta);
+    enter.y = lift_bvh_slab(b_lo.xyz, b_hi.xyz, org, inv, tmin, tmax, tb);
+    tn = vec2(ta, tb);
+}
+
 // Closest hit among triangles (BVH, nearer child first) and, with HAS_SPHERES, spheres.
+// Each step fetches one record and tests both children's boxes; a leaf child is tested on
+// the spot, so only interior nodes are visited and stacked.
 bool trace_closest(Ray ray, out Hit hit) {
     LIFT_COUNT_RAY();
     hit.t = ray.tmax;
@@ -131,42 +148,45 @@ bool trace_closest(Ray ray, out Hit hit) {
         float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit
         int sp = 0;
         uint node = 0u;
-        float troot;
-        bool live = lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot);
-        while (live) {
-            uint first = floatBitsToUint(bvh_nodes[2u * node].w);
-            uint count = floatBitsToUint(bvh_nodes[2u * node + 1u].w);
-            if (count > 0u) {
-                for (uint i = first; i < first + count; ++i) {
+        while (true) {
+            bvec2 enter;
+            vec2 tn;
+            uvec4 link;   // (A.ref, A.count, B.ref, B.count)
+            lift_bvh_children(node, ray.origin, inv, ray.tmin, t, enter, tn, link);
+            if (enter.x && link.y > 0u) {
+                for (uint i = link.x; i < link.x + link.y; ++i) {
                     vec2 bary;
-                    if (intersect_triangle(ray, i, t, bary)) {
-                        hit.prim = i;
-                        hit.bary = bary;
-                    }
+                    if (intersect_triangle(ray, i, t, bary)) { hit.prim = i; hit.bary = bary; }
                 }
-            } else {
-                float ta, tb;
-                bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
-                bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-                if (ha && hb && sp < LIFT_BVH_STACK) {   // the bound holds by construction
-                    bool a_first = ta <= tb;
-                    stack_node[sp] = a_first ? first + 1u : first;
-                    stack_t[sp] = a_first ? tb : ta;
-                    ++sp;
-                    node = a_first ? first : first + 1u;
-                    continue;
+                enter.x = false;
+            }
+            if (enter.y && link.w > 0u && tn.y <= t) {
+                for (uint i = link.z; i < link.z + link.w; ++i) {
+                    vec2 bary;
+                    if (intersect_triangle(ray, i, t, bary)) { hit.prim = i; hit.bary = bary; }
                 }
-                if (ha || hb) {
-                    node = ha ? first : first + 1u;
-                    continue;
-                }
+                enter.y = false;
+            }
+            enter.y = enter.y && tn.y <= t;  // a leaf's hit may have moved t in front of B
+            if (enter.x && enter.y && sp < LIFT_BVH_STACK) {   // the bound holds by construction
+                bool a_first = tn.x <= tn.y;
+                stack_node[sp] = a_first ? link.z : link.x;
+                stack_t[sp] = a_first ? tn.y : tn.x;
+                ++sp;
+                node = a_first ? link.x : link.z;
+                continue;
+            }
+            if (enter.x || enter.y) {
+                node = enter.x ? link.x : link.z;
+                continue;
             }
             // pop the next postponed node that may still hold something nearer than t
-            live = false;
+            bool live = false;
             while (sp > 0) {
                 --sp;
                 if (stack_t[sp] <= t) { node = stack_node[sp]; live = true; break; }
             }
+            if (!live) break;
         }
     }
     if (hit.prim != NO_HIT) {
@@ -176,7 +196,8 @@ bool trace_closest(Ray ray, out Hit hit) {
     return hit.prim != NO_HIT;
 }
 
-// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
+// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order
+// (leaf children of a record are tested before anything is stacked).
 bool trace_occluded(Ray ray) {
     LIFT_COUNT_RAY();
     float t = ray.tmax;
@@ -189,30 +210,34 @@ bool trace_occluded(Ray ray) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
     uint stack_node[LIFT_BVH_STACK];
     int sp = 0;
-    float troot;
-    if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
     uint node = 0u;
     while (true) {
-        uint first = floatBitsToUint(bvh_nodes[2u * node].w);
-        uint count = floatBitsToUint(bvh_nodes[2u * node + 1u].w);
-        if (count > 0u) {
-            for (uint i = first; i < first + count; ++i) {
+        bvec2 enter;
+        vec2 tn;
+        uvec4 link;
+        lift_bvh_children(node, ray.origin, inv, ray.tmin, t, enter, tn, link);
+        if (enter.x && link.y > 0u) {
+            for (uint i = link.x; i < link.x + link.y; ++i) {
                 vec2 bary;
                 if (intersect_triangle(ray, i, t, bary)) return true;
             }
-        } else {
-            float ta, tb;
-            bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
-            bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-            if (ha && hb && sp < LIFT_BVH_STACK) {
-                stack_node[sp++] = first + 1u;
-                node = first;
-                continue;
+            enter.x = false;
+        }
+        if (enter.y && link.w > 0u) {
+            for (uint i = link.z; i < link.z + link.w; ++i) {
+                vec2 bary;
+                if (intersect_triangle(ray, i, t, bary)) return true;
             }
-            if (ha || hb) {
-                node = ha ? first : first + 1u;
-                continue;
-            }
+            enter.y = false;
+        }
+        if (enter.x && enter.y && sp < LIFT_BVH_STACK) {
+            stack_node[sp++] = link.z;
+            node = link.x;
+            continue;
+        }
+        if (enter.x || enter.y) {
+            node = enter.x ? link.x : link.z;
+            continue;
         }
         if (sp == 0) return false;
         node = stack_node[--sp];
