@@ -63,9 +63,11 @@ uniform int u_kind;        // 0 primary, 1 shadow, 2 bounce
 uniform uint u_seed;
 uniform float u_eps;       // offset of secondary ray origins, scaled to the scene
 
-// per pixel: primary hit point (xyz) and prim (w bits, NO_HIT for a miss); geometric normal
-layout(std430, binding = 10) buffer PrimaryHits { vec4 primary_hits[]; };  // 2 per pixel
-layout(std430, binding = 11) buffer RayStats { uint ray_count; uint hit_count; uint checksum; };
+// Two vec4 per pixel: the primary hit point (xyz) and prim (w bits, NO_HIT for a miss); the
+// geometric normal (xyz) and the last secondary ray's outcome (w: 1 hit or blocked, 0 not).
+// No atomics: the host counts rays and hits from this buffer (one atomic counter per ray
+// serialises incoherent rays on a GPU and would be timed with them).
+layout(std430, binding = 10) buffer PrimaryHits { vec4 primary_hits[]; };
 
 uint pcg(uint v) {
     uint s = v * 747796405u + 2891336453u;
@@ -105,8 +107,6 @@ void main() {
         if (dot(n, d) > 0.0) n = -n;
         primary_hits[2u * idx] = vec4(p, uintBitsToFloat(found ? hit.prim : NO_HIT));
         primary_hits[2u * idx + 1u] = vec4(n, 0.0);
-        atomicAdd(ray_count, 1u);
-        if (found) { atomicAdd(hit_count, 1u); atomicXor(checksum, hit.prim); }
         return;
     }
     vec4 hp = primary_hits[2u * idx];
@@ -131,14 +131,11 @@ void main() {
         } else {
             r = Ray(o, cosine_dir(n, s), 0.0, 1e30);
         }
-        bool blocked = trace_occluded(r);
-        atomicAdd(ray_count, 1u);
-        if (blocked) atomicAdd(hit_count, 1u);
+        primary_hits[2u * idx + 1u].w = trace_occluded(r) ? 1.0 : 0.0;
     } else {
         Hit hit;
         bool found = trace_closest(Ray(o, cosine_dir(n, s), 0.0, 1e30), hit);
-        atomicAdd(ray_count, 1u);
-        if (found) { atomicAdd(hit_count, 1u); atomicXor(checksum, hit.prim); }
+        primary_hits[2u * idx + 1u].w = found ? 1.0 : 0.0;
     }
 }
 """
@@ -157,9 +154,7 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     program = compile_compute(ctx, assemble(RAY_SHADER, defines, main_name="<gpu.py ray kinds>"))
     w, h = size
     hits = ctx.buffer(reserve=32 * w * h)
-    stats = ctx.buffer(reserve=12)
     hits.bind_to_storage_buffer(10)
-    stats.bind_to_storage_buffer(11)
     renderer.buffers.bind()
     p = renderer.packed
     extent = float(np.max(p.bounds[1] - p.bounds[0])) or 1.0
@@ -169,9 +164,8 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     query = ctx.query(time=True)
     out = {}
     for kind_index, kind in enumerate(RAY_KINDS):
-        best, counts = None, None
+        best = None
         for rep in range(repeat + 1):
-            stats.write(np.zeros(3, np.uint32).tobytes())
             set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
             ctx.finish()
             start = time.perf_counter_ns()
@@ -183,12 +177,14 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
                 continue  # warm-up
             if best is None or ns < best:
                 best = ns
-            counts = np.frombuffer(stats.read(), np.uint32)
-        rays = int(counts[0])
-        out[kind] = {"rays": rays, "hits": int(counts[1]), "ms": best / 1e6,
-                     "mrays_per_s": rays / max(best, 1) * 1e3, "checksum": int(counts[2])}
         # The shadow and bounce kinds start from the primary hits of the last primary dispatch.
-    for b in (hits, stats, program):
+        rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
+        hit = rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF
+        rays = w * h if kind == "primary" else int(hit.sum())
+        hits_of_kind = int(hit.sum()) if kind == "primary" else int((rows[hit, 1, 3] > 0.5).sum())
+        out[kind] = {"rays": rays, "hits": hits_of_kind, "ms": best / 1e6,
+                     "mrays_per_s": rays / max(best, 1) * 1e3}
+    for b in (hits, program):
         b.release()
     return out
 
@@ -215,7 +211,17 @@ def measure(args) -> int:
     machine["software_gl"] = bool(is_software(ctx))
     print(f"machine: {machine_line(machine)}; {describe(ctx)}; lift_gl from {Path(lift_gl.__file__).parent.parent}",
           flush=True)
+    from lift_gl.errors import LiftError
+
     results = []
+    record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
+              "lift_gl_tree": str(Path(lift_gl.__file__).parent.parent), "results": results}
+
+    def save():  # after every case: a run cut short by a time limit keeps what it measured
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(json.dumps(record, indent=1))
+
     for path in args.scenes:
         start = time.perf_counter()
         scene = load_scene(path)
@@ -231,21 +237,26 @@ def measure(args) -> int:
                                 "triangles": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
                                 "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
                 r.release()
+                save()
                 print(f"{name} {size[0]}x{size[1]} rays: " + ", ".join(
                     f"{k} {v['mrays_per_s']:.1f} Mrays/s ({v['ms']:.3f} ms)" for k, v in rays.items()), flush=True)
             for integrator in integrators:
-                case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames, args.repeat,
-                                  args.backend)
+                try:
+                    case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames,
+                                      args.repeat, args.backend)
+                except LiftError as exc:  # e.g. bdpt refuses an environment map
+                    print(f"{name} {size[0]}x{size[1]} {integrator}: not run: {str(exc).splitlines()[0]}", flush=True)
+                    results.append({"kind": "skipped", "scene_name": name, "size": list(size),
+                                    "integrator": integrator, "reason": str(exc)})
+                    save()
+                    continue
                 case.update(kind="frame", scene_name=name, scene=path, integrator=integrator,
                             triangles=scene.triangle_count, load_seconds=load_s)
                 results.append(case)
+                save()
                 print(f"{name} {size[0]}x{size[1]} {integrator}: {case['frame_ms']:.2f} ms/frame; passes (query) "
                       + ", ".join(f"{k} {v:.3f}" for k, v in case["pass_ms_query"].items()), flush=True)
-    record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
-              "lift_gl_tree": str(Path(lift_gl.__file__).parent.parent), "results": results}
-    if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(record, indent=1))
+    save()
     print(render_tables([record]))
     return 0
 
@@ -317,18 +328,23 @@ def render_tables(records: list[dict]) -> str:
 
 
 def best_of(records: list[dict]) -> dict:
-    """Several runs of the same label merged: each case's fastest (for interleaved repeats)."""
-    out = dict(records[0], results=[])
-    for i, r in enumerate(records[0]["results"]):
-        alts = [rec["results"][i] for rec in records]
-        if r["kind"] == "frame":
-            out["results"].append(min(alts, key=lambda a: a["pass_ms_query"].get("trace", 0)
-                                      if not records[0]["machine"].get("software_gl") else a["pass_ms_sync"]["trace"]))
+    """Several runs of the same label merged: each case's fastest (for interleaved repeats);
+    a case missing from some runs (cut short) keeps the runs that have it."""
+    software = records[0]["machine"].get("software_gl")
+    cases: dict = {}
+    for rec in records:
+        for r in rec["results"]:
+            if r["kind"] in ("frame", "rays"):
+                key = (r["kind"], r["scene_name"], tuple(r["size"]), r.get("integrator"))
+                cases.setdefault(key, []).append(r)
+    results = []
+    for (kind, *_), alts in cases.items():
+        if kind == "frame":
+            results.append(min(alts, key=lambda a: a["pass_ms_sync" if software else "pass_ms_query"]["trace"]))
         else:
-            merged = dict(r, rays={k: max((a["rays"][k] for a in alts), key=lambda v: v["mrays_per_s"])
-                                   for k in RAY_KINDS})
-            out["results"].append(merged)
-    return out
+            results.append(dict(alts[0], rays={k: max((a["rays"][k] for a in alts), key=lambda v: v["mrays_per_s"])
+                                               for k in RAY_KINDS}))
+    return dict(records[0], results=results, runs=len(records))
 
 
 def table_cmd(args) -> int:
