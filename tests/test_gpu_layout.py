@@ -85,3 +85,45 @@ def test_tiny_trees_trace_on_the_gpu(gl, n):
     t = np.where(found, t, np.inf).astype(np.float64)
     assert disagreements(t, t_ref).mean() < 0.005
     assert (occluded == found).all()
+
+
+def heightfield(n: int, seed: int) -> np.ndarray:
+    """A surface patch without holes: an n x n grid of jittered, float32 points at random
+    heights, two triangles per cell (the diagonal alternating), so every interior edge is
+    shared. Jitter and heights are small enough that the cells stay convex and the surface
+    is a graph over any direction within a few degrees of -z."""
+    rng = np.random.default_rng(seed)
+    g = np.stack(np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij"), -1).astype(np.float64)
+    g += rng.uniform(-0.15, 0.15, g.shape) * ((g > 0) & (g < n))  # interior points jittered
+    z = rng.uniform(0.0, 0.3 / n, g.shape[:2])
+    p = np.concatenate([g / n, z[..., None]], -1).astype(np.float32)
+    tris = []
+    for i in range(n):
+        for j in range(n):
+            a, b, c, d = p[i, j], p[i + 1, j], p[i + 1, j + 1], p[i, j + 1]
+            tris += [[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]
+    return np.array(tris, np.float32), p
+
+
+def test_watertight_rays_through_vertices_and_edges_hit(gl):
+    """Rays aimed exactly at the surface's interior vertices, and at points of its shared
+    edges, from above: every one must hit (a non-watertight test lets some slip between the
+    triangles that share the edge or vertex)."""
+    tris, p = heightfield(24, seed=5)
+    b = build_bvh(tris)
+    rng = np.random.default_rng(6)
+    verts = p[1:-1, 1:-1].reshape(-1, 3).astype(np.float64)
+    e0, e1 = tris[:, 0].astype(np.float64), tris[:, 1].astype(np.float64)
+    inner = (np.minimum(e0[:, :2], e1[:, :2]).min(axis=1) > 0) & (np.maximum(e0[:, :2], e1[:, :2]).max(axis=1) < 1)
+    s = rng.random((int(inner.sum()), 1))
+    on_edges = (e0[inner] + s * (e1[inner] - e0[inner])).astype(np.float32).astype(np.float64)
+    targets = np.concatenate([np.repeat(verts, 8, axis=0), np.repeat(on_edges, 4, axis=0)])
+    origins = targets + np.concatenate([rng.uniform(-0.05, 0.05, (len(targets), 2)),
+                                        rng.uniform(1.0, 2.0, (len(targets), 1))], axis=1)
+    origins = origins.astype(np.float32).astype(np.float64)
+    d = targets - origins
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d = d.astype(np.float32).astype(np.float64)
+    _, prim, occluded, found, _ = run_glsl(gl, b.nodes, tris[b.order], origins, d)
+    assert found.all(), f"{(~found).sum()} of {len(found)} rays slipped through the surface"
+    assert occluded.all()

@@ -41,29 +41,51 @@ uint lift_rays_traced = 0u;
 #define LIFT_COUNT_RAY()
 #endif
 
-// Möller–Trumbore. Updates t and returns true when the hit is in (ray.tmin, t).
-// Triangles seen exactly edge-on, and zero-area ones, have det == 0 and never hit.
-bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+// The watertight ray/triangle test of Woop, Benthin and Wald (JCGT 2013): the triangle is
+// moved into a frame where the ray runs along +z from the origin (a permutation that makes z
+// the ray's largest axis, and a shear), and the 2D edge functions U, V, W decide the hit.
+// A point on an edge shared by two triangles gets the same edge function (same operands,
+// same rounding) in both, so no ray slips between neighbours; a ray exactly on an edge may
+// hit both, which the closest-hit test settles. (The paper's double-precision fallback for
+// an edge function of exactly 0 is left out: 0 counts as inside, so such rays hit too.)
+// Triangles seen edge-on and zero-area ones have U + V + W == 0 and never hit.
+struct LiftRayFrame { uvec3 k; vec3 shear; };  // k: axes (x, y, z) of the frame; shear (Sx, Sy, Sz)
+
+LiftRayFrame lift_ray_frame(vec3 dir) {
+    vec3 a = abs(dir);
+    uint kz = a.x > a.y ? (a.x > a.z ? 0u : 2u) : (a.y > a.z ? 1u : 2u);
+    uint kx = kz == 2u ? 0u : kz + 1u;
+    uint ky = kx == 2u ? 0u : kx + 1u;
+    if (dir[kz] < 0.0) { uint k = kx; kx = ky; ky = k; }  // keep the winding: U, V, W keep their sign
+    float dz = dir[kz];
+    return LiftRayFrame(uvec3(kx, ky, kz), vec3(dir[kx] / dz, dir[ky] / dz, 1.0 / dz));
+}
+
+// Updates t and returns true when the hit is in (ray.tmin, t); bary as for the other tests.
+bool intersect_triangle(Ray ray, LiftRayFrame f, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
-    vec3 p0 = tri_pos[i].xyz;
-    vec3 e1 = tri_pos[i + 1u].xyz - p0;
-    vec3 e2 = tri_pos[i + 2u].xyz - p0;
-    vec3 pv = cross(ray.dir, e2);
-    float det = dot(e1, pv);
+    vec3 org = ray.origin - prim_displacement(tri);  // a moving triangle: where it is now
+    vec3 a = tri_pos[i].xyz - org;
+    vec3 b = tri_pos[i + 1u].xyz - org;
+    vec3 c = tri_pos[i + 2u].xyz - org;
+    vec3 az = vec3(a[f.k.z], b[f.k.z], c[f.k.z]);   // z of the three corners
+    vec3 ax = vec3(a[f.k.x], b[f.k.x], c[f.k.x]) - f.shear.x * az;
+    vec3 ay = vec3(a[f.k.y], b[f.k.y], c[f.k.y]) - f.shear.y * az;
+    // `precise`: no fused multiply-add, so an edge's function in the neighbour (operands
+    // swapped) is exactly the negation of this one
+    precise float u = ax.z * ay.y - ay.z * ax.y;   // C x B
+    precise float v = ax.x * ay.z - ay.x * ax.z;   // A x C
+    precise float w = ax.y * ay.x - ay.y * ax.x;   // B x A
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return false;
+    float det = u + v + w;
     if (det == 0.0) return false;
     float inv_det = 1.0 / det;
-    vec3 tv = ray.origin - (p0 + prim_displacement(tri));  // a moving triangle: where it is now
-    float b1 = dot(tv, pv) * inv_det;
-    if (b1 < 0.0 || b1 > 1.0) return false;
-    vec3 qv = cross(tv, e1);
-    float b2 = dot(ray.dir, qv) * inv_det;
-    if (b2 < 0.0 || b1 + b2 > 1.0) return false;
-    float th = dot(e2, qv) * inv_det;
-    // written so that a NaN th (from a near-zero det) fails the test
+    float th = dot(vec3(u, v, w), f.shear.z * az) * inv_det;
+    // written so that a NaN th fails the test
     if (!(th > ray.tmin && th < t)) return false;
     t = th;
-    bary = vec2(b1, b2);
+    bary = vec2(v, w) * inv_det;
     return true;
 }
 
@@ -99,7 +121,10 @@ bool lift_bvh_slab(vec3 lo, vec3 hi, vec3 org, vec3 inv, float tmin, float tmax,
     vec3 near = min(t0, t1);
     vec3 far = max(t0, t1);
     tn = max(max(near.x, near.y), max(near.z, tmin));
-    float tf = min(min(far.x, far.y), min(far.z, tmax));
+    // The exit distance is enlarged by the rounding bound of Ize (JCGT 2013), so that a ray
+    // through a corner of a leaf's triangle (which lies on the leaf's box) is not culled
+    // by the rounding of the slab distances: watertight triangles need conservative boxes.
+    float tf = min(min(far.x, far.y), min(far.z, tmax)) * 1.0000004;
     return tn <= tf;
 }
 
@@ -144,6 +169,7 @@ bool trace_closest(Ray ray, out Hit hit) {
 #endif
     if (u_num_triangles > 0u) {
         vec3 inv = lift_bvh_inv_dir(ray.dir);
+        LiftRayFrame frame = lift_ray_frame(ray.dir);
         uint stack_node[LIFT_BVH_STACK];
         float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit
         int sp = 0;
@@ -156,14 +182,14 @@ bool trace_closest(Ray ray, out Hit hit) {
             if (enter.x && link.y > 0u) {
                 for (uint i = link.x; i < link.x + link.y; ++i) {
                     vec2 bary;
-                    if (intersect_triangle(ray, i, t, bary)) { hit.prim = i; hit.bary = bary; }
+                    if (intersect_triangle(ray, frame, i, t, bary)) { hit.prim = i; hit.bary = bary; }
                 }
                 enter.x = false;
             }
             if (enter.y && link.w > 0u && tn.y <= t) {
                 for (uint i = link.z; i < link.z + link.w; ++i) {
                     vec2 bary;
-                    if (intersect_triangle(ray, i, t, bary)) { hit.prim = i; hit.bary = bary; }
+                    if (intersect_triangle(ray, frame, i, t, bary)) { hit.prim = i; hit.bary = bary; }
                 }
                 enter.y = false;
             }
@@ -208,6 +234,7 @@ bool trace_occluded(Ray ray) {
 #endif
     if (u_num_triangles == 0u) return false;
     vec3 inv = lift_bvh_inv_dir(ray.dir);
+    LiftRayFrame frame = lift_ray_frame(ray.dir);
     uint stack_node[LIFT_BVH_STACK];
     int sp = 0;
     uint node = 0u;
@@ -219,14 +246,14 @@ bool trace_occluded(Ray ray) {
         if (enter.x && link.y > 0u) {
             for (uint i = link.x; i < link.x + link.y; ++i) {
                 vec2 bary;
-                if (intersect_triangle(ray, i, t, bary)) return true;
+                if (intersect_triangle(ray, frame, i, t, bary)) return true;
             }
             enter.x = false;
         }
         if (enter.y && link.w > 0u) {
             for (uint i = link.z; i < link.z + link.w; ++i) {
                 vec2 bary;
-                if (intersect_triangle(ray, i, t, bary)) return true;
+                if (intersect_triangle(ray, frame, i, t, bary)) return true;
             }
             enter.y = false;
         }
