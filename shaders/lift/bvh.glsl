@@ -89,6 +89,11 @@ bool intersect_triangle(Ray ray, LiftRayFrame f, uint tri, inout float t, out ve
     return true;
 }
 
+// The same test for one ray and one triangle (the G-buffer's primary hit rebuilt: passes/trace.py).
+bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+    return intersect_triangle(ray, lift_ray_frame(ray.dir), tri, t, bary);
+}
+
 // Both roots of |o + t d - c|^2 = r^2 (inside a sphere the far root is the hit).
 // The discriminant is formed from the distance of the centre to the ray's line, which loses
 // far less precision than b*b - c when the sphere is small and far away.
