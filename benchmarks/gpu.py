@@ -189,6 +189,97 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     return out
 
 
+def ab(args) -> int:
+    """Versions of lift/bvh.glsl against each other in one process, dispatch by dispatch
+    (A, B, A, B, ...), on the same scene buffers: on a busy machine (llvmpipe on shared
+    cores) the load then hits every version alike, and the ratio of the medians holds even
+    where single timings scatter by 2x. --variant LABEL=TREE:LAYOUT takes TREE/shaders/lift/
+    bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, bvh.glsl before issue 10)
+    or records (accel/gpu_layout.py)."""
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe, is_software
+    from lift_gl.passes.camera import camera_uniforms
+    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.shaders import assemble, compile_compute
+
+    variants = []
+    for text in args.variant:
+        label, rest = text.split("=", 1)
+        tree, layout = rest.rsplit(":", 1)
+        if layout not in ("binary", "records"):
+            raise SystemExit(f"--variant {text}: layout must be binary or records")
+        variants.append((label, Path(tree), layout))
+    ctx = create_context(args.backend)
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
+    results = []
+    record = {"gl": describe(ctx), "variants": [[v[0], str(v[1]), v[2]] for v in variants], "reps": args.reps,
+              "results": results}
+    for path in args.scenes:
+        scene = load_scene(path)
+        for size in [_size(s.strip()) for s in args.sizes.split(",")]:
+            r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+            defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
+            progs, nodes = [], []
+            for label, tree, layout in variants:
+                progs.append(compile_compute(ctx, assemble(RAY_SHADER, defines, include_dirs=[tree / "shaders"],
+                                                           main_name=f"<gpu.py ray kinds, {label}>")))
+                data = r.packed.bvh_nodes if layout == "binary" else r.packed.bvh_gpu
+                nodes.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
+            w, h = size
+            hits = ctx.buffer(reserve=32 * w * h)
+            r.buffers.bind()
+            hits.bind_to_storage_buffer(10)
+            extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
+            uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
+            case = {"scene_name": scene_name(path), "size": list(size), "triangles": r.packed.num_triangles,
+                    "kinds": {}}
+            for kind_index, kind in enumerate(RAY_KINDS):
+                times = [[] for _ in variants]
+                for rep in range(args.reps + 1):
+                    for i, prog in enumerate(progs if rep % 2 == 0 else progs[::-1]):
+                        i = i if rep % 2 == 0 else len(progs) - 1 - i
+                        nodes[i].bind_to_storage_buffer(0)
+                        set_uniforms(prog, dict(uniforms, u_kind=kind_index, u_seed=rep))
+                        ctx.finish()
+                        start = time.perf_counter_ns()
+                        with query:
+                            prog.run(*groups(w, h))
+                        ctx.finish()
+                        ns = time.perf_counter_ns() - start if cpu else query.elapsed
+                        if rep:
+                            times[i].append(ns / 1e6)
+                med = [float(np.median(t)) for t in times]
+                case["kinds"][kind] = {"ms": times, "median_ms": med,
+                                       "speedup_vs_first": [med[0] / m for m in med]}
+            results.append(case)
+            print(f"{case['scene_name']} {w}x{h}: " + "; ".join(
+                f"{k} " + ", ".join(f"{v[0]} {m:.3f} ms" for v, m in zip(variants, c["median_ms"]))
+                for k, c in case["kinds"].items()), flush=True)
+            for b in (*progs, *nodes, hits):
+                b.release()
+            r.release()
+            if args.out:
+                args.out.write_text(json.dumps(record, indent=1))
+    labels = [v[0] for v in variants]
+    lines = [f"Machine: {record['gl']}. Median of {args.reps} interleaved dispatches; speed-up = "
+             f"{labels[0]} time / version time.", "",
+             "| scene | size | triangles | " + " | ".join(f"{k} {lab}" for k in RAY_KINDS for lab in labels[1:]) + " |",
+             "|" + "---|" * (3 + len(RAY_KINDS) * (len(labels) - 1))]
+    for c in results:
+        cells = [c["scene_name"], f"{c['size'][0]}x{c['size'][1]}", f"{c['triangles']:,}"]
+        cells += [f"{c['kinds'][k]['speedup_vs_first'][j]:.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
+        lines.append("| " + " | ".join(cells) + " |")
+    text = "\n".join(lines)
+    print(text)
+    if args.md:
+        args.md.write_text(text + "\n")
+    return 0
+
+
 def scene_name(path: str) -> str:
     p = Path(path)
     return p.parent.name if p.stem == "scene" else p.stem
@@ -204,7 +295,7 @@ def measure(args) -> int:
     from lift_gl.scene.loader import load_scene
 
     sizes = [_size(s.strip()) for s in args.sizes.split(",")]
-    integrators = [s.strip() for s in args.integrators.split(",")]
+    integrators = [s.strip() for s in args.integrators.split(",") if s.strip() not in ("", "none")]
     ctx = create_context(args.backend)
     machine = describe_machine(ctx)
     from lift_gl.gl.context import is_software
@@ -366,7 +457,7 @@ def main(argv=None) -> int:
     m = sub.add_parser("measure")
     m.add_argument("scenes", nargs="+")
     m.add_argument("--sizes", default="1280x720,1920x1080")
-    m.add_argument("--integrators", default="pt,bdpt")
+    m.add_argument("--integrators", default="pt,bdpt", help="comma-separated; none: only the ray kinds")
     m.add_argument("--max-depth", type=int, default=32)
     m.add_argument("--frames", type=int, default=16)
     m.add_argument("--repeat", type=int, default=2)
@@ -376,6 +467,15 @@ def main(argv=None) -> int:
     m.add_argument("--label", default="")
     m.add_argument("--out", type=Path)
     m.set_defaults(func=measure)
+    v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
+    v.add_argument("scenes", nargs="+")
+    v.add_argument("--variant", action="append", required=True, metavar="LABEL=TREE:binary|records")
+    v.add_argument("--sizes", default="160x90")
+    v.add_argument("--reps", type=int, default=15)
+    v.add_argument("--backend", default="auto")
+    v.add_argument("--out", type=Path)
+    v.add_argument("--md", type=Path)
+    v.set_defaults(func=ab)
     t = sub.add_parser("table")
     t.add_argument("files", nargs="+")
     t.add_argument("--md", type=Path)
