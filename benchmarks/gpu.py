@@ -229,6 +229,7 @@ def ab(args) -> int:
                                                            main_name=f"<gpu.py ray kinds, {label}>")))
                 data = r.packed.bvh_nodes if layout == "binary" else r.packed.bvh_gpu
                 nodes.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
+
             w, h = size
             hits = ctx.buffer(reserve=32 * w * h)
             r.buffers.bind()
@@ -252,10 +253,21 @@ def ab(args) -> int:
                         ns = time.perf_counter_ns() - start if cpu else query.elapsed
                         if rep:
                             times[i].append(ns / 1e6)
+                if kind == "primary":
+                    # Every version must find the same primary hits (up to a few rays through
+                    # edges): one that misread the BVH would be fast and wrong.
+                    case["primary_hits"] = {}
+                    for (label, _, _), prog, buf in zip(variants, progs, nodes):
+                        buf.bind_to_storage_buffer(0)
+                        set_uniforms(prog, dict(uniforms, u_kind=0, u_seed=0))
+                        prog.run(*groups(w, h))
+                        rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
+                        case["primary_hits"][label] = int((rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF).sum())
                 med = [float(np.median(t)) for t in times]
                 case["kinds"][kind] = {"ms": times, "median_ms": med,
                                        "speedup_vs_first": [med[0] / m for m in med]}
             results.append(case)
+            print(f"{case['scene_name']} {w}x{h}: primary hits {case['primary_hits']}", flush=True)
             print(f"{case['scene_name']} {w}x{h}: " + "; ".join(
                 f"{k} " + ", ".join(f"{v[0]} {m:.3f} ms" for v, m in zip(variants, c["median_ms"]))
                 for k, c in case["kinds"].items()), flush=True)
