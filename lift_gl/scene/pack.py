@@ -52,23 +52,23 @@ class PackedScene:
     # nothing moves (has_motion False): see still_motion().
     motion: np.ndarray | None = None  # float32 (T + S + 2 N, 4)
     has_motion: bool = False
+    # bvh_nodes as the GLSL traversal reads them: one record per interior node holding both
+    # children's boxes (accel/gpu_layout.py); None: derived from bvh_nodes on creation.
+    bvh_gpu: np.ndarray | None = None  # float32 (M, 16)
     # Textures and the environment map (images.py), and the uniforms that describe them and
     # the other lights (light_choice.py).
     images: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint32))
     uniforms: dict = field(default_factory=dict)
     origin: np.ndarray = None  # float64 (3,): world position of the GPU coordinates' zero
-    # bvh_nodes as the GLSL traversal reads them: one record per interior node holding both
-    # children's boxes (accel/gpu_layout.py); None: derived from bvh_nodes when uploaded.
-    bvh_gpu: np.ndarray | None = None  # float32 (M, 16)
-
-    def __post_init__(self):
-        if self.bvh_gpu is None:
-            self.bvh_gpu = gpu_nodes(self.bvh_nodes)
 
     def to_gpu_camera(self, camera: Camera) -> Camera:
         """The camera in the rebased coordinates the GPU uses."""
         origin = self.origin if self.origin is not None else np.zeros(3)
         return replace(camera, position=camera.position - origin, target=camera.target - origin)
+
+    def __post_init__(self):
+        if self.bvh_gpu is None:
+            self.bvh_gpu = gpu_nodes(self.bvh_nodes)
 
 
 def _as_float_bits(values) -> np.ndarray:
