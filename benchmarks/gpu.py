@@ -189,6 +189,26 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     return out
 
 
+def ab_table(record: dict) -> str:
+    """Markdown of an `ab` record: speed-up of each version over the first, by ray kind, and
+    the first version's Mrays/s."""
+    labels = [v[0] for v in record["variants"]]
+    lines = [f"Machine: {record['gl']}. Median of {record['reps']} interleaved dispatches; speed-up = "
+             f"{labels[0]} time / version time.", "",
+             "| scene | size | triangles | " + " | ".join(f"{labels[0]} {k} Mrays/s" for k in RAY_KINDS) + " | "
+             + " | ".join(f"{k} {lab}" for k in RAY_KINDS for lab in labels[1:]) + " |",
+             "|" + "---|" * (3 + len(RAY_KINDS) * len(labels))]
+    for c in record["results"]:
+        w, h = c["size"]
+        hits = c.get("primary_hits", {}).get(labels[0])  # secondary rays start from the primary hits
+        rays = {"primary": w * h, "shadow": hits, "bounce": hits}
+        cells = [c["scene_name"], f"{w}x{h}", f"{c['triangles']:,}"]
+        cells += ["–" if rays[k] is None else _mrays(rays[k] / c["kinds"][k]["median_ms"][0] / 1e3) for k in RAY_KINDS]
+        cells += [f"{c['kinds'][k]['speedup_vs_first'][j]:.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def ab(args) -> int:
     """Versions of lift/bvh.glsl against each other in one process, dispatch by dispatch
     (A, B, A, B, ...), on the same scene buffers: on a busy machine (llvmpipe on shared
@@ -276,16 +296,7 @@ def ab(args) -> int:
             r.release()
             if args.out:
                 args.out.write_text(json.dumps(record, indent=1))
-    labels = [v[0] for v in variants]
-    lines = [f"Machine: {record['gl']}. Median of {args.reps} interleaved dispatches; speed-up = "
-             f"{labels[0]} time / version time.", "",
-             "| scene | size | triangles | " + " | ".join(f"{k} {lab}" for k in RAY_KINDS for lab in labels[1:]) + " |",
-             "|" + "---|" * (3 + len(RAY_KINDS) * (len(labels) - 1))]
-    for c in results:
-        cells = [c["scene_name"], f"{c['size'][0]}x{c['size'][1]}", f"{c['triangles']:,}"]
-        cells += [f"{c['kinds'][k]['speedup_vs_first'][j]:.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
-        lines.append("| " + " | ".join(cells) + " |")
-    text = "\n".join(lines)
+    text = ab_table(record)
     print(text)
     if args.md:
         args.md.write_text(text + "\n")
@@ -454,6 +465,12 @@ def table_cmd(args) -> int:
     by_label: dict[str, list] = {}
     for f in args.files:
         rec = json.loads(Path(f).read_text())
+        if "variants" in rec:  # an `ab` record
+            text = ab_table(rec)
+            print(text)
+            if args.md:
+                args.md.write_text(text + "\n")
+            return 0
         by_label.setdefault(rec.get("label") or f, []).append(rec)
     records = [best_of(recs) for recs in by_label.values()]
     text = render_tables(records)
