@@ -236,7 +236,7 @@ def ab(args) -> int:
     query = ctx.query(time=True)
     print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
     results = []
-    record = {"gl": describe(ctx), "variants": [[v[0], str(v[1]), v[2]] for v in variants], "reps": args.reps,
+    record = {"gl": describe(ctx), "variants": [[v[0], v[2]] for v in variants], "reps": args.reps,
               "results": results}
     for path in args.scenes:
         scene = load_scene(path)
@@ -303,6 +303,16 @@ def ab(args) -> int:
     return 0
 
 
+def portable(path) -> str:
+    """A scene path as the results keep it: from scenes_lift/ or scenes/ on, never a path of
+    the machine that ran the benchmark."""
+    text = str(path)
+    for marker, prefix in (("scenes_lift/", "../shared/scenes_lift/"), ("scenes/", "scenes/")):
+        if marker in text:
+            return prefix + text.rsplit(marker, 1)[1]
+    return Path(text).name
+
+
 def scene_name(path: str) -> str:
     p = Path(path)
     return p.parent.name if p.stem == "scene" else p.stem
@@ -329,7 +339,7 @@ def measure(args) -> int:
 
     results = []
     record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
-              "lift_gl_tree": str(Path(lift_gl.__file__).parent.parent), "results": results}
+              "results": results}
 
     def save():  # after every case: a run cut short by a time limit keeps what it measured
         if args.out:
@@ -347,7 +357,7 @@ def measure(args) -> int:
                 r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
                 setup_s = time.perf_counter() - start
                 rays = ray_throughput(r, size, args.ray_repeat)
-                results.append({"kind": "rays", "scene_name": name, "scene": path, "size": list(size),
+                results.append({"kind": "rays", "scene_name": name, "scene": portable(path), "size": list(size),
                                 "triangles": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
                                 "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
                 r.release()
@@ -364,7 +374,7 @@ def measure(args) -> int:
                                     "integrator": integrator, "reason": str(exc)})
                     save()
                     continue
-                case.update(kind="frame", scene_name=name, scene=path, integrator=integrator,
+                case.update(kind="frame", scene_name=name, scene=portable(path), integrator=integrator,
                             triangles=scene.triangle_count, load_seconds=load_s)
                 results.append(case)
                 save()

@@ -62,7 +62,7 @@ def main(argv=None) -> int:
     result = {"variant": args.variant, "size": [w, h], "max_depth_bounces": args.max_depth, "spp": 1,
               "frame_ms_median": 1e3 * statistics.median(times), "frame_ms_min": 1e3 * min(times),
               "frame_ms_all": [1e3 * t for t in times], "warmup_seconds": warm_s, "image_shape": shape,
-              "mitsuba": mi.__version__, "drjit": dr.__version__, "scene": str(args.scene)}
+              "mitsuba": mi.__version__, "drjit": dr.__version__, "scene": args.scene.name}
     print(f"mitsuba {mi.__version__} {args.variant} {w}x{h} 1 spp depth {args.max_depth}: "
           f"median {result['frame_ms_median']:.2f} ms, min {result['frame_ms_min']:.2f} ms "
           f"(warm-up {warm_s:.1f} s)", flush=True)
