@@ -214,8 +214,8 @@ def ab(args) -> int:
     (A, B, A, B, ...), on the same scene buffers: on a busy machine (llvmpipe on shared
     cores) the load then hits every version alike, and the ratio of the medians holds even
     where single timings scatter by 2x. --variant LABEL=TREE:LAYOUT takes TREE/shaders/lift/
-    bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, bvh.glsl before issue 10)
-    or records (accel/gpu_layout.py)."""
+    bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, what lift-gl's bvh.glsl
+    reads) or records (benchmarks/bvh_records.py, what the gpu-speed experiments read)."""
     from lift_gl.cli import _size
     from lift_gl.gl.context import create_context, describe, is_software
     from lift_gl.passes.camera import camera_uniforms
@@ -223,6 +223,8 @@ def ab(args) -> int:
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
     from lift_gl.shaders import assemble, compile_compute
+
+    from bvh_records import gpu_nodes  # benchmarks/: the records experiment
 
     variants = []
     for text in args.variant:
@@ -247,7 +249,7 @@ def ab(args) -> int:
             for label, tree, layout in variants:
                 progs.append(compile_compute(ctx, assemble(RAY_SHADER, defines, include_dirs=[tree / "shaders"],
                                                            main_name=f"<gpu.py ray kinds, {label}>")))
-                data = r.packed.bvh_nodes if layout == "binary" else r.packed.bvh_gpu
+                data = r.packed.bvh_nodes if layout == "binary" else gpu_nodes(r.packed.bvh_nodes)
                 nodes.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
 
             w, h = size

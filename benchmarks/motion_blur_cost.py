@@ -25,7 +25,6 @@ from lift_gl.renderer import Renderer
 from lift_gl.scene import Camera, Material, Scene
 from lift_gl.scene.features import SceneFeatures
 from lift_gl.scene.loader import framing_camera
-from lift_gl.scene.pack import gpu_motion
 from lift_gl.scene.mesh_io import load_mesh_file
 from lift_gl.scene.primitives import quad
 
@@ -61,9 +60,8 @@ def use_swept_boxes(renderer: Renderer) -> None:
     hi = np.maximum(nodes[:, 4:7], close[1::2, :3])
     nodes[:, 0:3], nodes[:, 4:7] = lo, hi
     close[0::2, :3], close[1::2, :3] = lo, hi
-    swept = dataclasses.replace(packed, bvh_nodes=nodes, motion=motion, bvh_gpu=None)
-    renderer.buffers.buffers["bvh_gpu"].write(swept.bvh_gpu.tobytes())
-    renderer.buffers.motion.write(gpu_motion(swept).tobytes())
+    renderer.buffers.buffers["bvh_nodes"].write(nodes.tobytes())
+    renderer.buffers.motion.write(motion.tobytes())
 
 
 def frame_ms(scene, size, frames, features=None, swept=False) -> tuple[float, Renderer]:

@@ -226,9 +226,7 @@ def gl():
 
 
 def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None):
-    """Trace rays with lift/bvh.glsl through the binary tree `nodes` (converted to the
-    records the shader reads); returns (t, prim, occluded, found, bary)."""
-    from lift_gl.accel.gpu_layout import gpu_nodes
+    """Trace rays with lift/bvh.glsl; returns (t, prim, occluded, found, bary)."""
     from lift_gl.shaders import assemble, compile_compute
 
     defines = {"HAS_SPHERES": True} if spheres is not None else {}
@@ -243,7 +241,7 @@ def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=No
     if spheres is not None and len(spheres):
         sph[: len(spheres), 0] = spheres
     dummy = np.zeros(16, np.float32)
-    data = {0: gpu_nodes(nodes), 1: tri_buf, 7: sph, 10: rays}
+    data = {0: nodes, 1: tri_buf, 7: sph, 10: rays}
     buffers = []
     for binding in list(range(9)) + [10]:
         buf = ctx.buffer(np.ascontiguousarray(data.get(binding, dummy)).tobytes())

@@ -135,7 +135,7 @@ def test_update_scene_renders_what_a_fresh_renderer_renders():
     edit.scale_object(scene, LIGHT, 0.7)
     edit.move_object(scene, LIGHT, [0.2, 0.0, 0.1])
     r.update_scene(scene, geometry=True)
-    assert {"bvh_gpu", "tri_pos", "lights"} <= set(r.uploaded) and r.trace.program is program
+    assert {"bvh_nodes", "tri_pos", "lights"} <= set(r.uploaded) and r.trace.program is program
     np.testing.assert_array_equal(r.render(spp=SPP), _fresh(scene))
 
     # A smooth mirror turned rough needs the rough-conductor code: recompiled.

@@ -5,12 +5,11 @@ import time
 
 import numpy as np
 
-from ..scene.pack import PackedScene, gpu_motion
+from ..scene.pack import PackedScene, still_motion
 
-# Binding points declared in shaders/lift/scene_data.glsl, by PackedScene field (the BVH in
-# the records the traversal reads: bvh_gpu, not the builder's bvh_nodes).
+# Binding points declared in shaders/lift/scene_data.glsl.
 SCENE_BINDINGS = {
-    "bvh_gpu": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
+    "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
     "materials": 5, "lights": 6, "spheres": 7, "images": 9,
 }
 STATS_BINDING = 8
@@ -51,7 +50,7 @@ class SceneBuffers:
     """The packed scene uploaded as SSBOs, plus the statistics counters.
 
     `motion`: the shaders are compiled with HAS_MOTION (default: when the scene moves), so
-    they read `motion`. A still scene compiled with every feature gets still_motion()'s rows."""
+    they read `motion`. A still scene compiled with every feature gets still_motion()."""
 
     def __init__(self, ctx, packed: PackedScene, motion: bool | None = None):
         self.ctx = ctx
@@ -60,7 +59,8 @@ class SceneBuffers:
                         for name in SCENE_BINDINGS}
         self.motion = None
         if packed.has_motion if motion is None else motion:
-            self.motion = ctx.buffer(np.ascontiguousarray(gpu_motion(packed)).tobytes())
+            rows = packed.motion if packed.has_motion else still_motion(packed)
+            self.motion = ctx.buffer(np.ascontiguousarray(rows).tobytes())
         self.stats = ctx.buffer(reserve=4 * NUM_STATS)
         self.reset_stats()
 
@@ -82,7 +82,8 @@ class SceneBuffers:
                 self.buffers[name].release()
                 self.buffers[name] = self.ctx.buffer(data)
         if self.motion is not None:
-            data = np.ascontiguousarray(gpu_motion(packed)).tobytes()
+            rows = packed.motion if packed.has_motion else still_motion(packed)
+            data = np.ascontiguousarray(rows).tobytes()
             if len(data) == self.motion.size:
                 self.motion.write(data)
             else:

@@ -20,7 +20,6 @@ import numpy as np
 
 from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached
-from ..accel.gpu_layout import gpu_close_boxes, gpu_nodes
 from .images import pack_images
 from .light_choice import light_uniforms
 from .model import Camera, Scene
@@ -32,7 +31,7 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 @dataclass
 class PackedScene:
-    bvh_nodes: np.ndarray  # float32 (N, 8): the builder's binary tree (accel/bvh.py; OpenCL reads it)
+    bvh_nodes: np.ndarray  # float32 (N, 8)
     tri_pos: np.ndarray  # float32 (T, 3, 4)
     tri_normal: np.ndarray  # float32 (T, 3, 4)
     tri_uv: np.ndarray  # float32 (T, 3, 4)
@@ -52,9 +51,6 @@ class PackedScene:
     # nothing moves (has_motion False): see still_motion().
     motion: np.ndarray | None = None  # float32 (T + S + 2 N, 4)
     has_motion: bool = False
-    # bvh_nodes as the GLSL traversal reads them: one record per interior node holding both
-    # children's boxes (accel/gpu_layout.py); None: derived from bvh_nodes on creation.
-    bvh_gpu: np.ndarray | None = None  # float32 (M, 16)
     # Textures and the environment map (images.py), and the uniforms that describe them and
     # the other lights (light_choice.py).
     images: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint32))
@@ -65,10 +61,6 @@ class PackedScene:
         """The camera in the rebased coordinates the GPU uses."""
         origin = self.origin if self.origin is not None else np.zeros(3)
         return replace(camera, position=camera.position - origin, target=camera.target - origin)
-
-    def __post_init__(self):
-        if self.bvh_gpu is None:
-            self.bvh_gpu = gpu_nodes(self.bvh_nodes)
 
 
 def _as_float_bits(values) -> np.ndarray:
@@ -165,15 +157,6 @@ def still_motion(packed: PackedScene) -> np.ndarray:
     anyway (every feature): no displacement, and node boxes at close = at open."""
     displacement = np.zeros((packed.num_triangles + packed.num_spheres, 4), np.float32)
     return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
-
-
-def gpu_motion(packed: PackedScene) -> np.ndarray:
-    """The `motion` buffer as the GLSL traversal reads it: the primitives' displacements, then
-    the node boxes at shutter close in the records' layout (accel/gpu_layout.py), four rows per
-    record. A still scene gets still_motion()'s rows (no displacement, close = open)."""
-    rows = packed.motion if packed.has_motion else still_motion(packed)
-    k = packed.num_triangles + packed.num_spheres
-    return np.concatenate([rows[:k], gpu_close_boxes(packed.bvh_nodes, rows[k:])])
 
 
 def pack_scene(scene: Scene, cache_dir=None, origin=None) -> PackedScene:

@@ -9,11 +9,9 @@
 #define MAT_DIELECTRIC 2
 #define MAT_PLASTIC 3
 
-// The BVH, one record of four vec4 per interior node (lift_gl/accel/gpu_layout.py), holding
-// its two children A and B: (A.lo.xyz, A.ref), (A.hi.xyz, A.count), (B.lo.xyz, B.ref),
-// (B.hi.xyz, B.count); ref and count are uint bits. count == 0: the child is interior and
-// ref its record; count > 0: a leaf of triangles ref .. ref + count - 1. Record 0 holds the
-// root's children; records are numbered depth first.
+// Two vec4 per node: (bmin.xyz, first), (bmax.xyz, count); first and count are uint bits.
+// count == 0: interior node, children are nodes `first` and `first + 1`.
+// count > 0: leaf holding triangles first .. first + count - 1.
 layout(std430, binding = 0) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
 // Three vec4 per triangle: corner positions (xyz); w unused.
 layout(std430, binding = 1) readonly buffer TriPositions { vec4 tri_pos[]; };
@@ -47,8 +45,8 @@ layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 // Motion blur. The arrays above hold every primitive where it is when the shutter opens,
 // and bvh_nodes the node boxes at that moment. `motion` holds, first, one vec4 per
 // primitive (triangles in BVH order, then spheres): its displacement (xyz, world space)
-// from shutter open to shutter close; then, from row u_num_triangles + u_num_spheres, four
-// vec4 per BVH record: its children's boxes at shutter close (A.lo, A.hi, B.lo, B.hi; xyz). Motion is a
+// from shutter open to shutter close; then, from row u_num_triangles + u_num_spheres, two
+// vec4 per BVH node: its box at shutter close (bmin.xyz), (bmax.xyz). Motion is a
 // translation, so normals, areas and light selection probabilities do not change.
 layout(std430, binding = 16) readonly buffer Motion { vec4 motion[]; };
 #endif

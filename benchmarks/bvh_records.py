@@ -1,20 +1,17 @@
-"""The BVH as the GLSL traversal reads it (shaders/lift/bvh.glsl): the builder's binary tree
-(accel/bvh.py: one row per node, boxes stored in the node itself) turned into one record per
-*interior* node that holds both children's boxes.
-
-Why: the traversal always tests both children of the node it is at. With the children's boxes
-in the parent, that is one 64-byte record (one cache line) fetched per step instead of three
-32-byte rows in three places, and a leaf is recognised (and its triangles tested) from its
-parent's record without a fetch of its own. Records are numbered depth first (a node's first
-child right after it), so a descent mostly walks forward through memory.
+"""An experiment of issue 10, kept for `benchmarks/gpu.py ab`: the builder's binary BVH
+(lift_gl/accel/bvh.py: one row per node, box in the node) turned into one record per
+*interior* node that holds both children's boxes, for a GLSL traversal that fetches one
+64-byte record per step and tests leaf children from their parent (branch gpu-speed, commit
+b18f611, shaders/lift/bvh.glsl there). On llvmpipe it traced 1.0-1.4x faster than the
+binary layout; on an H100 0.45-1.0x as fast (docs/gpu.md), so lift-gl does not use it.
 
 Record i, four float32 vec4 (columns 0..15 of row i):
     [A.lo.xyz, A.ref]  [A.hi.xyz, A.count]  [B.lo.xyz, B.ref]  [B.hi.xyz, B.count]
 for its two children A and B; ref and count are uint32 bit patterns. count == 0: the child
 is interior and ref its record; count > 0: the child is a leaf of triangles ref .. ref +
-count - 1 (the builder's order). Record 0 holds the root's children. A tree that is a single
-leaf (one or two triangles) gets one record whose children are that leaf twice; an empty one
-gets a record whose boxes no ray reaches (the traversal also skips it: u_num_triangles == 0).
+count - 1 (the builder's order). Record 0 holds the root's children; records are numbered
+depth first. A tree that is a single leaf gets one record whose children are that leaf
+twice; an empty one a record whose boxes no ray reaches.
 """
 from __future__ import annotations
 
