@@ -141,6 +141,17 @@ void main() {
 """
 
 
+def bind_as_storage(renderer) -> None:
+    """The scene's arrays as storage buffers, as the ray-kind shader declares them (it is
+    compiled without the defines that move small arrays into uniform blocks on CPU
+    rasterizers, so every version of bvh.glsl reads the same buffers)."""
+    from lift_gl.passes.common import SCENE_BINDINGS
+
+    renderer.buffers.bind()
+    for name, binding in SCENE_BINDINGS.items():
+        renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
+
+
 def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     """Mrays/s of each ray kind (see the module docstring) for the renderer's scene and
     camera at `size`: the best of `repeat` dispatches (after one warm-up)."""
@@ -155,7 +166,7 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     w, h = size
     hits = ctx.buffer(reserve=32 * w * h)
     hits.bind_to_storage_buffer(10)
-    renderer.buffers.bind()
+    bind_as_storage(renderer)
     p = renderer.packed
     extent = float(np.max(p.bounds[1] - p.bounds[0])) or 1.0
     uniforms = dict(renderer.scene_uniforms, **camera_uniforms(renderer.camera, size),
@@ -254,7 +265,7 @@ def ab(args) -> int:
 
             w, h = size
             hits = ctx.buffer(reserve=32 * w * h)
-            r.buffers.bind()
+            bind_as_storage(r)
             hits.bind_to_storage_buffer(10)
             extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
             uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
