@@ -1,0 +1,540 @@
+"""GPU frame times per pass and ray throughput by ray kind, for the GPU machine (issue 10).
+
+    python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt]
+                                     [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
+    python benchmarks/gpu.py table FILE.json... [--md FILE.md]
+
+`measure`, for each scene, integrator and size: lift-gl bench's numbers
+(lift_gl/report/bench.py: pipelined frame time, each pass timed by a GL timer query and by
+the CPU clock around ctx.finish(), rays per path counted by the LIFT_COUNT_RAYS variant), at
+1 sample per pixel and path length --max-depth (the Lift paper's setting: 1 spp, 32).
+Then, per scene and size, Mrays/s by ray kind, measured by a ray-casting shader of this file
+that includes only lift/bvh.glsl (the traversal every plugin uses), one dispatch per kind,
+each timed by a GL timer query:
+  primary  - one closest-hit ray per pixel centre, camera to scene (coherent);
+  shadow   - one any-hit ray from each primary hit to a random point on a random emissive
+             triangle (trace_occluded), or, in a scene without one, along a cosine-distributed
+             direction out to infinity (environment visibility);
+  bounce   - one closest-hit ray from each primary hit in a cosine-distributed direction
+             (incoherent: neighbouring pixels' rays diverge).
+On a CPU rasterizer (llvmpipe) timer queries miss compute work, so there the CPU clock
+between two ctx.finish() calls times each dispatch instead.
+
+`lift_gl` is imported from $LIFT_GL_TREE when set (else this checkout), so one command can
+measure two versions of the renderer, alternately, on the same machine:
+    LIFT_GL_TREE=../base python benchmarks/gpu.py measure ... --label base --out base.json
+`table` prints the results of one or more such files side by side (ratios to the first).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, os.environ.get("LIFT_GL_TREE") or str(Path(__file__).resolve().parent.parent))
+
+# Lift (Soares et al. 2020), RTX 2070 with hardware ray tracing, 1920x1080, 1 spp, path
+# length 32 (the issue quotes them): frame ms by integrator and scene.
+LIFT_PAPER_MS = {
+    "pt": {"cornell-box": 4.8, "dining-room": 6.3, "classroom": 20.2},
+    "bdpt": {"cornell-box": 20.8, "dining-room": 18.6, "classroom": 52.4},
+}
+LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakfast Room",
+                     "classroom": "Japanese Classroom"}
+
+RAY_KINDS = ("primary", "shadow", "bounce")
+
+RAY_SHADER = """
+layout(local_size_x = 8, local_size_y = 8) in;
+#include "lift/bvh.glsl"
+
+uniform vec3 u_cam_pos;
+uniform vec3 u_cam_right;
+uniform vec3 u_cam_up;
+uniform vec3 u_cam_forward;
+uniform float u_tan_half_fov;
+uniform vec2 u_resolution;
+uniform int u_kind;        // 0 primary, 1 shadow, 2 bounce
+uniform uint u_seed;
+uniform float u_eps;       // offset of secondary ray origins, scaled to the scene
+
+// Two vec4 per pixel: the primary hit point (xyz) and prim (w bits, NO_HIT for a miss); the
+// geometric normal (xyz) and the last secondary ray's outcome (w: 1 hit or blocked, 0 not).
+// No atomics: the host counts rays and hits from this buffer (one atomic counter per ray
+// serialises incoherent rays on a GPU and would be timed with them).
+layout(std430, binding = 10) buffer PrimaryHits { vec4 primary_hits[]; };
+
+uint pcg(uint v) {
+    uint s = v * 747796405u + 2891336453u;
+    uint w = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    return (w >> 22u) ^ w;
+}
+float rnd(inout uint s) { s = pcg(s); return float(s >> 8) * (1.0 / 16777216.0); }
+
+vec3 cosine_dir(vec3 n, inout uint s) {
+    float u1 = rnd(s), u2 = rnd(s);
+    float r = sqrt(u1), phi = 6.28318530718 * u2;
+    vec3 t = normalize(abs(n.x) > 0.5 ? cross(n, vec3(0, 1, 0)) : cross(n, vec3(1, 0, 0)));
+    vec3 b = cross(n, t);
+    return normalize(r * cos(phi) * t + r * sin(phi) * b + sqrt(max(0.0, 1.0 - u1)) * n);
+}
+
+vec3 geometric_normal(uint prim, vec3 p) {
+    if (prim >= u_num_triangles) return normalize(p - spheres[2u * (prim - u_num_triangles)].xyz);
+    vec3 p0 = tri_pos[3u * prim].xyz;
+    return normalize(cross(tri_pos[3u * prim + 1u].xyz - p0, tri_pos[3u * prim + 2u].xyz - p0));
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= uint(u_resolution.x) || px.y >= uint(u_resolution.y)) return;
+    uint idx = px.y * uint(u_resolution.x) + px.x;
+    uint s = pcg(idx ^ pcg(u_seed));
+    if (u_kind == 0) {
+        vec2 ndc = (vec2(px) + 0.5) / u_resolution * 2.0 - 1.0;
+        float aspect = u_resolution.x / u_resolution.y;
+        vec3 d = normalize(u_cam_forward + ndc.x * u_tan_half_fov * aspect * u_cam_right
+                           + ndc.y * u_tan_half_fov * u_cam_up);
+        Hit hit;
+        bool found = trace_closest(Ray(u_cam_pos, d, 0.0, 1e30), hit);
+        vec3 p = u_cam_pos + hit.t * d;
+        vec3 n = found ? geometric_normal(hit.prim, p) : vec3(0.0);
+        if (dot(n, d) > 0.0) n = -n;
+        primary_hits[2u * idx] = vec4(p, uintBitsToFloat(found ? hit.prim : NO_HIT));
+        primary_hits[2u * idx + 1u] = vec4(n, 0.0);
+        return;
+    }
+    vec4 hp = primary_hits[2u * idx];
+    if (floatBitsToUint(hp.w) == NO_HIT) return;
+    vec3 n = primary_hits[2u * idx + 1u].xyz;
+    vec3 o = hp.xyz + u_eps * n;
+    if (u_kind == 1) {
+        Ray r;
+        if (u_num_lights > 0u) {
+            uint light = floatBitsToUint(lights[min(uint(rnd(s) * float(u_num_lights)), u_num_lights - 1u)].x);
+            vec3 q;
+            if (light < u_num_triangles) {
+                float a = sqrt(rnd(s)), b = rnd(s);
+                vec3 p0 = tri_pos[3u * light].xyz, p1 = tri_pos[3u * light + 1u].xyz, p2 = tri_pos[3u * light + 2u].xyz;
+                q = (1.0 - a) * p0 + a * (1.0 - b) * p1 + a * b * p2;
+            } else {
+                q = spheres[2u * (light - u_num_triangles)].xyz;
+            }
+            vec3 to = q - o;
+            float dist = length(to);
+            r = Ray(o, to / max(dist, 1e-20), 0.0, dist * (1.0 - 1e-4));
+        } else {
+            r = Ray(o, cosine_dir(n, s), 0.0, 1e30);
+        }
+        primary_hits[2u * idx + 1u].w = trace_occluded(r) ? 1.0 : 0.0;
+    } else {
+        Hit hit;
+        bool found = trace_closest(Ray(o, cosine_dir(n, s), 0.0, 1e30), hit);
+        primary_hits[2u * idx + 1u].w = found ? 1.0 : 0.0;
+    }
+}
+"""
+
+
+def bind_as_storage(renderer) -> None:
+    """The scene's arrays as storage buffers, as the ray-kind shader declares them (it is
+    compiled without the defines that move small arrays into uniform blocks on CPU
+    rasterizers, so every version of bvh.glsl reads the same buffers)."""
+    from lift_gl.passes.common import SCENE_BINDINGS
+
+    renderer.buffers.bind()
+    for name, binding in SCENE_BINDINGS.items():
+        renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
+
+
+def ray_throughput(renderer, size, repeat: int = 8) -> dict:
+    """Mrays/s of each ray kind (see the module docstring) for the renderer's scene and
+    camera at `size`: the best of `repeat` dispatches (after one warm-up)."""
+    from lift_gl.gl.context import is_software
+    from lift_gl.passes.camera import camera_uniforms
+    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.shaders import assemble, compile_compute
+
+    ctx = renderer.ctx
+    defines = {k: v for k, v in renderer.defines.items() if k in ("HAS_SPHERES",)}
+    program = compile_compute(ctx, assemble(RAY_SHADER, defines, main_name="<gpu.py ray kinds>"))
+    w, h = size
+    hits = ctx.buffer(reserve=32 * w * h)
+    hits.bind_to_storage_buffer(10)
+    bind_as_storage(renderer)
+    p = renderer.packed
+    extent = float(np.max(p.bounds[1] - p.bounds[0])) or 1.0
+    uniforms = dict(renderer.scene_uniforms, **camera_uniforms(renderer.camera, size),
+                    u_eps=1e-4 * extent, u_seed=0)
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    out = {}
+    for kind_index, kind in enumerate(RAY_KINDS):
+        best = None
+        for rep in range(repeat + 1):
+            set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
+            ctx.finish()
+            start = time.perf_counter_ns()
+            with query:
+                program.run(*groups(w, h))
+            ctx.finish()
+            ns = time.perf_counter_ns() - start if cpu else query.elapsed
+            if rep == 0:
+                continue  # warm-up
+            if best is None or ns < best:
+                best = ns
+        # The shadow and bounce kinds start from the primary hits of the last primary dispatch.
+        rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
+        hit = rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF
+        rays = w * h if kind == "primary" else int(hit.sum())
+        hits_of_kind = int(hit.sum()) if kind == "primary" else int((rows[hit, 1, 3] > 0.5).sum())
+        out[kind] = {"rays": rays, "hits": hits_of_kind, "ms": best / 1e6,
+                     "mrays_per_s": rays / max(best, 1) * 1e3}
+    for b in (hits, program):
+        b.release()
+    return out
+
+
+def ab_table(record: dict) -> str:
+    """Markdown of an `ab` record: speed-up of each version over the first, by ray kind, and
+    the first version's Mrays/s."""
+    labels = [v[0] for v in record["variants"]]
+    lines = [f"Machine: {record['gl']}. Median of {record['reps']} interleaved dispatches; speed-up = "
+             f"{labels[0]} time / version time.", "",
+             "| scene | size | triangles | " + " | ".join(f"{labels[0]} {k} Mrays/s" for k in RAY_KINDS) + " | "
+             + " | ".join(f"{k} {lab}" for k in RAY_KINDS for lab in labels[1:]) + " |",
+             "|" + "---|" * (3 + len(RAY_KINDS) * len(labels))]
+    for c in record["results"]:
+        w, h = c["size"]
+        hits = c.get("primary_hits", {}).get(labels[0])  # secondary rays start from the primary hits
+        rays = {"primary": w * h, "shadow": hits, "bounce": hits}
+        cells = [c["scene_name"], f"{w}x{h}", f"{c['triangles']:,}"]
+        cells += ["–" if rays[k] is None else _mrays(rays[k] / c["kinds"][k]["median_ms"][0] / 1e3) for k in RAY_KINDS]
+        cells += [f"{c['kinds'][k]['speedup_vs_first'][j]:.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def ab(args) -> int:
+    """Versions of lift/bvh.glsl against each other in one process, dispatch by dispatch
+    (A, B, A, B, ...), on the same scene buffers: on a busy machine (llvmpipe on shared
+    cores) the load then hits every version alike, and the ratio of the medians holds even
+    where single timings scatter by 2x. --variant LABEL=TREE:LAYOUT takes TREE/shaders/lift/
+    bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, what lift-gl's bvh.glsl
+    reads) or records (benchmarks/bvh_records.py, what the gpu-speed experiments read)."""
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe, is_software
+    from lift_gl.passes.camera import camera_uniforms
+    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.shaders import assemble, compile_compute
+
+    from bvh_records import gpu_nodes  # benchmarks/: the records experiment
+
+    variants = []
+    for text in args.variant:
+        label, rest = text.split("=", 1)
+        tree, layout = rest.rsplit(":", 1)
+        if layout not in ("binary", "records"):
+            raise SystemExit(f"--variant {text}: layout must be binary or records")
+        variants.append((label, Path(tree), layout))
+    ctx = create_context(args.backend)
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
+    results = []
+    record = {"gl": describe(ctx), "variants": [[v[0], v[2]] for v in variants], "reps": args.reps,
+              "results": results}
+    for path in args.scenes:
+        scene = load_scene(path)
+        for size in [_size(s.strip()) for s in args.sizes.split(",")]:
+            r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+            defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
+            progs, nodes = [], []
+            for label, tree, layout in variants:
+                progs.append(compile_compute(ctx, assemble(RAY_SHADER, defines, include_dirs=[tree / "shaders"],
+                                                           main_name=f"<gpu.py ray kinds, {label}>")))
+                data = r.packed.bvh_nodes if layout == "binary" else gpu_nodes(r.packed.bvh_nodes)
+                nodes.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
+
+            w, h = size
+            hits = ctx.buffer(reserve=32 * w * h)
+            bind_as_storage(r)
+            hits.bind_to_storage_buffer(10)
+            extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
+            uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
+            case = {"scene_name": scene_name(path), "size": list(size), "triangles": r.packed.num_triangles,
+                    "kinds": {}}
+            for kind_index, kind in enumerate(RAY_KINDS):
+                times = [[] for _ in variants]
+                for rep in range(args.reps + 1):
+                    for i, prog in enumerate(progs if rep % 2 == 0 else progs[::-1]):
+                        i = i if rep % 2 == 0 else len(progs) - 1 - i
+                        nodes[i].bind_to_storage_buffer(0)
+                        set_uniforms(prog, dict(uniforms, u_kind=kind_index, u_seed=rep))
+                        ctx.finish()
+                        start = time.perf_counter_ns()
+                        with query:
+                            prog.run(*groups(w, h))
+                        ctx.finish()
+                        ns = time.perf_counter_ns() - start if cpu else query.elapsed
+                        if rep:
+                            times[i].append(ns / 1e6)
+                if kind == "primary":
+                    # Every version must find the same primary hits (up to a few rays through
+                    # edges): one that misread the BVH would be fast and wrong.
+                    case["primary_hits"] = {}
+                    for (label, _, _), prog, buf in zip(variants, progs, nodes):
+                        buf.bind_to_storage_buffer(0)
+                        set_uniforms(prog, dict(uniforms, u_kind=0, u_seed=0))
+                        prog.run(*groups(w, h))
+                        rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
+                        case["primary_hits"][label] = int((rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF).sum())
+                med = [float(np.median(t)) for t in times]
+                case["kinds"][kind] = {"ms": times, "median_ms": med,
+                                       "speedup_vs_first": [med[0] / m for m in med]}
+            results.append(case)
+            print(f"{case['scene_name']} {w}x{h}: primary hits {case['primary_hits']}", flush=True)
+            print(f"{case['scene_name']} {w}x{h}: " + "; ".join(
+                f"{k} " + ", ".join(f"{v[0]} {m:.3f} ms" for v, m in zip(variants, c["median_ms"]))
+                for k, c in case["kinds"].items()), flush=True)
+            for b in (*progs, *nodes, hits):
+                b.release()
+            r.release()
+            if args.out:
+                args.out.write_text(json.dumps(record, indent=1))
+    text = ab_table(record)
+    print(text)
+    if args.md:
+        args.md.write_text(text + "\n")
+    return 0
+
+
+def portable(path) -> str:
+    """A scene path as the results keep it: from scenes_lift/ or scenes/ on, never a path of
+    the machine that ran the benchmark."""
+    text = str(path)
+    for marker, prefix in (("scenes_lift/", "../shared/scenes_lift/"), ("scenes/", "scenes/")):
+        if marker in text:
+            return prefix + text.rsplit(marker, 1)[1]
+    return Path(text).name
+
+
+def scene_name(path: str) -> str:
+    p = Path(path)
+    return p.parent.name if p.stem == "scene" else p.stem
+
+
+def measure(args) -> int:
+    import lift_gl
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe
+    from lift_gl.renderer import Renderer
+    from lift_gl.report.bench import bench_case
+    from lift_gl.report.machine import describe_machine, machine_line
+    from lift_gl.scene.loader import load_scene
+
+    sizes = [_size(s.strip()) for s in args.sizes.split(",")]
+    integrators = [s.strip() for s in args.integrators.split(",") if s.strip() not in ("", "none")]
+    ctx = create_context(args.backend)
+    machine = describe_machine(ctx)
+    from lift_gl.gl.context import is_software
+    machine["software_gl"] = bool(is_software(ctx))
+    print(f"machine: {machine_line(machine)}; {describe(ctx)}; lift_gl from {Path(lift_gl.__file__).parent.parent}",
+          flush=True)
+    from lift_gl.errors import LiftError
+
+    results = []
+    record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
+              "results": results}
+
+    def save():  # after every case: a run cut short by a time limit keeps what it measured
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(json.dumps(record, indent=1))
+
+    for path in args.scenes:
+        start = time.perf_counter()
+        scene = load_scene(path)
+        load_s = time.perf_counter() - start
+        name = scene_name(path)
+        for size in sizes:
+            if args.rays:
+                start = time.perf_counter()
+                r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+                setup_s = time.perf_counter() - start
+                rays = ray_throughput(r, size, args.ray_repeat)
+                results.append({"kind": "rays", "scene_name": name, "scene": portable(path), "size": list(size),
+                                "triangles": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
+                                "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
+                r.release()
+                save()
+                print(f"{name} {size[0]}x{size[1]} rays: " + ", ".join(
+                    f"{k} {v['mrays_per_s']:.1f} Mrays/s ({v['ms']:.3f} ms)" for k, v in rays.items()), flush=True)
+            for integrator in integrators:
+                try:
+                    case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames,
+                                      args.repeat, args.backend)
+                except LiftError as exc:  # e.g. bdpt refuses an environment map
+                    print(f"{name} {size[0]}x{size[1]} {integrator}: not run: {str(exc).splitlines()[0]}", flush=True)
+                    results.append({"kind": "skipped", "scene_name": name, "size": list(size),
+                                    "integrator": integrator, "reason": str(exc)})
+                    save()
+                    continue
+                case.update(kind="frame", scene_name=name, scene=portable(path), integrator=integrator,
+                            triangles=scene.triangle_count, load_seconds=load_s)
+                results.append(case)
+                save()
+                print(f"{name} {size[0]}x{size[1]} {integrator}: {case['frame_ms']:.2f} ms/frame; passes (query) "
+                      + ", ".join(f"{k} {v:.3f}" for k, v in case["pass_ms_query"].items()), flush=True)
+    save()
+    print(render_tables([record]))
+    return 0
+
+
+def _mrays(value: float) -> str:
+    return f"{value:.0f}" if value >= 100 else f"{value:.2g}" if value < 1 else f"{value:.1f}"
+
+
+def _frame_key(r):
+    return (r["scene_name"], tuple(r["size"]), r["integrator"])
+
+
+def render_tables(records: list[dict]) -> str:
+    """Markdown: frame table (per-pass GPU ms by timer query) and ray table; with several
+    records, one column group per record and the ratio of each to the first."""
+    labels = [r.get("label") or f"run{i}" for i, r in enumerate(records)]
+    gpu = "GPU timer queries" if not records[0]["machine"].get("software_gl") else "CPU clock (llvmpipe)"
+    lines = [f"Machine: {records[0]['gl']}; path length {records[0]['max_depth']}, 1 spp; "
+             f"pass times: {gpu}. Runs: {', '.join(labels)}.", ""]
+    frames = [{_frame_key(r): r for r in rec["results"] if r["kind"] == "frame"} for rec in records]
+    keys = list(frames[0])
+    head = ["scene", "size", "integrator", "triangles"]
+    for label in labels:
+        head += [f"{label} gbuffer ms", f"{label} trace ms", f"{label} frame ms", f"{label} Mrays/s"]
+    if len(records) > 1:
+        head += [f"trace {lab}/{labels[0]}" for lab in labels[1:]]
+    head += ["Lift paper ms (RTX 2070)"]
+    lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for key in keys:
+        first = frames[0][key]
+        cells = [key[0], f"{key[1][0]}x{key[1][1]}", key[2], f"{first['triangles']:,}"]
+        for table in frames:
+            r = table.get(key)
+            if r is None:
+                cells += ["–"] * 4
+                continue
+            q = r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"]
+            cells += [f"{q.get('gbuffer', 0):.3f}", f"{q.get('trace', 0):.3f}", f"{r['frame_ms']:.3f}",
+                      _mrays(r['rays_per_second'] / 1e6)]
+        for table in frames[1:]:
+            r = table.get(key)
+            qa = first["pass_ms_query"] if not records[0]["machine"].get("software_gl") else first["pass_ms_sync"]
+            qb = None if r is None else (r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"])
+            cells.append("–" if qb is None else f"{qb['trace'] / qa['trace']:.3f}")
+        paper = LIFT_PAPER_MS.get(key[2], {}).get(key[0]) if key[1] == (1920, 1080) else None
+        cells.append("–" if paper is None else f"{paper}")
+        lines.append("| " + " | ".join(cells) + " |")
+    rays = [{(r["scene_name"], tuple(r["size"])): r for r in rec["results"] if r["kind"] == "rays"} for rec in records]
+    if rays[0]:
+        lines += ["", "Mrays/s by ray kind (ray-casting shader over lift/bvh.glsl, best of the dispatches):", ""]
+        head = ["scene", "size", "triangles"]
+        for label in labels:
+            head += [f"{label} {k}" for k in RAY_KINDS]
+        if len(records) > 1:
+            head += [f"{k} {lab}/{labels[0]}" for lab in labels[1:] for k in RAY_KINDS]
+        lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for key, first in rays[0].items():
+            cells = [key[0], f"{key[1][0]}x{key[1][1]}", f"{first['triangles']:,}"]
+            for table in rays:
+                r = table.get(key)
+                cells += ["–"] * 3 if r is None else [_mrays(r['rays'][k]['mrays_per_s']) for k in RAY_KINDS]
+            for table in rays[1:]:
+                r = table.get(key)
+                for k in RAY_KINDS:
+                    cells.append("–" if r is None else
+                                 f"{r['rays'][k]['mrays_per_s'] / first['rays'][k]['mrays_per_s']:.3f}")
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def best_of(records: list[dict]) -> dict:
+    """Several runs of the same label merged: each case's fastest (for interleaved repeats);
+    a case missing from some runs (cut short) keeps the runs that have it."""
+    software = records[0]["machine"].get("software_gl")
+    cases: dict = {}
+    for rec in records:
+        for r in rec["results"]:
+            if r["kind"] in ("frame", "rays"):
+                key = (r["kind"], r["scene_name"], tuple(r["size"]), r.get("integrator"))
+                cases.setdefault(key, []).append(r)
+    results = []
+    for (kind, *_), alts in cases.items():
+        if kind == "frame":
+            results.append(min(alts, key=lambda a: a["pass_ms_sync" if software else "pass_ms_query"]["trace"]))
+        else:
+            results.append(dict(alts[0], rays={k: max((a["rays"][k] for a in alts), key=lambda v: v["mrays_per_s"])
+                                               for k in RAY_KINDS}))
+    return dict(records[0], results=results, runs=len(records))
+
+
+def table_cmd(args) -> int:
+    by_label: dict[str, list] = {}
+    for f in args.files:
+        rec = json.loads(Path(f).read_text())
+        if "variants" in rec:  # an `ab` record
+            text = ab_table(rec)
+            print(text)
+            if args.md:
+                args.md.write_text(text + "\n")
+            return 0
+        by_label.setdefault(rec.get("label") or f, []).append(rec)
+    records = [best_of(recs) for recs in by_label.values()]
+    text = render_tables(records)
+    print(text)
+    if args.md:
+        args.md.write_text(text + "\n")
+    return 0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    m = sub.add_parser("measure")
+    m.add_argument("scenes", nargs="+")
+    m.add_argument("--sizes", default="1280x720,1920x1080")
+    m.add_argument("--integrators", default="pt,bdpt", help="comma-separated; none: only the ray kinds")
+    m.add_argument("--max-depth", type=int, default=32)
+    m.add_argument("--frames", type=int, default=16)
+    m.add_argument("--repeat", type=int, default=2)
+    m.add_argument("--ray-repeat", type=int, default=8)
+    m.add_argument("--no-rays", dest="rays", action="store_false")
+    m.add_argument("--backend", default="auto")
+    m.add_argument("--label", default="")
+    m.add_argument("--out", type=Path)
+    m.set_defaults(func=measure)
+    v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
+    v.add_argument("scenes", nargs="+")
+    v.add_argument("--variant", action="append", required=True, metavar="LABEL=TREE:binary|records")
+    v.add_argument("--sizes", default="160x90")
+    v.add_argument("--reps", type=int, default=15)
+    v.add_argument("--backend", default="auto")
+    v.add_argument("--out", type=Path)
+    v.add_argument("--md", type=Path)
+    v.set_defaults(func=ab)
+    t = sub.add_parser("table")
+    t.add_argument("files", nargs="+")
+    t.add_argument("--md", type=Path)
+    t.set_defaults(func=table_cmd)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

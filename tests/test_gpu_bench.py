@@ -1,0 +1,57 @@
+"""benchmarks/gpu.py's bookkeeping: merging interleaved runs, the ratio tables, and results
+that keep no paths of the machine that ran them."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+_SPEC = importlib.util.spec_from_file_location("gpu_bench", Path(__file__).resolve().parent.parent / "benchmarks" / "gpu.py")
+gpu = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(gpu)
+
+
+def frame(scene, trace_ms, label_rays=100.0):
+    return {"kind": "frame", "scene_name": scene, "size": [1920, 1080], "integrator": "pt", "triangles": 36,
+            "pass_ms_query": {"gbuffer": 1.0, "trace": trace_ms}, "pass_ms_sync": {"gbuffer": 1.0, "trace": trace_ms},
+            "frame_ms": trace_ms + 1.0, "rays_per_second": label_rays * 1e6}
+
+
+def rays(scene, mrays):
+    return {"kind": "rays", "scene_name": scene, "size": [1920, 1080], "triangles": 36,
+            "rays": {k: {"mrays_per_s": mrays, "rays": 1, "hits": 1, "ms": 1.0} for k in gpu.RAY_KINDS}}
+
+
+def record(label, results):
+    return {"label": label, "machine": {"software_gl": False}, "gl": "test GPU", "max_depth": 32, "results": results}
+
+
+def test_best_of_takes_each_cases_fastest_and_keeps_cases_of_cut_runs():
+    a = record("base", [frame("cornell-box", 12.0), rays("cornell-box", 900.0), frame("classroom", 150.0)])
+    b = record("base", [frame("cornell-box", 11.0), rays("cornell-box", 1000.0)])  # cut short: no classroom
+    merged = gpu.best_of([a, b])
+    by = {(r["kind"], r["scene_name"]): r for r in merged["results"]}
+    assert by[("frame", "cornell-box")]["pass_ms_query"]["trace"] == 11.0
+    assert by[("rays", "cornell-box")]["rays"]["bounce"]["mrays_per_s"] == 1000.0
+    assert by[("frame", "classroom")]["pass_ms_query"]["trace"] == 150.0
+
+
+def test_tables_give_ratios_to_the_first_run_and_the_paper_at_1080p():
+    base = record("base", [frame("cornell-box", 10.0), rays("cornell-box", 800.0)])
+    new = record("new", [frame("cornell-box", 15.0), rays("cornell-box", 400.0)])
+    text = gpu.render_tables([base, new])
+    row = next(line for line in text.splitlines() if line.startswith("| cornell-box") and "pt" in line)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[-2] == "1.500" and cells[-1] == "4.8"   # trace new/base, Lift's 4.8 ms
+    ray_row = [line for line in text.splitlines() if line.startswith("| cornell-box")][-1]
+    assert ray_row.rstrip(" |").endswith("0.500")
+
+
+@pytest.mark.parametrize("path, expect", [
+    ("/somewhere/shared/scenes_lift/classroom/scene.pbrt", "../shared/scenes_lift/classroom/scene.pbrt"),
+    ("/home/x/checkout/scenes/covered_dragon.toml", "scenes/covered_dragon.toml"),
+    ("/tmp/elsewhere/mine.toml", "mine.toml"),
+])
+def test_results_keep_no_machine_paths(path, expect):
+    assert gpu.portable(path) == expect
