@@ -3,7 +3,7 @@ flicker less than denoising a fresh image every frame? Results in docs/denoiser.
 motion".
 
     python benchmarks/denoise_motion.py [--size 96] [--frames 16] [--spp 1] [--step 0.025]
-        [--ref-spp 256] [--denoisers none,atrous,onnx,oidn] [--cache DIR] [--out FILE.json]
+        [--ref-spp 256] [--seed 7] [--denoisers none,atrous,onnx,oidn] [--cache DIR] [--out FILE.json]
         [--figure FILE.png]
 
 The camera pans over scenes/cornell.toml as in benchmarks/temporal_pan.py (whose pan,
@@ -102,6 +102,7 @@ def main() -> None:
     parser.add_argument("--spp", type=int, default=1, help="samples a frame")
     parser.add_argument("--step", type=float, default=0.025)
     parser.add_argument("--ref-spp", type=int, default=256)
+    parser.add_argument("--seed", type=int, default=7, help="of the pan (the references' seeds are fixed)")
     parser.add_argument("--denoisers", default="none,atrous,onnx,oidn",
                         help="comma-separated: none and names from lift_gl.denoise (oidn skipped if pyoidn is absent)")
     parser.add_argument("--cache", type=Path, help="folder for the references")
@@ -122,7 +123,8 @@ def main() -> None:
     runs, results = {}, {}
     for d in denoisers:
         for t in TEMPORAL:
-            runs[f"{t}/{d}"] = run_pan(scene, args.size, args.frames, args.step, settings_for(t, d), ctx, spp=args.spp)
+            runs[f"{t}/{d}"] = run_pan(scene, args.size, args.frames, args.step, settings_for(t, d), ctx, spp=args.spp,
+                                       seed=args.seed)
             results[f"{t}/{d}"] = evaluate(runs[f"{t}/{d}"], refs)
             print(f"{t}/{d}: " + ", ".join(f"{k} {v:.4f}" for k, v in results[f"{t}/{d}"].items()), file=sys.stderr)
     reference_change = mean_change(refs)
@@ -134,7 +136,7 @@ def main() -> None:
     if args.out:
         args.out.write_text(json.dumps({
             "machine": f"{platform.node()} {platform.processor() or platform.machine()}, {describe(ctx)}",
-            "settings": {k: getattr(args, k) for k in ("size", "frames", "spp", "step", "ref_spp")},
+            "settings": {k: getattr(args, k) for k in ("size", "frames", "spp", "step", "ref_spp", "seed")},
             "denoisers": denoisers, "results": results, "reference_change": reference_change}, indent=1))
 
 

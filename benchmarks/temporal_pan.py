@@ -67,18 +67,18 @@ def references(scene, size, frames, step, spp, cache: Path | None, ctx) -> list[
     return refs
 
 
-def run_pan(scene, size, frames, step, settings, ctx, spp: int = 1) -> list[np.ndarray]:
+def run_pan(scene, size, frames, step, settings, ctx, spp: int = 1, seed: int = 7) -> list[np.ndarray]:
     """The images shown along the pan, `spp` samples a frame; settings: Renderer keywords,
     plus reseed (a new seed at every reset)."""
     settings = dict(settings)
     reseed = settings.pop("reseed", False)
-    r = Renderer(scene, size=(size, size), seed=7, ctx=ctx, **settings)
+    r = Renderer(scene, size=(size, size), seed=seed, ctx=ctx, **settings)
     images = []
     for f in range(frames):
         if f:
             r.set_camera(pan_camera(scene.camera, f, step))
             if reseed:  # a reset restarts the frame sequence: the same noise each frame unless reseeded
-                r.reset(seed=7 + f)
+                r.reset(seed=seed + f)
         images.append(r.render(spp=spp))
     r.release()
     return images
