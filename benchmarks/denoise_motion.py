@@ -4,7 +4,7 @@ motion".
 
     python benchmarks/denoise_motion.py [--size 96] [--frames 16] [--spp 1] [--step 0.025]
         [--ref-spp 256] [--seed 7] [--denoisers none,atrous,onnx,oidn] [--cache DIR] [--out FILE.json]
-        [--figure FILE.png]
+        [--figure FILE.png] [--reference-noise]
 
 The camera pans over scenes/cornell.toml as in benchmarks/temporal_pan.py (whose pan,
 references and runs this reuses): --step scene units to the right a frame, --spp samples a
@@ -21,7 +21,9 @@ times a denoiser run on every frame's mean (denoise="every"), or none. Per confi
                  itself does not explain (the references' own noise at --ref-spp adds a little
                  to theirs, so a perfect output would score slightly below 0);
   error change   mean |(out_f+1 - ref_f+1) - (out_f - ref_f)|: how much the error itself
-                 moves from frame to frame, whatever the content does.
+                 moves from frame to frame, whatever the content does; the references' own
+                 noise puts a floor under it (--reference-noise measures that floor with a
+                 second set of references).
 """
 from __future__ import annotations
 
@@ -106,6 +108,8 @@ def main() -> None:
     parser.add_argument("--denoisers", default="none,atrous,onnx,oidn",
                         help="comma-separated: none and names from lift_gl.denoise (oidn skipped if pyoidn is absent)")
     parser.add_argument("--cache", type=Path, help="folder for the references")
+    parser.add_argument("--reference-noise", action="store_true",
+                        help="also render a second set of references (other seeds) to measure their own noise")
     parser.add_argument("--out", type=Path, help="results JSON")
     parser.add_argument("--figure", type=Path, help="PNG of the last frame of every configuration")
     args = parser.parse_args()
@@ -128,16 +132,26 @@ def main() -> None:
             results[f"{t}/{d}"] = evaluate(runs[f"{t}/{d}"], refs)
             print(f"{t}/{d}: " + ", ".join(f"{k} {v:.4f}" for k, v in results[f"{t}/{d}"].items()), file=sys.stderr)
     reference_change = mean_change(refs)
+    reference_noise = None
+    if args.reference_noise:
+        # Two independent sets: their difference's error change is sqrt(2) times each one's floor.
+        second = references(scene, args.size, args.frames, args.step, args.ref_spp, args.cache, ctx, seed=5000)
+        between = error_change(refs, second)
+        reference_noise = {"error_change_between_sets": between, "floor_per_set": between / np.sqrt(2),
+                           "change_of_the_average": mean_change([(a + b) / 2 for a, b in zip(refs, second)])}
     print(f"pan over scenes/cornell.toml: {args.frames} frames, {args.step} scene units a frame, "
           f"{args.size}x{args.size}, {args.spp} spp a frame, denoise every frame; references {args.ref_spp} spp")
     print(markdown(results, denoisers, reference_change))
+    if reference_noise:
+        print("references' own noise: " + ", ".join(f"{k} {v:.4f}" for k, v in reference_noise.items()))
     if args.figure:
         figure(runs, refs, denoisers, args.figure)
     if args.out:
         args.out.write_text(json.dumps({
             "machine": f"{platform.node()} {platform.processor() or platform.machine()}, {describe(ctx)}",
             "settings": {k: getattr(args, k) for k in ("size", "frames", "spp", "step", "ref_spp", "seed")},
-            "denoisers": denoisers, "results": results, "reference_change": reference_change}, indent=1))
+            "denoisers": denoisers, "results": results, "reference_change": reference_change,
+            "reference_noise": reference_noise}, indent=1))
 
 
 if __name__ == "__main__":
