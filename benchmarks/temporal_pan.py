@@ -49,15 +49,17 @@ def pan_camera(camera, frame: int, step: float):
     return dataclasses.replace(camera, position=camera.position + shift, target=camera.target + shift)
 
 
-def references(scene, size, frames, step, spp, cache: Path | None, ctx) -> list[np.ndarray]:
+def references(scene, size, frames, step, spp, cache: Path | None, ctx, seed: int = 1000) -> list[np.ndarray]:
+    """Still renders from each frame's camera, frame f with seed `seed` + f."""
     refs = []
+    tag = "" if seed == 1000 else f"_s{seed}"  # the default's cache files keep their names
     for f in range(frames):
-        file = None if cache is None else cache / f"cornell_{size}_{step}_{f}_{spp}.npy"
+        file = None if cache is None else cache / f"cornell_{size}_{step}_{f}_{spp}{tag}.npy"
         if file is not None and file.is_file():
             refs.append(np.load(file))
             continue
         r = Renderer(dataclasses.replace(scene, camera=pan_camera(scene.camera, f, step)), size=(size, size),
-                     seed=1000 + f, ctx=ctx)
+                     seed=seed + f, ctx=ctx)
         refs.append(r.render(spp=spp))
         r.release()
         if file is not None:
@@ -67,17 +69,19 @@ def references(scene, size, frames, step, spp, cache: Path | None, ctx) -> list[
     return refs
 
 
-def run_pan(scene, size, frames, step, settings, ctx) -> list[np.ndarray]:
+def run_pan(scene, size, frames, step, settings, ctx, spp: int = 1, seed: int = 7) -> list[np.ndarray]:
+    """The images shown along the pan, `spp` samples a frame; settings: Renderer keywords,
+    plus reseed (a new seed at every reset)."""
     settings = dict(settings)
     reseed = settings.pop("reseed", False)
-    r = Renderer(scene, size=(size, size), seed=7, ctx=ctx, **settings)
+    r = Renderer(scene, size=(size, size), seed=seed, ctx=ctx, **settings)
     images = []
     for f in range(frames):
         if f:
             r.set_camera(pan_camera(scene.camera, f, step))
             if reseed:  # a reset restarts the frame sequence: the same noise each frame unless reseeded
-                r.reset(seed=7 + f)
-        images.append(r.render(spp=1))
+                r.reset(seed=seed + f)
+        images.append(r.render(spp=spp))
     r.release()
     return images
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from . import scaffold
 from .app.command import add_parser as add_view_parser
+from .denoise import DENOISERS
 from .errors import LiftError
 from .report import bench, compare
 
@@ -49,7 +50,7 @@ def _add_render(sub):
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
                    help="denoise the final image, or every frame (the output is then biased; default off)")
-    p.add_argument("--denoiser", choices=("atrous", "onnx", "oidn"), default="atrous",
+    p.add_argument("--denoiser", choices=DENOISERS, default="atrous",
                    help="atrous: GLSL edge-avoiding à-trous (default); onnx: the trained network; "
                         "oidn: Intel Open Image Denoise (pip install 'lift-gl[oidn]')")
     p.add_argument("--noisy-out", metavar="FILE", help="with --denoise: also write the noisy mean here")

@@ -100,7 +100,7 @@ class Renderer:
         (the history is reprojected; min_blend: the least weight a moving frame gets;
         clamp_sigma > 0: clamp the history to the frame's neighbourhood, BIASED).
         denoise: "off", "every" (each frame) or "final" (end of each render()), with `denoiser`
-        ("atrous", "onnx", "oidn"; lift_gl.denoise): BIASED, labelled as such.
+        ("atrous", "onnx", "oidn", "glsl"; lift_gl.denoise): BIASED, labelled as such.
         uniform_blocks: small scene arrays in uniform blocks (default: on CPU rasterizers)."""
         if temporal not in MODES:
             raise ValueError(f"temporal must be one of {', '.join(MODES)}, not {temporal!r}")
@@ -197,7 +197,10 @@ class Renderer:
         if self._numpy_denoiser is None:
             from .denoise import get_denoiser
 
-            self._numpy_denoiser = get_denoiser(self.denoiser, **self.denoiser_options)
+            options = dict(self.denoiser_options)
+            if self.denoiser == "glsl":  # its shaders run in the renderer's context, not a second one
+                options.setdefault("ctx", self.ctx)
+            self._numpy_denoiser = get_denoiser(self.denoiser, **options)
         return DenoisePass(self.ctx, self.size, self.denoiser, numpy_denoiser=self._numpy_denoiser)
 
     def set_denoise(self, mode: str | None = None, denoiser: str | None = None, options: dict | None = None) -> None:
@@ -224,6 +227,8 @@ class Renderer:
             raise
         if self.denoise_pass is not None:
             self.denoise_pass.release()
+        if old[3] is not None and old[3] is not self._numpy_denoiser and hasattr(old[3], "release"):
+            old[3].release()  # glsl: its GL buffers and programs
         self.denoise_pass = new_pass
         self._denoised_spp = None
         if self.timers is not None and new_pass is not None:
@@ -749,6 +754,9 @@ class Renderer:
             p.release()
         if self._prev_positions is not None:
             self._prev_positions.release()
+        if hasattr(self._numpy_denoiser, "release"):
+            self._numpy_denoiser.release()  # glsl: GL objects of this context
+            self._numpy_denoiser = None
         self.buffers.release()
 
 

@@ -111,6 +111,14 @@ def test_missing_onnx_model_module_is_one_clear_error(monkeypatch):
         get_denoiser("onnx")
 
 
+def test_glsl_without_onnx_is_one_clear_error(monkeypatch):
+    """The glsl denoiser reads its model with the onnx package: without it, get_denoiser names
+    the package at once, not at the first frame."""
+    monkeypatch.setitem(sys.modules, "onnx", None)
+    with pytest.raises(DenoiserError, match="pip install onnx"):
+        get_denoiser("glsl")
+
+
 def test_oidn_when_installed(scene):
     pytest.importorskip("pyoidn", reason="the oidn extra (pyoidn) is not installed: pip install 'lift-gl[oidn]'")
     reference = Renderer(scene, size=SIZE, seed=9)

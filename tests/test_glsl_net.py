@@ -242,9 +242,7 @@ def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
     network's bound carried through the output transform (divide by the exposure, times albedo)."""
     if not SHIPPED.is_file():
         pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
-    from lift_gl.denoise.demodulate import safe_albedo
     from lift_gl.denoise.glsl_denoiser import GlslDenoiser
-    from lift_gl.denoise.model_io import network_input
     from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
 
     rng = np.random.default_rng(4)
@@ -259,12 +257,49 @@ def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
     finally:
         glsl.release()
     want = OnnxDenoiser(providers=["CPUExecutionProvider"]).denoise(color, albedo, normal)
+    bound = denoiser_bound(color, albedo, normal, want)
+    assert got.shape == want.shape == (h, w, 3)
+    assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
+
+
+def denoiser_bound(color, albedo, normal, want):
+    """How far GlslDenoiser may differ from OnnxDenoiser on these inputs: the network's
+    rounding bound (above) carried through the output transform (divide by the exposure,
+    times albedo), plus the output transform's own two roundings on each side."""
+    from lift_gl.denoise.demodulate import safe_albedo
+    from lift_gl.denoise.model_io import network_input
+
+    h, w = color.shape[:2]
     x, exposure = network_input(color, albedo, normal)
     _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16))
     bound = 6 * np.sqrt(2 * variance[0, :, :h, :w]).transpose(1, 2, 0) / exposure * safe_albedo(np.clip(albedo, 0, 1))
-    bound += 4 * U * np.abs(want)  # the two roundings of the output transform, on each side
-    assert got.shape == want.shape == (h, w, 3)
-    assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
+    return bound + 4 * U * np.abs(want)
+
+
+def test_cli_glsl_denoiser_matches_onnx(tmp_path, capsys):
+    """`lift-gl render --denoise final --denoiser glsl` against `--denoiser onnx` on the repo's
+    Cornell box: the same noisy mean (same seed), the same guides (the G-buffer is rendered
+    unjittered), so the outputs differ only by the executors' rounding, within denoiser_bound
+    computed on the noisy mean and the guides the CLI writes."""
+    if not SHIPPED.is_file():
+        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
+    from lift_gl.cli import main
+
+    scene = str(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml")
+    common = [scene, "--size", "37x29", "--spp", "2", "--seed", "5"]
+    for name in ("glsl", "onnx"):
+        assert main(["render", *common, "--denoise", "final", "--denoiser", name,
+                     "--out", str(tmp_path / f"{name}.npy"), "--noisy-out", str(tmp_path / f"noisy_{name}.npy")]) == 0
+        assert f"denoised ({name}, final frame" in capsys.readouterr().out  # the executor asked for ran
+    for aov in ("albedo", "normal"):
+        assert main(["render", *common, "--aov", aov, "--out", str(tmp_path / f"{aov}.npy")]) == 0
+    got, want, noisy = (np.load(tmp_path / f"{n}.npy")[..., :3] for n in ("glsl", "onnx", "noisy_glsl"))
+    np.testing.assert_array_equal(noisy, np.load(tmp_path / "noisy_onnx.npy")[..., :3])
+    albedo, normal = (np.load(tmp_path / f"{n}.npy")[..., :3] for n in ("albedo", "normal"))
+    bound = denoiser_bound(noisy, albedo, normal, want)
+    assert got.shape == want.shape == (29, 37, 3)
+    assert np.abs(want - noisy).mean() > 1e3 * bound.mean()  # the denoiser did something the bound would see
+    assert (np.abs(got - want) <= bound).all(), (np.abs(got - want) / bound).max()
 
 
 def _save(tmp_path, nodes, inits=(), name="bad.onnx"):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..denoise import DENOISERS
 from ..errors import LiftError
 from .aov_view import AOV_VIEWS
 
@@ -76,7 +77,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--split", metavar="INTEGRATOR", help="split view: this integrator on the right")
     p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
                    help="denoise every frame, or the final frame (when the image freezes); default off")
-    p.add_argument("--denoiser", choices=("atrous", "onnx", "oidn"), default="atrous")
+    p.add_argument("--denoiser", choices=DENOISERS, default="atrous")
     p.add_argument("--noisy-split", action="store_true",
                    help="with --denoise: show the noisy image left and the denoised one right")
     p.add_argument("--ref", help="reference image: plots the error against render time")

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from ..errors import DenoiserError
 
-DENOISERS = ("atrous", "onnx", "oidn")
+DENOISERS = ("atrous", "onnx", "oidn", "glsl")
 MODES = ("off", "final", "every")
 # The label every denoised output carries (summary line, report, --explain), as biased plugins do.
 BIASED = ("the denoiser's output is biased: it trades noise for blur and does not converge to the "
@@ -25,7 +25,9 @@ def get_denoiser(name: str, **options):
 
     atrous: the GLSL à-trous filter (options: ctx, settings or its fields, backend);
     onnx: the trained network (lift_gl/denoise/onnx_denoiser.py; option model_path);
-    oidn: Intel Open Image Denoise through pyoidn (pip install 'lift-gl[oidn]').
+    oidn: Intel Open Image Denoise through pyoidn (pip install 'lift-gl[oidn]');
+    glsl: the onnx model's graph run by GLSL compute shaders (lift_gl/denoise/glsl_denoiser.py;
+    options model_path, ctx), needing the onnx package to read the model but not onnxruntime.
     """
     if name == "atrous":
         from .atrous import AtrousDenoiser
@@ -44,4 +46,12 @@ def get_denoiser(name: str, **options):
         from .oidn import OidnDenoiser
 
         return OidnDenoiser(**options)
+    if name == "glsl":
+        from importlib.util import find_spec
+
+        if find_spec("onnx") is None:  # the model is read on first use; say what is missing now
+            raise DenoiserError("the glsl denoiser reads the onnx model with the onnx package: pip install onnx") from None
+        from .glsl_denoiser import GlslDenoiser
+
+        return GlslDenoiser(**options)
     raise DenoiserError(f"unknown denoiser {name!r}; choose one of {', '.join(DENOISERS)}")

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..denoise import DENOISERS
 from ..errors import LiftError
 from .configurations import Configuration, parse_configurations
 
@@ -38,7 +39,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--denoise", default="off", metavar="MODES",
                    help="off,final,every: each configuration once per mode (final: each checkpoint denoised as if "
                         "it were the last; every: every frame; the denoiser's time counts as render time)")
-    p.add_argument("--denoiser", default="atrous", choices=("atrous", "onnx", "oidn"),
+    p.add_argument("--denoiser", default="atrous", choices=DENOISERS,
                    help="the denoiser of the modes other than off (default atrous)")
     budget = p.add_mutually_exclusive_group(required=True)
     budget.add_argument("--time", type=float, dest="seconds", help="equal time: render time of every run, in seconds")
