@@ -59,12 +59,13 @@ def machine(ctx=None) -> str:
     return text
 
 
-def render(name: str, out: Path, shared: Path) -> None:
+def render(name: str, out: Path, shared: Path, spp: int | None = None) -> None:
     from lift_gl import load_scene
     from lift_gl.image_io import write_image
     from lift_gl.renderer import Renderer
 
-    scene_file, size, spp, _ = JOBS[name]
+    scene_file, size, job_spp, _ = JOBS[name]
+    spp = spp or job_spp
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         scene = load_scene(shared / scene_file)
@@ -143,12 +144,16 @@ def main() -> None:
     parser.add_argument("jobs", nargs="*", help=f"default: all ({', '.join(JOBS)})")
     parser.add_argument("--out", type=Path, default=Path("out/figures"))
     parser.add_argument("--shared", type=Path, default=SHARED)
+    parser.add_argument("--spp", type=int, help="render: samples per pixel instead of the job's own")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     for name in args.jobs or list(JOBS):
         if name not in JOBS:
             parser.error(f"unknown job {name!r}; choose from {', '.join(JOBS)}")
-        (render if args.command == "render" else compare)(name, args.out, args.shared)
+        if args.command == "render":
+            render(name, args.out, args.shared, args.spp)
+        else:
+            compare(name, args.out, args.shared)
 
 
 if __name__ == "__main__":

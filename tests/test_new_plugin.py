@@ -62,8 +62,9 @@ def test_the_generated_test_catches_a_wrong_integrator(capsys, tmp_path):
     shader = tmp_path / "wrong" / "wrong.glsl"
     text = shader.read_text()
     # A classic mistake: light from the sky is forgotten.
-    assert "L += throughput * env_radiance(ray.dir);" in text
-    shader.write_text(text.replace("L += throughput * env_radiance(ray.dir);", ""))
+    sky = "if (counted) L += throughput * env_radiance(ray.dir);"
+    assert sky in text
+    shader.write_text(text.replace(sky, ""))
     result = run_generated_tests(tmp_path / "wrong", "-k", "furnace")
     assert result.returncode == 1 and "1 failed" in result.stdout, result.stdout + result.stderr
 
