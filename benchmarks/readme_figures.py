@@ -15,14 +15,12 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import shutil
 import sys
 from pathlib import Path
 
-from PIL import Image
-
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
+from hybrid_compare import scrub_paths, shrink_outputs  # noqa: E402  (this folder)
 from lift_gl.cli import main as lift_gl  # noqa: E402
 
 
@@ -44,10 +42,8 @@ def main() -> int:
                         "--measure-overhead", "--out", str(out)])
         if code:
             return code
-        shutil.rmtree(out / "images", ignore_errors=True)  # linear EXRs: large, and remade by this script
-        # Noisy images compress badly: a 256-colour palette keeps the committed PNG small.
-        sheet = Image.open(out / "contact_sheet.png").convert("RGB")
-        sheet.quantize(256, method=Image.Quantize.MEDIANCUT).save(out / "contact_sheet.png", optimize=True)
+        shrink_outputs(out)
+        scrub_paths(out, {str(args.shared.resolve()): "../shared", str(args.shared): "../shared"})
     if not args.skip_bench:
         text = io.StringIO()
         with contextlib.redirect_stdout(text):

@@ -2,6 +2,7 @@
 
     python benchmarks/scene_figures.py render [JOB ...] [--out out/figures]
     python benchmarks/scene_figures.py compare [JOB ...] [--out out/figures]
+    python benchmarks/scene_figures.py docs [JOB ...] [--out out/figures] [--docs docs/scenes]
 
 `render` renders each job's scene with `pt` as two independent halves (seeds 1 and 2, half
 the samples each) and writes JOB.exr (their mean: the full sample count), JOB_a.exr,
@@ -15,6 +16,9 @@ Mitsuba refs' convention), both also after box-downsampling by 4; relMSE against
 reference and the noise part of it (from the two halves); the mean brightness ratio.
 It writes JOB_side_by_side.png (ours | reference) for every job with a reference and
 JOB.png for the others.
+
+`docs` copies those PNGs, made small for the repository (a 256-colour palette; wider than
+`--max-width` pixels: box-downsampled), to the docs folder.
 """
 from __future__ import annotations
 
@@ -138,13 +142,33 @@ def compare(name: str, out: Path, shared: Path) -> dict | None:
     return result
 
 
+def docs_image(name: str, out: Path, docs: Path, max_width: int) -> Path | None:
+    """out/JOB_side_by_side.png (or JOB.png), smaller, as docs/JOB.png."""
+    from PIL import Image
+
+    source = next((p for p in (out / f"{name}_side_by_side.png", out / f"{name}.png") if p.exists()), None)
+    if source is None:
+        return None
+    image = Image.open(source).convert("RGB")
+    if image.width > max_width:
+        factor = -(-image.width // max_width)
+        image = image.reduce(factor)
+    docs.mkdir(parents=True, exist_ok=True)
+    target = docs / f"{name}.png"
+    image.quantize(256, method=Image.Quantize.MEDIANCUT).save(target, optimize=True)
+    print(f"{target}: {image.width}x{image.height}, {target.stat().st_size // 1024} KiB")
+    return target
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("command", choices=("render", "compare"))
+    parser.add_argument("command", choices=("render", "compare", "docs"))
     parser.add_argument("jobs", nargs="*", help=f"default: all ({', '.join(JOBS)})")
     parser.add_argument("--out", type=Path, default=Path("out/figures"))
     parser.add_argument("--shared", type=Path, default=SHARED)
     parser.add_argument("--spp", type=int, help="render: samples per pixel instead of the job's own")
+    parser.add_argument("--docs", type=Path, default=Path("docs/scenes"), help="docs: where the small PNGs go")
+    parser.add_argument("--max-width", type=int, default=660, help="docs: widest PNG, in pixels")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     for name in args.jobs or list(JOBS):
@@ -152,8 +176,10 @@ def main() -> None:
             parser.error(f"unknown job {name!r}; choose from {', '.join(JOBS)}")
         if args.command == "render":
             render(name, args.out, args.shared, args.spp)
-        else:
+        elif args.command == "compare":
             compare(name, args.out, args.shared)
+        else:
+            docs_image(name, args.out, args.docs, args.max_width)
 
 
 if __name__ == "__main__":
