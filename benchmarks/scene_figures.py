@@ -7,13 +7,16 @@
 `render` renders each job's scene with `pt` as two independent halves (seeds 1 and 2, half
 the samples each) and writes JOB.exr (their mean: the full sample count), JOB_a.exr,
 JOB_b.exr and JOB.json (size, spp, seconds, dropped samples, the machine). The two halves
-give the noise of the estimate without a reference. One job at a time.
+give the noise of the estimate without a reference. One job at a time. With `--chunk N`
+the halves advance N spp at a time and the files are rewritten after each round; `--until
+HH:MM` (UTC) stops there, and JOB.json records the spp reached.
 
 `compare` reads those files and, where the job has a reference, prints and writes to
 JOB_metrics.json: SSIM of the tone-mapped images (ACES, sRGB 8-bit, as `render --out
 x.png` writes them) and SSIM on sRGB-clipped linear values (lift_gl.metrics.ssim, the
 Mitsuba refs' convention), both also after box-downsampling by 4; relMSE against the
-reference and the noise part of it (from the two halves); the mean brightness ratio.
+reference and the noise part of it (from the two halves), with a z score of the difference
+(is the relMSE inside the noise band?); the mean brightness ratio.
 It writes JOB_side_by_side.png (ours | reference) for every job with a reference and
 JOB.png for the others.
 
@@ -63,37 +66,41 @@ def machine(ctx=None) -> str:
     return text
 
 
-def render(name: str, out: Path, shared: Path, spp: int | None = None) -> None:
+def render(name: str, out: Path, shared: Path, spp: int | None = None, chunk: int | None = None,
+           deadline: float | None = None) -> None:
+    """Both halves side by side, `chunk` spp at a time each, the files rewritten after every
+    round: on a shared machine a long render then leaves a usable result whenever it ends.
+    `deadline` (a time.time() value) ends it early, with the spp reached recorded."""
     from lift_gl import load_scene
     from lift_gl.image_io import write_image
     from lift_gl.renderer import Renderer
 
     scene_file, size, job_spp, _ = JOBS[name]
     spp = spp or job_spp
+    chunk = chunk or spp // 2
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         scene = load_scene(shared / scene_file)
-    halves, seconds, dropped, desc = [], 0.0, 0, ""
-    for seed in (1, 2):
-        r = Renderer(scene, size=size, seed=seed)
-        desc = machine(r.ctx)
-        start = time.perf_counter()
-
-        def progress(renderer, done, seed=seed, start=start):
-            if done % 64 == 0:
-                print(f"{name}: seed {seed}, {done} spp, {time.perf_counter() - start:.0f} s", flush=True)
-
-        halves.append(r.render(spp=spp // 2, progress=progress))
-        seconds += time.perf_counter() - start
-        dropped += r.stats.dropped_samples
+    renderers = [Renderer(scene, size=size, seed=seed) for seed in (1, 2)]
+    desc = machine(renderers[0].ctx)
+    seconds, done = 0.0, 0
+    while done < spp // 2 and (deadline is None or time.time() < deadline):
+        n = min(chunk, spp // 2 - done)
+        halves = []
+        for r in renderers:
+            start = time.perf_counter()
+            halves.append(r.render(spp=n))
+            seconds += time.perf_counter() - start
+        done += n
+        write_image(out / f"{name}_a.exr", halves[0])
+        write_image(out / f"{name}_b.exr", halves[1])
+        write_image(out / f"{name}.exr", 0.5 * (halves[0] + halves[1]))
+        info = {"scene": scene_file, "size": size, "spp": 2 * done, "spp_asked": spp, "seconds": seconds,
+                "dropped_samples": sum(r.stats.dropped_samples for r in renderers), "machine": desc}
+        (out / f"{name}.json").write_text(json.dumps(info, indent=2))
+        print(f"{name}: {2 * done} of {spp} spp, {seconds:.0f} s", flush=True)
+    for r in renderers:
         r.release()
-        print(f"{name}: seed {seed}, {spp // 2} spp done ({seconds:.0f} s so far)", flush=True)
-    write_image(out / f"{name}_a.exr", halves[0])
-    write_image(out / f"{name}_b.exr", halves[1])
-    write_image(out / f"{name}.exr", 0.5 * (halves[0] + halves[1]))
-    info = {"scene": scene_file, "size": size, "spp": spp, "seconds": seconds, "dropped_samples": dropped,
-            "machine": desc}
-    (out / f"{name}.json").write_text(json.dumps(info, indent=2))
     print(json.dumps(info), flush=True)
 
 
@@ -133,8 +140,16 @@ def compare(name: str, out: Path, shared: Path) -> dict | None:
     if (out / f"{name}_a.exr").exists():
         a, b = (read_image(out / f"{name}_{k}.exr").astype(np.float64) for k in "ab")
         # The mean of two independent halves: its variance is E[(a - b)^2] / 4.
-        result["rel_mse_noise"] = float(np.mean((a - b) ** 2 / (ref ** 2 + metrics.REL_MSE_EPS)) / 4)
+        weight = 1.0 / (ref ** 2 + metrics.REL_MSE_EPS)
+        noise = (a - b) ** 2 / 4 * weight
+        result["rel_mse_noise"] = float(noise.mean())
         result["rel_mse_bias_estimate"] = result["rel_mse"] - result["rel_mse_noise"]
+        # Per pixel, (x - ref)^2 - (a - b)^2 / 4 has expectation bias^2 (plus the reference's
+        # own noise): zero for an unbiased render of the same scene. Pixels are independent,
+        # so their spread gives the standard error of its mean: z within about +-3 means the
+        # relMSE is inside the noise band the render's own halves predict.
+        excess = ((image - ref) ** 2 * weight - noise).mean(axis=-1).ravel()
+        result["rel_mse_excess_z"] = float(excess.mean() / (excess.std(ddof=1) / np.sqrt(excess.size)))
     side = np.concatenate([to_srgb8(image), np.full((size[1], 4, 3), 255, np.uint8), to_srgb8(ref)], axis=1)
     Image.fromarray(side).save(out / f"{name}_side_by_side.png")
     (out / f"{name}_metrics.json").write_text(json.dumps(result, indent=2))
@@ -160,6 +175,16 @@ def docs_image(name: str, out: Path, docs: Path, max_width: int) -> Path | None:
     return target
 
 
+def _deadline(until: str | None) -> float | None:
+    """HH:MM (UTC, today) as a time.time() value."""
+    if until is None:
+        return None
+    import datetime
+    hours, minutes = (int(v) for v in until.split(":"))
+    now = datetime.datetime.now(datetime.timezone.utc)
+    return now.replace(hour=hours, minute=minutes, second=0, microsecond=0).timestamp()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("command", choices=("render", "compare", "docs"))
@@ -167,6 +192,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("out/figures"))
     parser.add_argument("--shared", type=Path, default=SHARED)
     parser.add_argument("--spp", type=int, help="render: samples per pixel instead of the job's own")
+    parser.add_argument("--chunk", type=int, help="render: spp per half between two writes of the files")
+    parser.add_argument("--until", help="render: stop at this UTC time (HH:MM), keeping the spp reached")
     parser.add_argument("--docs", type=Path, default=Path("docs/scenes"), help="docs: where the small PNGs go")
     parser.add_argument("--max-width", type=int, default=660, help="docs: widest PNG, in pixels")
     args = parser.parse_args()
@@ -175,7 +202,7 @@ def main() -> None:
         if name not in JOBS:
             parser.error(f"unknown job {name!r}; choose from {', '.join(JOBS)}")
         if args.command == "render":
-            render(name, args.out, args.shared, args.spp)
+            render(name, args.out, args.shared, args.spp, args.chunk, _deadline(args.until))
         elif args.command == "compare":
             compare(name, args.out, args.shared)
         else:
