@@ -21,16 +21,19 @@ They hold for any unbiased light-transport integrator:
   - it renders the Cornell box, and never returns NaN or Inf;
   - white furnace: a diffuse sphere of albedo 0.8 under a sky of radiance 1 shows exactly 0.8
     (light that leaves a convex object never comes back to it, whatever the path length);
-  - it converges to the image pt converges to (independent renders; a t test per 8x8 block).
+  - it converges to the image pt converges to (independent renders; a t test per 8x8 block);
+  - once you keep an image as golden, it stays the same (a screenshot regression test).
 An integrator that computes something else (ambient occlusion, a Whitted-style ray tracer)
-fails the last two by design: replace them with the answers yours should give.
+fails the furnace and pt tests by design: replace them with the answers yours should give.
 """
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from lift_gl.renderer import Renderer
-from lift_gl.testing import assert_mean_is, assert_same_expectation, cornell_scene, furnace_scene, render_seeds
+from lift_gl.testing import (assert_image_close, assert_mean_is, assert_same_expectation, cornell_scene,
+                             furnace_scene, render_seeds)
 
 PLUGIN = str(Path(__file__).resolve().parent)  # this folder: found wherever it is moved
 SIZE = (32, 32)
@@ -55,6 +58,20 @@ def test_agrees_with_pt():
     mine = render_seeds(scene, PLUGIN, seeds=range(1, 17), spp=8, size=SIZE)
     reference = render_seeds(scene, "pt", seeds=range(101, 117), spp=8, size=SIZE)
     assert_same_expectation(mine, reference, block=8)
+
+
+def test_cornell_box_is_unchanged(golden, request):
+    """Skipped until you keep a golden image: once the image is right, run
+        python -m pytest {folder} --update-golden
+    to write golden/cornell.exr. Afterwards a change that alters the image fails, leaving
+    golden/cornell.actual.png and golden/cornell.diff.png to look at."""
+    path = golden("cornell.exr")
+    if not path.exists() and not request.config.getoption("--update-golden", default=False):
+        pytest.skip("no golden image yet: run pytest with --update-golden once the image is right")
+    image = Renderer(cornell_scene(), size=SIZE, integrator=PLUGIN, seed=1).render(spp=16)
+    # The same seed on the same driver renders the same image bit for bit; the tolerance
+    # only allows for float rounding. On another machine or driver, make the golden again.
+    assert_image_close(image, path, relmse=1e-6)
 '''
 
 
@@ -79,7 +96,7 @@ def cmd_new_plugin(args) -> int:
     found_as = args.name if on_path else str(folder)
     files = [("plugin.toml", "the manifest: name, entry file, parameters"),
              (entry, "your radiance(): start where it says YOUR TURN"),
-             (f"test_{args.name}.py", "checks it: renders, white furnace, agrees with pt")]
+             (f"test_{args.name}.py", "checks it: renders, white furnace, agrees with pt, golden image")]
     width = max(len(f) for f, _ in files) + 2
     print(f"created {_shown(folder)}/ from {args.source}:")
     for file, what in files:

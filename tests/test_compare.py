@@ -187,6 +187,33 @@ def test_compare_equal_time(capsys, tmp_path, furnace_reference):
     assert render[-1] >= 0.25
 
 
+def test_compare_pt_with_hybrid_writes_its_report(capsys, tmp_path, furnace_reference):
+    """The reduced-resolution `hybrid` plugin (two more passes, a `[reduced]` manifest) runs
+    under compare like any plugin. In the furnace all light is direct (nothing leaving the
+    convex sphere comes back), so hybrid's filtered indirect half is zero and, like pt, its
+    error against the reference is noise: relMSE over its own estimate is near 1."""
+    out = tmp_path / "cmp"
+    code, stdout, err = run_cli(capsys, "compare", FURNACE, "--integrators", "pt,hybrid:indirect_scale=4",
+                                "--spp", 16, "--seeds", 2, "--size", "24x24", "--ref", furnace_reference,
+                                "--out", out)
+    assert code == 0, err
+    for name in ("metrics.csv", "convergence.png", "contact_sheet.png", "report.md", "summary.json",
+                 "images/hybrid_indirect_scale=4.exr"):
+        assert (out / name).is_file(), name
+    rows = [r for r in read_csv(out / "metrics.csv") if r["configuration"] == "hybrid:indirect_scale=4"]
+    assert sorted({int(r["spp"]) for r in rows}) == [1, 2, 4, 8, 16] and len(rows) == 10
+    assert all(r["dropped_samples"] == "0" for r in rows)
+    # The written image is a plain hybrid render of the same seed.
+    plain = Renderer(load_scene(FURNACE), size=SIZE, seed=1, integrator="hybrid", params={"indirect_scale": 4})
+    np.testing.assert_array_equal(read_image(out / "images" / "hybrid_indirect_scale=4.exr"), plain.render(spp=16))
+    plain.release()
+    final = json.loads((out / "summary.json").read_text())["final"]
+    share = final["hybrid:indirect_scale=4"]["rel_mse"]["mean"] / final["hybrid:indirect_scale=4"]["est_rel_mse"]["mean"]
+    assert 0.5 < share < 2, share
+    report = (out / "report.md").read_text()
+    assert "## Verdict" in report and "`hybrid:indirect_scale=4`" in report
+
+
 def test_reference_is_rendered_once_then_read_from_the_cache(capsys, tmp_path, monkeypatch):
     monkeypatch.setenv("LIFT_GL_CACHE_DIR", str(tmp_path / "cache"))
     args = ["compare", FURNACE, "--spp", 2, "--seeds", 1, "--size", "16x16", "--out", tmp_path / "cmp"]

@@ -54,7 +54,7 @@ def test_scaffold_from_template_renders_and_its_test_passes(capsys, tmp_path):
 
     result = run_generated_tests(folder)
     assert result.returncode == 0, result.stdout + result.stderr
-    assert "3 passed" in result.stdout
+    assert "3 passed, 1 skipped" in result.stdout  # the golden test waits for --update-golden
 
 
 def test_the_generated_test_catches_a_wrong_integrator(capsys, tmp_path):
@@ -62,10 +62,28 @@ def test_the_generated_test_catches_a_wrong_integrator(capsys, tmp_path):
     shader = tmp_path / "wrong" / "wrong.glsl"
     text = shader.read_text()
     # A classic mistake: light from the sky is forgotten.
-    assert "L += throughput * env_radiance(ray.dir);" in text
-    shader.write_text(text.replace("L += throughput * env_radiance(ray.dir);", ""))
+    sky = "if (counted) L += throughput * env_radiance(ray.dir);"
+    assert sky in text
+    shader.write_text(text.replace(sky, ""))
     result = run_generated_tests(tmp_path / "wrong", "-k", "furnace")
     assert result.returncode == 1 and "1 failed" in result.stdout, result.stdout + result.stderr
+
+
+def test_the_generated_golden_test_keeps_the_image_once_it_is_right(capsys, tmp_path):
+    """--update-golden writes golden/cornell.exr; then the test passes; a change to the
+    shader fails it through lift_gl.testing.assert_image_close, which saves the images."""
+    cli(capsys, "new-plugin", "kept", "--dir", str(tmp_path))
+    folder = tmp_path / "kept"
+    result = run_generated_tests(folder, "-k", "unchanged", "--update-golden")
+    assert result.returncode == 0 and (folder / "golden" / "cornell.exr").is_file(), result.stdout + result.stderr
+    result = run_generated_tests(folder, "-k", "unchanged")
+    assert result.returncode == 0 and "1 passed" in result.stdout, result.stdout + result.stderr
+    shader = folder / "kept.glsl"
+    shader.write_text(shader.read_text().replace("throughput *= bs.weight;", "throughput *= 0.9 * bs.weight;"))
+    result = run_generated_tests(folder, "-k", "unchanged")
+    assert result.returncode == 1 and "image differs from the golden image" in result.stdout, result.stdout
+    saved = sorted(p.name for p in (folder / "golden").iterdir())
+    assert saved == ["cornell.actual.exr", "cornell.actual.png", "cornell.diff.png", "cornell.exr"]
 
 
 def test_a_copy_of_pt_renders_exactly_what_pt_renders(capsys, tmp_path, monkeypatch):
