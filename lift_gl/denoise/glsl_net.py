@@ -23,10 +23,19 @@ from .onnx_graph import ModelError, Plan, Step
 SHADER_DIR = shaders.SHADER_DIR / "denoise"
 LOCAL_SIZE = 8
 MAX_PARTS = 4  # input images of one conv or gather (shaders/denoise/conv.comp)
-# conv invocation's work: output layers (of 4 channels) and pixels of a row; chosen by
-# benchmarks/glsl_denoiser.py --variants (docs/glsl-denoiser.md)
+# conv invocation's work: output layers (of 4 channels) and pixels of a row, measured with
+# benchmarks/glsl_denoiser.py --variants (docs/glsl-denoiser.md): 1x8 was fastest on llvmpipe
+# (each weight load serves 8 pixels), 2x4 on an H100 (15.6 ms at 1080p against 25.0 for 1x8).
 DEFAULT_OUT_BLOCK = 1
 DEFAULT_PIXELS = 8
+GPU_OUT_BLOCK, GPU_PIXELS = 2, 4
+
+
+def default_shape(ctx) -> tuple[int, int]:
+    """The conv shape (output layers, pixels) for this context: CPU rasterizer or GPU."""
+    from ..gl.context import is_software
+
+    return (DEFAULT_OUT_BLOCK, DEFAULT_PIXELS) if is_software(ctx) else (GPU_OUT_BLOCK, GPU_PIXELS)
 NEAREST_MODES = ("floor", "ceil", "round_prefer_floor", "round_prefer_ceil")
 
 
@@ -56,12 +65,14 @@ def pack_weights(weight: np.ndarray, part_channels: list[int], out_block: int) -
 class GlslNet:
     """The steps of an ONNX model as compute dispatches on a moderngl context."""
 
-    def __init__(self, ctx, model_path, out_block: int = DEFAULT_OUT_BLOCK, pixels: int = DEFAULT_PIXELS):
+    def __init__(self, ctx, model_path, out_block: int | None = None, pixels: int | None = None):
+        """out_block, pixels: the conv kernel's shape; None: default_shape(ctx)."""
         self.ctx = ctx
         self.model_path = Path(model_path)
         self.plan = Plan(self.model_path)
-        self.out_block = int(out_block)
-        self.pixels = int(pixels)
+        default_block, default_pixels = default_shape(ctx)
+        self.out_block = int(default_block if out_block is None else out_block)
+        self.pixels = int(default_pixels if pixels is None else pixels)
         self.multiple = self.plan.multiple
         self.input_channels = self.plan.input_channels
         self.output_channels = self.plan.output_channels
