@@ -52,7 +52,8 @@ def test_gpu_path_equals_readback_path(renderer):
     assert got.shape == want.shape == (SIZE[1], SIZE[0], 3)
     assert np.abs(want - color).mean() > 1e3 * bound.mean()  # denoising changed far more than the bound
     worst = (np.abs(got - want) / bound).max()
-    print(f"largest |GPU - readback| {np.abs(got - want).max():.3g}, {worst:.3g} of the bound; outputs up to {want.max():.3g}")
+    print(f"largest |GPU - readback| {np.abs(got - want).max():.3g}, {worst:.3g} of the bound; "
+          f"outputs up to {want.max():.3g}")
     assert (np.abs(got - want) <= bound).all(), f"worst difference {worst:.3g} x the bound"
     # a flipped row, a shifted pad or a wrong exposure is far outside it
     assert not (np.abs(got[::-1] - want) <= bound).all()
