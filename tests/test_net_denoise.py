@@ -41,7 +41,21 @@ def read_inputs(renderer, gbuffer):
 
 def test_gpu_path_equals_readback_path(renderer):
     renderer.render(spp=2)
-    assert renderer.denoise_pass.net is not None  # the GPU road was taken
+    compare_roads(renderer)
+
+
+def test_picture_smaller_than_an_exposure_block():
+    """13x9: one exposure block of the whole picture (model_io.autoexposure's min(16, side))."""
+    r = Renderer(load_scene(SCENE), size=(13, 9), seed=2, denoise="final", denoiser="glsl")
+    try:
+        r.render(spp=1)
+        compare_roads(r)
+    finally:
+        r.release()
+
+
+def compare_roads(renderer):
+    assert renderer.denoise_pass.net is not None  # the GPU road is taken
     gbuffer = renderer._guides()
     renderer.denoise_pass.run(renderer.accumulate, gbuffer)
     got = renderer.denoise_pass.read()
@@ -49,7 +63,7 @@ def test_gpu_path_equals_readback_path(renderer):
     renderer._guides_done()
     want = renderer._numpy_denoiser.denoise(color, albedo, normal)
     bound = denoiser_bound(color, albedo, normal, want)
-    assert got.shape == want.shape == (SIZE[1], SIZE[0], 3)
+    assert got.shape == want.shape == (renderer.size[1], renderer.size[0], 3)
     assert np.abs(want - color).mean() > 1e3 * bound.mean()  # denoising changed far more than the bound
     worst = (np.abs(got - want) / bound).max()
     print(f"largest |GPU - readback| {np.abs(got - want).max():.3g}, {worst:.3g} of the bound; "
