@@ -30,6 +30,12 @@ class GlslDenoiser:
 
         self.net = GlslNet(self._ctx or create_context(), self.model_path, **self._net_options)
 
+    def network(self):
+        """The GlslNet (loaded on first use): passes/net_denoise.py feeds it from textures."""
+        if self.net is None:
+            self._load()
+        return self.net
+
     def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
         """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
         from .model_io import network_input, network_output  # the onnxruntime path's own preparation

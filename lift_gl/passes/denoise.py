@@ -8,7 +8,9 @@ The à-trous denoiser runs on the GPU from end to end: denoise_input.comp demodu
 mean by the albedo and adds the variance of its luminance (shaders/passes/
 denoise_variance.glsl), then passes/atrous.py filters and multiplies the albedo back. A numpy
 denoiser (onnx, oidn) gets the mean, the guides and the variance read back, and its result
-is uploaded again, so the tonemap pass and the viewer see it the same way.
+is uploaded again, so the tonemap pass and the viewer see it the same way. The GLSL network
+(denoiser "glsl") stays on the GPU instead: passes/net_denoise.py builds its input from these
+textures and remodulates its output, with no readback.
 
 `sum` and `compensation` name the output as the accumulation names its buffers, so the
 tonemap pass shows the denoised image by being handed this pass instead of the accumulation.
@@ -35,8 +37,13 @@ class DenoisePass:
         self.size = tuple(size)
         self.denoiser_name = denoiser_name
         self.numpy_denoiser = numpy_denoiser  # None: the GPU à-trous filter
-        self.atrous = self.input = self.irradiance = self.output = None
-        if numpy_denoiser is None:
+        self.atrous = self.input = self.irradiance = self.output = self.net = None
+        if getattr(numpy_denoiser, "name", None) == "glsl":
+            from .net_denoise import NetDenoise
+
+            self.net = NetDenoise(ctx, self.size, numpy_denoiser.network())
+            self.output = self.net.output  # _run_numpy (the readback road, for comparison) writes here too
+        elif numpy_denoiser is None:
             self.input = shaders.compile_compute(ctx, shaders.assemble(SOURCE))
             self.irradiance = ctx.texture(self.size, 4, dtype="f4")
             self.atrous = AtrousFilter(ctx, self.size, settings)
@@ -50,6 +57,9 @@ class DenoisePass:
         return self.output
 
     def run(self, accumulate, gbuffer) -> None:
+        if self.net is not None:
+            self.net.run(accumulate, gbuffer)
+            return
         if self.numpy_denoiser is not None:
             self._run_numpy(accumulate, gbuffer)
             return
@@ -87,7 +97,9 @@ class DenoisePass:
         for obj in (self.input, self.irradiance, self.compensation):
             if obj is not None:
                 obj.release()
-        if self.atrous is not None:
+        if self.net is not None:
+            self.net.release()  # owns self.output
+        elif self.atrous is not None:
             self.atrous.release()  # owns self.output in the GPU case
         elif self.output is not None:
             self.output.release()

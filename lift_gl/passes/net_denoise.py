@@ -1,0 +1,79 @@
+"""Network denoise pass: the GLSL network (lift_gl/denoise/glsl_net.py) fed from the renderer's
+textures, with no readback: what GlslDenoiser.denoise does in numpy (model_io.network_input,
+tiling's edge padding, model_io.network_output), done by three compute shaders.
+
+inputs:  accumulation (sum, compensation), G-buffer albedo and normal_depth
+outputs: radiance (RGBA32F, a = 1, the renderer's row order), the texture DenoisePass shows
+
+net_exposure.comp  the autoexposure (log-average of 16x16 block luminances) into a 4-byte SSBO
+net_input.comp     the (9, H', W') input tensor: demodulated mean x exposure, albedo, normal;
+                   y flipped to the tensor's top-first rows, padded to the net's multiple
+GlslNet.run()      the network
+net_output.comp    cropped, divided by the exposure, times the albedo, y flipped back
+"""
+from __future__ import annotations
+
+from .. import shaders
+from ..denoise.demodulate import EPS
+from ..denoise.model_io import EXPOSURE_BLOCK, EXPOSURE_KEY, EXPOSURE_RANGE
+from .common import groups, set_uniforms
+
+SHADER_DIR = shaders.SHADER_DIR / "passes"
+
+
+class NetDenoise:
+    name = "net denoise"
+    inputs = ("accumulation", "albedo", "normal_depth")
+    outputs = ("radiance",)
+
+    def __init__(self, ctx, size, net):
+        if net.input_channels != 9 or net.output_channels < 3:
+            raise ValueError(f"{net.model_path}: the renderer's network input is 9 channels -> 3 (model_io.py), "
+                             f"not {net.input_channels} -> {net.output_channels}")
+        self.ctx = ctx
+        self.size = tuple(size)
+        self.net = net
+        w, h = self.size
+        self.padded = (w + -w % net.multiple, h + -h % net.multiple)
+        self.exposure = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_exposure.comp"))
+        self.input = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_input.comp"))
+        self.remodulate = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_output.comp"))
+        self.exposure_buffer = ctx.buffer(reserve=4)
+        self.output = ctx.texture(self.size, 4, dtype="f4")
+
+    def _block_uniforms(self) -> dict:
+        """model_io.autoexposure's blocks: 16 a side, or the whole side when it is shorter."""
+        w, h = self.size
+        b = EXPOSURE_BLOCK
+        return {"u_block": (min(b, w), min(b, h)), "u_block_count": (max(w // b, 1), max(h // b, 1)),
+                "u_key": EXPOSURE_KEY, "u_range": tuple(float(r) for r in EXPOSURE_RANGE)}
+
+    def run(self, accumulate, gbuffer):
+        """Denoise the accumulation's mean into self.output (returned)."""
+        self.net.allocate(*self.padded)  # a no-op unless the net ran at another size meanwhile
+        common = {"u_albedo": 0, "u_albedo_eps": EPS, "u_normal_depth": 1, "u_size": self.size}
+        accumulate.sum.bind_to_image(0, read=True, write=False)
+        accumulate.compensation.bind_to_image(1, read=True, write=False)
+        gbuffer.albedo.use(location=0)
+        gbuffer.normal_depth.use(location=1)
+        self.exposure_buffer.bind_to_storage_buffer(0)
+        set_uniforms(self.exposure, {**common, **self._block_uniforms()})
+        self.exposure.run(1, 1, 1)
+        self.ctx.memory_barrier()
+        self.net.input_texture.bind_to_image(7, read=False, write=True)
+        set_uniforms(self.input, common)
+        self.input.run(*groups(*self.padded))
+        self.ctx.memory_barrier()
+        self.net.run()
+        self.exposure_buffer.bind_to_storage_buffer(0)  # the net's convs bound their weights there
+        gbuffer.albedo.use(location=0)
+        self.net.output_texture.bind_to_image(6, read=True, write=False)
+        self.output.bind_to_image(7, read=False, write=True)
+        set_uniforms(self.remodulate, common)
+        self.remodulate.run(*groups(*self.size))
+        self.ctx.memory_barrier()
+        return self.output
+
+    def release(self) -> None:
+        for obj in (self.exposure, self.input, self.remodulate, self.exposure_buffer, self.output):
+            obj.release()
