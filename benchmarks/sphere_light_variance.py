@@ -74,12 +74,13 @@ def main() -> None:
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--runs", type=int, default=32)
     parser.add_argument("--mitsuba", action="store_true", help="render with Mitsuba 3 instead (its Python)")
+    parser.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant (scalar_rgb needs no LLVM)")
     args = parser.parse_args()
     path = pathlib.Path(args.scene)
     ref = reference(path, args.size)
     if args.mitsuba:
         import mitsuba as mi
-        mi.set_variant("llvm_ad_rgb")
+        mi.set_variant(args.variant)
         scene = mi.load_file(str(path))
         film_size = scene.sensors()[0].film().size()
         assert int(film_size[0]) == args.size, f"the scene's film is {film_size}: pass --size {film_size[0]}"

@@ -2,9 +2,9 @@
 // environment, the distant lights or the emissive primitives) with the probabilities the
 // host computed (lift_gl/scene/light_choice.py), then one light of that kind: emissive
 // primitives in proportion to their power (the CDF in `lights`), a point uniformly on the
-// picked triangle, or on a sphere a direction uniform in the cone it subtends (uniform on
-// its area from inside); the environment uniformly over the sphere, or, with an environment map,
-// by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
+// picked triangle, or for a sphere a direction uniform in the cone it subtends (uniform on
+// its area from inside); the environment uniformly over the sphere, or, with an
+// environment map, by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
 // Every sampler has its pdf beside it.
 #ifndef LIFT_LIGHTS_GLSL
 #define LIFT_LIGHTS_GLSL
@@ -266,7 +266,8 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
             ls.pdf = select_pdf / (2.0 * LIFT_PI * one_minus_cos_max);
             return ls.pdf > 0.0 && ls.pdf < 1e30;
         }
-        // Inside: uniform on the area (every point faces p's side of the surface).
+        // Inside (or on it): uniform on the area, as for triangles; from inside the one-sided
+        // emission faces away, and the test below rejects the sample.
         n = sample_uniform_sphere(u.yz);
         point = cr.xyz + cr.w * n;
     }
