@@ -53,12 +53,14 @@ def reference(scene_path: pathlib.Path, size: int):
     return ref.reshape(size, f, size, f, 3).mean(axis=(1, 3))
 
 
-def summarise(stacks: dict, spp: int, ref) -> dict:
+def summarise(stacks: dict, spp: int, ref, save=None) -> dict:
     if ref is None:
         ref = np.mean([s.mean(axis=0) for s in stacks.values()], axis=0)
     out = {}
     for name, s in stacks.items():
         per_sample = s.var(axis=0, ddof=1) * spp
+        if save:
+            np.save(pathlib.Path(save) / f"variance_{name}.npy", per_sample.astype(np.float32))
         means = s.reshape(len(s), -1).mean(axis=1)
         out[name] = (per_sample.mean(), (per_sample / (ref ** 2 + 1e-2)).mean(),
                      means.mean(), means.std(ddof=1) / math.sqrt(len(means)))
@@ -74,6 +76,7 @@ def main() -> None:
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--runs", type=int, default=32)
     parser.add_argument("--mitsuba", action="store_true", help="render with Mitsuba 3 instead (its Python)")
+    parser.add_argument("--save", help="folder for the per-pixel variance maps (variance_NAME.npy)")
     parser.add_argument("--variant", default="llvm_ad_rgb", help="Mitsuba variant (scalar_rgb needs no LLVM)")
     args = parser.parse_args()
     path = pathlib.Path(args.scene)
@@ -85,7 +88,7 @@ def main() -> None:
         film_size = scene.sensors()[0].film().size()
         assert int(film_size[0]) == args.size, f"the scene's film is {film_size}: pass --size {film_size[0]}"
         images = [np.array(mi.render(scene, spp=args.spp, seed=run + 1), np.float64)[..., :3] for run in range(args.runs)]
-        summarise({"mitsuba": np.stack(images)}, args.spp, ref)
+        summarise({"mitsuba": np.stack(images)}, args.spp, ref, args.save)
         return
     from lift_gl.scene.loader import load_scene
     scene = load_scene(path)
@@ -97,7 +100,7 @@ def main() -> None:
             start = time.perf_counter()
             images[name].append(render_lift(cls, scene, args.size, args.spp, 1000 * run + (name == "area")))
             seconds[name] += time.perf_counter() - start
-    result = summarise({name: np.stack(v) for name, v in images.items()}, args.spp, ref)
+    result = summarise({name: np.stack(v) for name, v in images.items()}, args.spp, ref, args.save)
     print(f"area / cone, per sample: variance {result['area'][0] / result['cone'][0]:.2f}x, "
           f"relative variance {result['area'][1] / result['cone'][1]:.2f}x; wall time cone / area "
           f"{seconds['cone'] / seconds['area']:.2f}x ({args.runs} x {args.spp} spp at {args.size}x{args.size})")
