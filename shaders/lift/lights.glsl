@@ -2,8 +2,9 @@
 // environment, the distant lights or the emissive primitives) with the probabilities the
 // host computed (lift_gl/scene/light_choice.py), then one light of that kind: emissive
 // primitives in proportion to their power (the CDF in `lights`), a point uniformly on the
-// picked one; the environment uniformly over the sphere, or, with an environment map,
-// by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
+// picked triangle, or for a sphere a direction uniform in the cone it subtends (uniform on
+// its area from inside); the environment uniformly over the sphere, or, with an
+// environment map, by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
 // Every sampler has its pdf beside it.
 #ifndef LIFT_LIGHTS_GLSL
 #define LIFT_LIGHTS_GLSL
@@ -169,6 +170,42 @@ uint pick_distant(float v) {
 }
 #endif
 
+#if defined(HAS_EMISSIVE) && defined(HAS_SPHERES)
+// ---- The cone of directions that a sphere (centre cr.xyz, radius cr.w) subtends at p ----
+// False where p is inside (or on) the sphere. one_minus_cos_max = 1 - cos(half angle), in a
+// form without cancellation for small, far spheres: sin^2 / (1 + cos).
+bool sphere_cone(vec3 p, vec4 cr, out float one_minus_cos_max) {
+    vec3 d = cr.xyz - p;
+    float dc2 = dot(d, d), r2 = cr.w * cr.w;
+    one_minus_cos_max = 0.0;
+#ifdef LIFT_SPHERE_AREA_LIGHTS
+    return false;  // the old sampler, uniform on the area, kept for comparisons (tests)
+#endif
+    if (!(dc2 > r2 * 1.0001)) return false;
+    float sin2_max = r2 / dc2;
+    one_minus_cos_max = sin2_max / (1.0 + sqrt(1.0 - sin2_max));
+    return one_minus_cos_max > 0.0;
+}
+
+// A direction uniform in that cone (solid-angle density 1 / (2 pi one_minus_cos_max)) and
+// the distance along it to the near side of the sphere.
+bool sample_sphere_cone(vec3 p, vec4 cr, float one_minus_cos_max, vec2 u, out vec3 wi, out float dist) {
+    vec3 d = cr.xyz - p;
+    float dc = length(d);
+    vec3 axis = d / dc;
+    float t = u.x * one_minus_cos_max;           // 1 - cos(theta), uniform
+    float cos_t = 1.0 - t, sin2_t = t * (2.0 - t);
+    float sin_t = sqrt(max(sin2_t, 0.0)), phi = 2.0 * LIFT_PI * u.y;
+    vec3 a = abs(axis.x) > 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+    vec3 tx = normalize(cross(a, axis)), ty = cross(axis, tx);
+    wi = normalize(cos_t * axis + sin_t * (cos(phi) * tx + sin(phi) * ty));
+    // Nearest root of |p + s wi - c| = r; the discriminant vanishes only at the silhouette.
+    float disc = max(cr.w * cr.w - dc * dc * sin2_t, 0.0);
+    dist = dc * cos_t - sqrt(disc);
+    return dist > 0.0;
+}
+#endif
+
 bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     ls.pdf = 0.0;
     ls.is_delta = false;
@@ -218,9 +255,21 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
 #ifdef HAS_SPHERES
     else {
         vec4 cr = spheres[2u * (prim - u_num_triangles)];
-        n = sample_uniform_sphere(u.yz);
-        point = cr.xyz + prim_displacement(prim) + cr.w * n;
+        cr.xyz += prim_displacement(prim);
         material = floatBitsToUint(spheres[2u * (prim - u_num_triangles) + 1u].x);
+        float one_minus_cos_max;
+        if (sphere_cone(p, cr, one_minus_cos_max)) {
+            // Outside: a direction uniform in the cone the sphere subtends, so that every
+            // sample lands on the visible cap (area sampling wastes half on the far side).
+            if (!sample_sphere_cone(p, cr, one_minus_cos_max, u.yz, ls.wi, ls.dist)) return false;
+            ls.radiance = materials[material].emission_alpha.rgb;
+            ls.pdf = select_pdf / (2.0 * LIFT_PI * one_minus_cos_max);
+            return ls.pdf > 0.0 && ls.pdf < 1e30;
+        }
+        // Inside (or on it): uniform on the area, as for triangles; from inside the one-sided
+        // emission faces away, and the test below rejects the sample.
+        n = sample_uniform_sphere(u.yz);
+        point = cr.xyz + cr.w * n;
     }
 #else
     else return false;
@@ -243,8 +292,18 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
 // Solid-angle pdf with which sample_light, called at p, would produce the direction wi
 // that hit the emitter surface `light` at distance dist.
 float light_pdf(vec3 p, Surface light, vec3 wi, float dist) {
+    if (light.light_select_pdf <= 0.0) return 0.0;
+#if defined(HAS_EMISSIVE) && defined(HAS_SPHERES)
+    if (light.prim >= u_num_triangles) {
+        vec4 cr = spheres[2u * (light.prim - u_num_triangles)];
+        cr.xyz += prim_displacement(light.prim);
+        float one_minus_cos_max;
+        if (sphere_cone(p, cr, one_minus_cos_max))
+            return light_kind_probabilities().z * light.light_select_pdf / (2.0 * LIFT_PI * one_minus_cos_max);
+    }
+#endif
     float cos_light = abs(dot(wi, light.ng));
-    if (light.light_select_pdf <= 0.0 || cos_light <= 0.0) return 0.0;
+    if (cos_light <= 0.0) return 0.0;
     return light_kind_probabilities().z * light.light_select_pdf * dist * dist / (light.area * cos_light);
 }
 
