@@ -3,8 +3,16 @@
 // conversion of a direction's density into an area density at the next vertex. Multiple
 // importance sampling compares strategies by these area densities (Veach 1997, sec. 10.2).
 
-// Subpaths live in fixed arrays, so the longest path is a compile-time bound.
+// Subpaths live in fixed arrays, so the longest path is a compile-time bound. The host defines
+// BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml) and recompiles when it changes: arrays
+// no longer than the paths keep an invocation's private memory small (scratch memory on a GPU,
+// the stack on llvmpipe). Longer paths are cut at 64 bounces.
+#ifndef BDPT_MAX_DEPTH
 #define BDPT_MAX_DEPTH 64
+#elif BDPT_MAX_DEPTH > 64
+#undef BDPT_MAX_DEPTH
+#define BDPT_MAX_DEPTH 64
+#endif
 #define BDPT_CAMERA_VERTICES (BDPT_MAX_DEPTH + 2)   // z0 (the pinhole) .. z_{d+1}
 #define BDPT_LIGHT_VERTICES (BDPT_MAX_DEPTH + 1)    // y0 (on a light) .. y_d
 #define BDPT_LIGHT_BASE BDPT_CAMERA_VERTICES        // light vertex i is bdpt_path[BDPT_LIGHT_BASE + i]
