@@ -254,20 +254,25 @@ class Renderer:
 
     def set_params(self, **values) -> None:
         """Change plugin parameters; accumulation restarts."""
-        before = param_defines(self.plugin, self.params)
+        params = dict(self.params)
         for name, value in values.items():
-            self.params[name] = self._resolve_params({name: value})[name]  # the others keep their values
-            self.param_overrides[name] = value
-        if param_defines(self.plugin, self.params) != before:
-            self._recompile_plugin()  # a compile-time parameter: the shader is specialised to it
+            params[name] = self._resolve_params({name: value})[name]  # the others keep their values
+        if param_defines(self.plugin, params) != param_defines(self.plugin, self.params):
+            self._recompile_plugin(params)  # a compile-time parameter; if it fails, nothing changed
+        self.params = params
+        self.param_overrides.update(values)
         self.reset()
 
-    def _recompile_plugin(self) -> None:
-        """New trace (and reduced) programs for the current parameters; the others stay."""
-        trace = self._create_trace(self.plugin, self.params)
+    def _recompile_plugin(self, params: dict) -> None:
+        """New trace (and reduced) programs for these parameters; the other passes stay."""
+        trace = self._create_trace(self.plugin, params)
         reduced = None
         if self.reduced is not None:
-            reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self._plugin_defines(self.plugin, self.params))
+            try:
+                reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self._plugin_defines(self.plugin, params))
+            except BaseException:
+                trace.release()
+                raise
             self.reduced.release()
         self.trace.release()
         self.trace, self.reduced = trace, reduced

@@ -164,3 +164,17 @@ def test_only_int_parameters_have_defines(tmp_path):
     with pytest.raises(PluginError) as err:
         load_manifest(folder)
     assert err.value.line == 7 and "only an int parameter" in str(err.value)
+
+
+def test_a_define_that_does_not_compile_changes_nothing(tmp_path):
+    from conftest import furnace_scene
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene import Material
+
+    shader = ("float table[MINE_COUNT];  // a zero-sized array does not compile\n"
+              "vec3 radiance(Ray ray, Hit hit, inout Rng rng) { table[0] = float(count); return vec3(table[0]); }\n")
+    folder = make_plugin(tmp_path, manifest=COUNTED, shader=shader)
+    renderer = Renderer(furnace_scene(Material("m")), size=(8, 8), integrator=str(folder))
+    with pytest.raises(ShaderError):
+        renderer.set_params(count=0)
+    assert renderer.params["count"] == 3 and (renderer.render(spp=1) == 3.0).all()
