@@ -80,7 +80,7 @@ def run(args, baseline: str) -> None:
             a, b = images[False].astype(np.float64), images[True].astype(np.float64)
             worst[d] = max(worst[d], float(np.max(np.abs(a - b) / np.maximum(np.abs(b), 1e-30))))
     print(f"device: {device}")
-    print(f"baseline: plugins/bdpt at {args.baseline} (arrays for 64 bounces)")
+    print(f"baseline: plugins/bdpt at {args.baseline}")
     print(f"scene: {args.scene}  {args.size}x{args.size}, 1 spp x {args.frames} frames, best of {args.rounds}")
     print(f"{'max_depth':>12s} {'baseline ms':>12s} {'sized ms':>10s} {'base/sized':>11s} {'max rel diff':>13s}")
     for d in depths:
