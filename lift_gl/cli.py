@@ -232,7 +232,8 @@ def cmd_plugins(args) -> int:
             print(f"    BIASED: {plugin.biased}")
         for p in plugin.params.values():
             bounds = "" if p.min is None and p.max is None else f" in [{p.min}, {p.max}]"
-            print(f"    --set {name}.{p.name}=...  ({p.type}, default {p.default}{bounds}) {p.help}")
+            compiled = f", compile-time {p.define}" if p.define else ""  # a new value recompiles
+            print(f"    --set {name}.{p.name}=...  ({p.type}, default {p.default}{bounds}{compiled}) {p.help}")
     for folder, error in sorted(broken.items()):
         print(f"{folder}  [broken] {error}")
     return 0

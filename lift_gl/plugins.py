@@ -13,6 +13,9 @@ documentation and parameter table (`lift-gl plugins` prints it):
     biased = "why"             # optional: the plugin does not converge to the true image, and why
     [params.max_depth]
     type = "int"  default = 16  min = 0  max = 1000  help = "longest path, in bounces"
+    define = "MY_MAX_DEPTH"    # optional, int parameters: also a compile-time constant
+                               # (#define MY_MAX_DEPTH <value>, e.g. to size arrays);
+                               # a new value recompiles the trace pass
     [reduced]                  # optional: a second estimate at reduced resolution, upsampled
     function = "indirect_radiance"  # vec3 indirect_radiance(Ray ray, Hit hit, inout Rng rng)
     scale = "indirect_scale"   # resolution divisor: a number, or the name of an int parameter
@@ -41,8 +44,9 @@ LANGUAGES = ("glsl", "opencl")
 PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced"}
-_PARAM_KEYS = {"type", "default", "min", "max", "help"}
+_PARAM_KEYS = {"type", "default", "min", "max", "help", "define"}
 _REDUCED_KEYS = {"function": None, "scale": "int", "normal_power": "float", "depth_sigma": "float"}
+_HOST_DEFINE_PREFIXES = ("HAS_", "LIFT_", "PRIMARY_", "GL_")  # features, host switches, GLSL's own
 REDUCED_DEFAULTS = {"scale": 2, "normal_power": 32.0, "depth_sigma": 0.05}
 
 
@@ -54,6 +58,7 @@ class Param:
     min: float | None = None
     max: float | None = None
     help: str = ""
+    define: str = ""  # int parameters: also `#define <define> <value>` in the trace pass's shader
 
     def parse(self, text_or_value):
         """A value for this parameter from a string (`--set`) or a Python value, checked."""
@@ -134,6 +139,12 @@ class Plugin:
         return {name: p.default for name, p in self.params.items()}
 
 
+def param_defines(plugin: Plugin, values: dict) -> dict:
+    """The compile-time constants of the plugin's parameters that have a `define`, for these
+    values: the shader is specialised to them (and recompiled when one changes)."""
+    return {p.define: int(values.get(name, p.default)) for name, p in plugin.params.items() if p.define}
+
+
 def _line_of(text: str, pattern: str) -> int | None:
     for number, line in enumerate(text.splitlines(), start=1):
         if re.search(pattern, line):
@@ -203,7 +214,20 @@ def load_manifest(folder: Path) -> Plugin:
                 fail(f"parameter {pname!r}: {key} must be a number, not {spec[key]!r}", header)
         if not isinstance(spec.get("help", ""), str):
             fail(f"parameter {pname!r}: help must be a string", header)
-        param = Param(pname, ptype, None, spec.get("min"), spec.get("max"), spec.get("help", ""))
+        define = spec.get("define", "")
+        if "define" in spec:
+            if ptype != "int":
+                fail(f"parameter {pname!r}: only an int parameter can have a define", header)
+            if not isinstance(define, str) or not _IDENT.match(define):
+                fail(f"parameter {pname!r}: define must be a preprocessor name (letters, digits, _), "
+                     f"not {define!r}", header)
+            if define.startswith(_HOST_DEFINE_PREFIXES):
+                fail(f"parameter {pname!r}: define {define!r} starts like the host's own defines "
+                     f"({', '.join(_HOST_DEFINE_PREFIXES)})", header)
+            if define in data["params"] or any(p.define == define for p in params.values()):
+                fail(f"parameter {pname!r}: define {define!r} is already a parameter or another's define",
+                     header)
+        param = Param(pname, ptype, None, spec.get("min"), spec.get("max"), spec.get("help", ""), define)
         try:
             param.default = param.parse(spec["default"])
         except PluginError as exc:

@@ -41,7 +41,7 @@ from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
 from .passes.upsample import UpsamplePass
-from .plugins import Plugin, find_plugin, load_manifest
+from .plugins import Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
 from .scene.model import Scene
 from .scene.pack import pack_materials, pack_scene
@@ -172,10 +172,11 @@ class Renderer:
         self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
                                     self.packed.num_spheres, motion_vectors=reproject)
                         if uses_gbuffer or reproject else None)
-        self.trace = self._create_trace(self.plugin)
+        self.trace = self._create_trace(self.plugin, self.params)
         # A plugin with a [reduced] estimate (hybrid): traced at reduced resolution, upsampled into the frame.
         reduced = self.plugin.reduced is not None
-        self.reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self.defines) if reduced else None
+        self.reduced = (ReducedTracePass(self.ctx, self.size, self.plugin, self._plugin_defines(self.plugin, self.params))
+                        if reduced else None)
         self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
         self.reproject = ReprojectPass(self.ctx, self.size) if reproject else None
         self.accumulate = AccumulatePass(self.ctx, self.size)
@@ -253,10 +254,31 @@ class Renderer:
 
     def set_params(self, **values) -> None:
         """Change plugin parameters; accumulation restarts."""
+        params = dict(self.params)
         for name, value in values.items():
-            self.params.update(self._resolve_params({name: value}))
-            self.param_overrides[name] = value
+            params[name] = self._resolve_params({name: value})[name]  # the others keep their values
+        if param_defines(self.plugin, params) != param_defines(self.plugin, self.params):
+            self._recompile_plugin(params)  # a compile-time parameter; if it fails, nothing changed
+        self.params = params
+        self.param_overrides.update(values)
         self.reset()
+
+    def _recompile_plugin(self, params: dict) -> None:
+        """New trace (and reduced) programs for these parameters; the other passes stay."""
+        trace = self._create_trace(self.plugin, params)
+        reduced = None
+        if self.reduced is not None:
+            try:
+                reduced = ReducedTracePass(self.ctx, self.size, self.plugin, self._plugin_defines(self.plugin, params))
+            except BaseException:
+                trace.release()
+                raise
+            self.reduced.release()
+        self.trace.release()
+        self.trace, self.reduced = trace, reduced
+        if self.timers is not None:
+            for p in self.passes:
+                self.timers.setdefault(p.name, self._timer())
 
     @property
     def camera(self):
@@ -334,12 +356,17 @@ class Renderer:
         self.reset()
 
     # ---- hot reload ----
-    def _create_trace(self, plugin: Plugin):
+    def _plugin_defines(self, plugin: Plugin, params: dict) -> dict:
+        """The scene's defines and the plugin's compile-time parameters (`define` in its manifest)."""
+        return dict(self.defines, **param_defines(plugin, params))
+
+    def _create_trace(self, plugin: Plugin, params: dict):
+        defines = self._plugin_defines(plugin, params)
         if plugin.language == "opencl":
             from .passes.trace_cl import OpenCLTracePass  # pyopencl only when such a plugin runs
 
-            return OpenCLTracePass(self.ctx, self.size, plugin, self.defines, self.buffers)
-        return TracePass(self.ctx, self.size, plugin, self.defines)
+            return OpenCLTracePass(self.ctx, self.size, plugin, defines, self.buffers)
+        return TracePass(self.ctx, self.size, plugin, defines)
 
     def _watched_files(self) -> set:
         """The plugin's own files and every file its program included (the library's too)."""
@@ -359,7 +386,7 @@ class Renderer:
         try:
             plugin = load_manifest(self.plugin.folder)
             params = self._params_after_reload(plugin)
-            trace = self._create_trace(plugin)
+            trace = self._create_trace(plugin, params)
         except LiftError as exc:
             self.reload_error = exc
             raise
@@ -375,7 +402,8 @@ class Renderer:
             if stale is not None:
                 stale.release()
         reduced = plugin.reduced is not None  # a [reduced] plugin (hybrid) brings its two passes
-        self.reduced = ReducedTracePass(self.ctx, self.size, plugin, self.defines) if reduced else None
+        self.reduced = (ReducedTracePass(self.ctx, self.size, plugin, self._plugin_defines(plugin, params))
+                        if reduced else None)
         self.upsample = UpsamplePass(self.ctx, self.size, self.defines) if reduced else None
         self.samples_per_frame = self._samples_per_frame_asked or (1 if plugin.primary == "gbuffer" else 4)
         if self.timers is not None:

@@ -195,3 +195,40 @@ def test_covered_dragon_scene_loads(shared_dir):
     assert np.all(lo > [0, -1e-3, -1]) and np.all(hi < [1, 0.898, 0])  # inside the box, under the cover
     light = next(m for m in scene.meshes if m.name == "light")
     assert scene.materials[light.material].emission.tolist() == [70, 70, 70]
+
+
+# ---------------------------------------------------------------- arrays sized by max_depth
+# The subpath arrays follow max_depth at compile time (BDPT_MAX_DEPTH, `define` in plugin.toml);
+# the walk and every strategy are the same as with the old fixed size of 64, so every camera-side
+# estimate must be bit for bit the same. Light tracing's splats are summed by float atomics in
+# an order the threads decide (the same program twice differs there in the last bit), so the
+# full images agree to float rounding. Glass and rough gold: delta vertices take part.
+def _bdpt_pair(depth, splats):
+    from lift_gl.passes.trace import TracePass
+
+    scene = load_scene(CORNELL)
+    sized = Renderer(scene, size=(24, 24), integrator="bdpt", seed=7, params={"max_depth": depth})
+    fixed = Renderer(scene, size=(24, 24), integrator="bdpt", seed=7, params={"max_depth": depth})
+    fixed.trace.release()
+    fixed.trace = TracePass(fixed.ctx, fixed.size, fixed.plugin, dict(fixed.defines, BDPT_MAX_DEPTH=64))
+    if not splats:
+        for r in (sized, fixed):
+            r.trace.splats.add_to = lambda frame: None
+    return sized, fixed
+
+
+@pytest.mark.parametrize("depth", [0, 1, 3, 6])
+def test_array_size_changes_no_pixel(depth):
+    sized, fixed = _bdpt_pair(depth, splats=False)
+    assert f"#define BDPT_MAX_DEPTH {depth}\n" in sized.trace.source.text
+    a, b = sized.render(spp=3), fixed.render(spp=3)
+    assert a.max() > 0.0 and np.array_equal(a, b)
+    sized.set_params(max_depth=depth + 2)  # recompiled for the new depth
+    assert f"#define BDPT_MAX_DEPTH {depth + 2}\n" in sized.trace.source.text
+    sized.release()
+    fixed.release()
+    sized, fixed = _bdpt_pair(depth, splats=True)
+    a, b = sized.render(spp=3), fixed.render(spp=3)
+    np.testing.assert_allclose(a, b, rtol=1e-6, atol=0)  # a few float roundings of a sum
+    sized.release()
+    fixed.release()

@@ -113,3 +113,68 @@ def test_a_broken_manifest_hides_no_other_plugin(tmp_path):
     with pytest.raises(PluginError) as err:
         find_plugin("mine", [tmp_path])
     assert err.value.line == 3
+
+
+# ---------------------------------------------------------------- compile-time parameters
+COUNTED = GOOD + """
+[params.count]
+type = "int"
+default = 3
+min = 0
+max = 100
+define = "MINE_COUNT"
+help = "also a compile-time constant"
+"""
+# The uniform and the define must agree in every program the host compiles.
+COUNT_SHADER = "vec3 radiance(Ray ray, Hit hit, inout Rng rng) { return vec3(float(MINE_COUNT), float(count), gain); }\n"
+
+
+def test_a_define_follows_its_parameter(tmp_path):
+    from conftest import furnace_scene
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene import Material
+
+    folder = make_plugin(tmp_path, manifest=COUNTED, shader=COUNT_SHADER)
+    renderer = Renderer(furnace_scene(Material("m")), size=(8, 8), integrator=str(folder))
+    assert (renderer.render(spp=1)[..., :2] == 3.0).all()
+    program = renderer.trace.program
+    renderer.set_params(gain=2.0)  # no define: the same program
+    assert renderer.trace.program is program
+    renderer.set_params(count=7)   # a define: recompiled with the new value
+    assert renderer.trace.program is not program
+    image = renderer.render(spp=1)
+    assert (image[..., :2] == 7.0).all() and (image[..., 2] == 2.0).all()
+
+
+@pytest.mark.parametrize("define, words", [
+    ('"MINE COUNT"', "preprocessor name"),
+    ("3", "preprocessor name"),
+    ('"HAS_COUNT"', "host"),
+    ('"gain"', "already a parameter"),
+])
+def test_bad_defines_are_refused(tmp_path, define, words):
+    folder = make_plugin(tmp_path, manifest=COUNTED.replace('"MINE_COUNT"', define))
+    with pytest.raises(PluginError) as err:
+        load_manifest(folder)
+    assert err.value.line == 14 and words in str(err.value), str(err.value)
+
+
+def test_only_int_parameters_have_defines(tmp_path):
+    folder = make_plugin(tmp_path, manifest=GOOD.replace('help = "multiplies', 'define = "GAIN"\nhelp = "multiplies'))
+    with pytest.raises(PluginError) as err:
+        load_manifest(folder)
+    assert err.value.line == 7 and "only an int parameter" in str(err.value)
+
+
+def test_a_define_that_does_not_compile_changes_nothing(tmp_path):
+    from conftest import furnace_scene
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene import Material
+
+    shader = ("float table[MINE_COUNT];  // a zero-sized array does not compile\n"
+              "vec3 radiance(Ray ray, Hit hit, inout Rng rng) { table[0] = float(count); return vec3(table[0]); }\n")
+    folder = make_plugin(tmp_path, manifest=COUNTED, shader=shader)
+    renderer = Renderer(furnace_scene(Material("m")), size=(8, 8), integrator=str(folder))
+    with pytest.raises(ShaderError):
+        renderer.set_params(count=0)
+    assert renderer.params["count"] == 3 and (renderer.render(spp=1) == 3.0).all()

@@ -27,12 +27,12 @@ vec3 strategy_emitted(int t) {
     vec3 emitted;
     float pt_rev;            // density of the light subpath starting at z_{t-1}
     float pt_minus_rev = 0.0;  // ... and reaching z_{t-2} from there
-    if (v.kind == VERTEX_ENV) {
+    if (vertex_kind(z) == VERTEX_ENV) {
         emitted = env_radiance(v.p);
         pt_rev = env_light_pdf(v.p);
         if (t > 2) pt_minus_rev = pdf_env_emission_pos() * abs(dot(bdpt_path[z - 1].ng, v.p));
-    } else if (v.kind == VERTEX_SURFACE && v.emitter_pdf > 0.0 && dot(v.wo, v.ng) > 0.0) {
-        emitted = materials[v.material].emission_alpha.rgb;  // emitters emit from the front
+    } else if (vertex_kind(z) == VERTEX_SURFACE && v.emitter_pdf > 0.0 && dot(v.wo, v.ng) > 0.0) {
+        emitted = materials[vertex_material(z)].emission_alpha.rgb;  // emitters emit from the front
         pt_rev = v.emitter_pdf;
         if (t > 2) pt_minus_rev = area_density(pdf_emission_dir(v.ng, v.wo), v.p, z - 1);
     } else {

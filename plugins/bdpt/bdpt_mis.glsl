@@ -30,20 +30,20 @@ float mis_weight(int s, int t, float pt_rev, float pt_minus_rev, float qs_rev, f
     for (int i = t - 1; i > 0; --i) {
         float rev = i == t - 1 ? pt_rev : (i == t - 2 ? pt_minus_rev : bdpt_path[i].pdf_rev);
         ratio *= nonzero(rev) / nonzero(bdpt_path[i].pdf_fwd);
-        bool delta_here = i != t - 1 && bdpt_path[i].delta;  // the joined vertex is never delta
-        if (!delta_here && !bdpt_path[i - 1].delta) others += mis_term(ratio);
+        bool delta_here = i != t - 1 && vertex_delta(i);  // the joined vertex is never delta
+        if (!delta_here && !vertex_delta(i - 1)) others += mis_term(ratio);
     }
 
     // ---- The join slides towards the light: the camera subpath takes light vertices s-1 .. 0 ----
     ratio = 1.0;
-    if (s >= 2) light_delta = bdpt_path[BDPT_LIGHT_BASE].kind == VERTEX_DISTANT;
+    if (s >= 2) light_delta = vertex_kind(BDPT_LIGHT_BASE) == VERTEX_DISTANT;
     for (int i = s - 1; i >= 0; --i) {
         int k = BDPT_LIGHT_BASE + i;
         float rev = i == s - 1 ? qs_rev : (i == s - 2 ? qs_minus_rev : bdpt_path[k].pdf_rev);
         float fwd = s == 1 ? light_pdf : bdpt_path[k].pdf_fwd;
         ratio *= nonzero(rev) / nonzero(fwd);
-        bool delta_here = i != s - 1 && bdpt_path[k].delta;
-        bool delta_before = i > 0 ? bdpt_path[k - 1].delta : light_delta;
+        bool delta_here = i != s - 1 && vertex_delta(k);
+        bool delta_before = i > 0 ? vertex_delta(k - 1) : light_delta;
         if (!delta_here && !delta_before) others += mis_term(ratio);
     }
     return 1.0 / (1.0 + others);

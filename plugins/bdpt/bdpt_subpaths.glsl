@@ -16,7 +16,7 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
 #ifdef HAS_ENVIRONMENT
             if (!importance) {
                 bdpt_path[i] = PathVertex(ray.dir, vec3(0.0), vec3(0.0), -ray.dir, beta, pdf_dir, 0.0,
-                                          env_light_pdf(ray.dir), 0u, VERTEX_ENV, false);
+                                          env_light_pdf(ray.dir), vertex_tag(0u, VERTEX_ENV));
                 return i + 1;
             }
 #endif
@@ -27,8 +27,8 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
         Surface s = surface_at(ray, hit);
         Material m = materials[s.material];
         vec3 wo = -ray.dir;
-        bdpt_path[i] = PathVertex(s.p, s.ng, shading_normal(s, m, wo), wo, beta, 0.0, 0.0, pdf_light_point(s), s.material,
-                                  VERTEX_SURFACE, false);
+        bdpt_path[i] = PathVertex(s.p, s.ng, shading_normal(s, m, wo), wo, beta, 0.0, 0.0, pdf_light_point(s),
+                                  vertex_tag(s.material, VERTEX_SURFACE));
         bdpt_path[i].pdf_fwd = i == last + 1 && first_pdf_pos > 0.0 ? first_pdf_pos * abs(dot(ray.dir, s.ng))
                                                                      : area_density(pdf_dir, bdpt_path[i - 1].p, i);
         if (i + 1 >= end) return i + 1;
@@ -45,7 +45,7 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
         if (bs.is_delta) {
             // A delta lobe has no density to compare: MIS skips the strategies that would
             // need to join here, and the zero densities cancel out of the ratios.
-            bdpt_path[i].delta = true;
+            bdpt_path[i].tag |= 1u;  // delta
             pdf_dir = 0.0;
             bdpt_path[i - 1].pdf_rev = 0.0;
         } else {
@@ -73,7 +73,7 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
 // Returns the number of camera vertices.
 int camera_subpath(Ray ray, Hit hit, int depth, inout Rng rng) {
     bdpt_path[0] = PathVertex(ray.origin, u_cam_forward, u_cam_forward, vec3(0.0), vec3(1.0), 1.0, 0.0, 0.0,
-                              0u, VERTEX_CAMERA, false);
+                              vertex_tag(0u, VERTEX_CAMERA));
     return extend_subpath(0, depth + 2, ray, hit, vec3(1.0), camera_pdf_dir(ray.dir), 0.0, false, rng);
 }
 
@@ -87,9 +87,9 @@ int light_subpath(int depth, inout Rng rng) {
     if (!sample_emission(u_point, rng_next2(rng), es)) return 0;
     LightPoint light = es.light;
     bdpt_path[BDPT_LIGHT_BASE] = PathVertex(light.p, light.n, light.n, vec3(0.0), light.radiance / light.pdf,
-                                            light.pdf, 0.0, light.pdf, 0u,
-                                            light.delta ? VERTEX_DISTANT : light.infinite ? VERTEX_ENV : VERTEX_EMITTER,
-                                            false);
+                                            light.pdf, 0.0, light.pdf,
+                                            vertex_tag(0u, light.delta ? VERTEX_DISTANT
+                                                           : light.infinite ? VERTEX_ENV : VERTEX_EMITTER));
     // Radiance times the cosine at the light, over the density of the ray (origin and direction).
     float cos_light = light.infinite ? 1.0 : dot(light.n, es.ray.dir);
     vec3 beta = light.radiance * (cos_light / (es.pdf_pos * es.pdf_dir));

@@ -3,8 +3,16 @@
 // conversion of a direction's density into an area density at the next vertex. Multiple
 // importance sampling compares strategies by these area densities (Veach 1997, sec. 10.2).
 
-// Subpaths live in fixed arrays, so the longest path is a compile-time bound.
+// Subpaths live in fixed arrays, so the longest path is a compile-time bound. The host defines
+// BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml) and recompiles when it changes: arrays
+// no longer than the paths keep an invocation's private memory small (scratch memory on a GPU,
+// the stack on llvmpipe). Longer paths are cut at 64 bounces.
+#ifndef BDPT_MAX_DEPTH
 #define BDPT_MAX_DEPTH 64
+#elif BDPT_MAX_DEPTH > 64
+#undef BDPT_MAX_DEPTH
+#define BDPT_MAX_DEPTH 64
+#endif
 #define BDPT_CAMERA_VERTICES (BDPT_MAX_DEPTH + 2)   // z0 (the pinhole) .. z_{d+1}
 #define BDPT_LIGHT_VERTICES (BDPT_MAX_DEPTH + 1)    // y0 (on a light) .. y_d
 #define BDPT_LIGHT_BASE BDPT_CAMERA_VERTICES        // light vertex i is bdpt_path[BDPT_LIGHT_BASE + i]
@@ -24,25 +32,31 @@ struct PathVertex {
     float pdf_fwd;      // area density of this vertex, sampled from the previous one
     float pdf_rev;      // area density of this vertex, were it sampled from the next one instead
     float emitter_pdf;  // density of sample_light_point choosing this point (0: not an emitter)
-    uint material;
-    uint kind;          // VERTEX_*
-    bool delta;         // scattered by a delta lobe (mirror, smooth glass): cannot be joined
+    uint tag;           // material << 4 | kind (VERTEX_*) << 1 | delta: one word, not three
 };
+
+// A vertex's tag; `delta` (scattered by a delta lobe: mirror, smooth glass; cannot be joined)
+// is set later, when the vertex's BSDF is sampled.
+uint vertex_tag(uint material, uint kind) { return material << 4u | kind << 1u; }
 
 // Private to each invocation: camera subpath first, then the light subpath.
 PathVertex bdpt_path[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
 
+uint vertex_kind(int i) { return bdpt_path[i].tag >> 1u & 7u; }
+uint vertex_material(int i) { return bdpt_path[i].tag >> 4u; }
+bool vertex_delta(int i) { return (bdpt_path[i].tag & 1u) != 0u; }
+
 bool vertex_on_surface(int i) {
-    return bdpt_path[i].kind == VERTEX_SURFACE || bdpt_path[i].kind == VERTEX_EMITTER;
+    return vertex_kind(i) == VERTEX_SURFACE || vertex_kind(i) == VERTEX_EMITTER;
 }
 
 // Whether another vertex can be joined to vertex i with a shadow ray.
 bool vertex_connectible(int i) {
-    return bdpt_path[i].kind == VERTEX_SURFACE && !bdpt_path[i].delta;
+    return vertex_kind(i) == VERTEX_SURFACE && !vertex_delta(i);
 }
 
 bool vertex_at_infinity(int i) {
-    return bdpt_path[i].kind == VERTEX_ENV || bdpt_path[i].kind == VERTEX_DISTANT;
+    return vertex_kind(i) == VERTEX_ENV || vertex_kind(i) == VERTEX_DISTANT;
 }
 
 // A solid-angle density at point `from`, towards vertex i, as an area density at vertex i.
@@ -59,7 +73,7 @@ float area_density(float pdf_dir, vec3 from, int i) {
 // Opaque surfaces pass no light from one side of their geometry to the other, whatever the
 // shading normal says.
 bool vertex_blocks(int i, vec3 wo, vec3 wi) {
-    return is_opaque(materials[bdpt_path[i].material])
+    return is_opaque(materials[vertex_material(i)])
         && dot(wi, bdpt_path[i].ng) * dot(wo, bdpt_path[i].ng) <= 0.0;
 }
 
@@ -92,7 +106,7 @@ struct VertexScatter {
 VertexScatter vertex_scatter(int i, vec3 wo, vec3 wi, bool importance) {
     VertexScatter v = VertexScatter(vec3(0.0), 0.0, 0.0);
     if (vertex_blocks(i, wo, wi)) return v;
-    Material m = materials[bdpt_path[i].material];
+    Material m = materials[vertex_material(i)];
     Frame frame = frame_from_normal(bdpt_path[i].ns);
     vec3 wo_local = to_local(frame, wo), wi_local = to_local(frame, wi);
     v.f = bsdf_eval(m, wo_local, wi_local);
