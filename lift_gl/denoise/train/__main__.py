@@ -41,6 +41,8 @@ def main(argv=None) -> int:
     p.add_argument("--minutes", type=float, default=None, help="stop training after this long (resumable)")
     p.add_argument("--stop-at", type=int, default=None,
                    help="stop at this step (the schedule still spans --steps; resumable)")
+    p.add_argument("--loss-tonemap", default="log", choices=("log", "log1p"),  # loss.TONEMAPS (torch loads later)
+                   help="the loss's tone map (lift_gl/denoise/train/loss.py); log1p trained the first 2604 steps")
     p.add_argument("--no-export", action="store_true")
     a = p.parse_args(argv)
     log = lambda msg: print(msg, flush=True)
@@ -57,7 +59,8 @@ def main(argv=None) -> int:
     data_seconds = time.perf_counter() - t0
 
     from .train import train
-    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at)
+    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at,
+                   a.loss_tonemap)
     model = result.pop("model")
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
@@ -67,7 +70,7 @@ def main(argv=None) -> int:
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
               "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
-              "steps": result["steps"], "batch": a.batch, "crop": a.crop, "lr": a.lr,
+              "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "batch": a.batch, "crop": a.crop, "lr": a.lr,
               "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),
               "data_bytes": data_bytes, "device": result["device"]}
     (a.out / "record.json").write_text(json.dumps(record, indent=2) + "\n")
