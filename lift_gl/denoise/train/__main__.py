@@ -1,14 +1,15 @@
-"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
+"""Train the denoiser and export it (torch: the `train` extra). The shipped weights, in two stages:
 
+    python -m lift_gl.denoise.train --out runs/denoiser --loss-tonemap log1p --stop-at 2604 \
+        --workers 10 --backend egl --no-export
     python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
-        --stop-at 2604 --workers 10 --backend egl
+        --workers 10 --backend egl
 
-renders the training and validation scenes (resumable: existing files are kept), trains
-(resuming from --out/checkpoint.pt), exports the ONNX model and its sidecar JSON. The
-defaults are the settings of the shipped model; it was cut short at step 2604 of its 10000-step
-schedule by the GPU time of its session (docs/denoiser.md): without --stop-at the run goes on
-to the end of the schedule (assets/denoiser/train_checkpoint.pt copied to --out/checkpoint.pt
-resumes at step 2604).
+Each renders the training and validation scenes (resumable: existing files are kept), trains
+(resuming from --out/checkpoint.pt), and exports the ONNX model and its sidecar JSON. The
+defaults are the settings of the shipped model; its first session stopped at step 2604 with the
+log1p loss, the second resumed there and finished the 10000-step schedule with the default
+`log` loss tone map (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the step-10000 state).
 """
 from __future__ import annotations
 
