@@ -298,7 +298,9 @@ def test_cli_glsl_denoiser_matches_onnx(tmp_path, capsys):
     albedo, normal = (np.load(tmp_path / f"{n}.npy")[..., :3] for n in ("albedo", "normal"))
     bound = denoiser_bound(noisy, albedo, normal, want)
     assert got.shape == want.shape == (29, 37, 3)
-    assert np.abs(want - noisy).mean() > 1e3 * bound.mean()  # the denoiser did something the bound would see
+    # the denoiser did something the bound would see: its change is 2600x the bound's mean with
+    # the step-2604 weights, 790x with the shipped ones; the executors differ by < 0.03 of it
+    assert np.abs(want - noisy).mean() > 1e2 * bound.mean()
     assert (np.abs(got - want) <= bound).all(), (np.abs(got - want) / bound).max()
 
 

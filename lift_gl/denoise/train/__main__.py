@@ -1,14 +1,15 @@
-"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
+"""Train the denoiser and export it (torch: the `train` extra). The shipped weights, in two stages:
 
+    python -m lift_gl.denoise.train --out runs/denoiser --loss-tonemap log1p --stop-at 2604 \
+        --workers 10 --backend egl --no-export
     python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
-        --stop-at 2604 --workers 10 --backend egl
+        --workers 10 --backend egl
 
-renders the training and validation scenes (resumable: existing files are kept), trains
-(resuming from --out/checkpoint.pt), exports the ONNX model and its sidecar JSON. The
-defaults are the settings of the shipped model; it was cut short at step 2604 of its 10000-step
-schedule by the GPU time of its session (docs/denoiser.md): without --stop-at the run goes on
-to the end of the schedule (assets/denoiser/train_checkpoint.pt copied to --out/checkpoint.pt
-resumes at step 2604).
+Each renders the training and validation scenes (resumable: existing files are kept), trains
+(resuming from --out/checkpoint.pt), and exports the ONNX model and its sidecar JSON. The
+defaults are the settings of the shipped model; its first session stopped at step 2604 with the
+log1p loss, the second resumed there and finished the 10000-step schedule with the default
+`log` loss tone map (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the step-10000 state).
 """
 from __future__ import annotations
 
@@ -41,6 +42,8 @@ def main(argv=None) -> int:
     p.add_argument("--minutes", type=float, default=None, help="stop training after this long (resumable)")
     p.add_argument("--stop-at", type=int, default=None,
                    help="stop at this step (the schedule still spans --steps; resumable)")
+    p.add_argument("--loss-tonemap", default="log", choices=("log", "log1p"),  # loss.TONEMAPS (torch loads later)
+                   help="the loss's tone map (lift_gl/denoise/train/loss.py); log1p trained the first 2604 steps")
     p.add_argument("--no-export", action="store_true")
     a = p.parse_args(argv)
     log = lambda msg: print(msg, flush=True)
@@ -57,7 +60,8 @@ def main(argv=None) -> int:
     data_seconds = time.perf_counter() - t0
 
     from .train import train
-    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at)
+    result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at,
+                   a.loss_tonemap)
     model = result.pop("model")
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
@@ -67,7 +71,7 @@ def main(argv=None) -> int:
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
               "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
-              "steps": result["steps"], "batch": a.batch, "crop": a.crop, "lr": a.lr,
+              "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "batch": a.batch, "crop": a.crop, "lr": a.lr,
               "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),
               "data_bytes": data_bytes, "device": result["device"]}
     (a.out / "record.json").write_text(json.dumps(record, indent=2) + "\n")

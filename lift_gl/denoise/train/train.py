@@ -66,12 +66,13 @@ def lr_at(step: int, steps: int, peak: float, warmup: int = 200) -> float:
 
 
 def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, crop: int = 128, lr: float = 2e-3,
-          seed: int = 0, minutes: float | None = None, log=print, stop_at: int | None = None) -> dict:
+          seed: int = 0, minutes: float | None = None, log=print, stop_at: int | None = None,
+          loss_tonemap: str = "log") -> dict:
     """Train (resuming from out_dir/checkpoint.pt when present); returns a summary dict.
 
     The learning rate follows a cosine over `steps`; `stop_at` ends the run earlier at that
     step (a resumable checkpoint; also how the shipped weights, cut short by a time cap, are
-    reproduced exactly)."""
+    reproduced exactly). `loss_tonemap` picks the loss's tone map (loss.TONEMAPS)."""
     device = "cuda" if torch.cuda.is_available() else "cpu"
     torch.manual_seed(seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
@@ -106,14 +107,14 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
         x, div, tgt = examples.batch(gen, batch, crop)
         with amp:
             pred = model(x.contiguous(memory_format=torch.channels_last))
-        loss = denoise_loss(pred.float() * div, tgt)
+        loss = denoise_loss(pred.float() * div, tgt, loss_tonemap)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
         losses.append(float(loss.detach()) if step % 50 == 0 else None)
         step += 1
         if step % 500 == 0 or step == steps:
-            vl = validation_loss(model, val, amp) if val is not None else float("nan")
+            vl = validation_loss(model, val, amp, loss_tonemap) if val is not None else float("nan")
             recent = [v for v in losses[-500:] if v is not None] or [float("nan")]
             log(f"train: step {step}/{steps}, loss {np.mean(recent):.4f}, "
                 f"val loss {vl:.4f}, {time.perf_counter() - start:.0f} s")
@@ -124,7 +125,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
 
 
 @torch.no_grad()
-def validation_loss(model, val: Examples, amp, levels=(0, 2, 4)) -> float:
+def validation_loss(model, val: Examples, amp, loss_tonemap: str = "log", levels=(0, 2, 4)) -> float:
     """Mean loss on whole validation images at 1, 4 and 16 spp (scenes never trained on)."""
     model.eval()
     total = []
@@ -135,6 +136,7 @@ def validation_loss(model, val: Examples, amp, levels=(0, 2, 4)) -> float:
             div = val.divisor[i].float()[None]
             with amp:
                 pred = model(x.contiguous(memory_format=torch.channels_last))
-            total.append(float(denoise_loss(pred.float() * div, val.target[i].float()[None] * e * div)))
+            total.append(float(denoise_loss(pred.float() * div, val.target[i].float()[None] * e * div,
+                                             loss_tonemap)))
     model.train()
     return float(np.mean(total))
