@@ -21,7 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from lift_gl.accel.bvh import TRAVERSAL_COST, BVH, build_bvh  # noqa: E402
 
-DRAGON = Path("/work/shared/assets/meshes/dragon_100k.ply")
+DRAGON = Path(__file__).resolve().parent.parent.parent / "shared" / "assets" / "meshes" / "dragon_100k.ply"
 
 
 def random_soup(n: int, seed: int = 0) -> np.ndarray:

@@ -8,7 +8,7 @@ from PIL import Image
 from lift_gl.image_io import ImageError, read_image, write_image
 from lift_gl.tonemap import srgb_decode
 
-REFS = Path("/work/shared/refs")
+REFS = Path(__file__).resolve().parent.parent.parent / "shared" / "refs"
 
 
 def _gradient(h=5, w=7):
@@ -131,7 +131,7 @@ def test_parent_folders_are_created(tmp_path):
 
 
 @pytest.mark.skipif(not (REFS / "lift" / "cornell-box.exr").is_file(),
-                    reason="shared reference images (/work/shared/refs) not present")
+                    reason="shared reference images (../shared/refs) not present")
 def test_read_lift_reference_half_exr():
     img = read_image(REFS / "lift" / "cornell-box.exr")
     assert img.shape == (1024, 1024, 3) and img.dtype == np.float32
@@ -142,7 +142,7 @@ def test_read_lift_reference_half_exr():
 
 
 @pytest.mark.skipif(not (REFS / "mitsuba" / "cbox" / "reference.exr").is_file(),
-                    reason="shared reference images (/work/shared/refs) not present")
+                    reason="shared reference images (../shared/refs) not present")
 def test_read_mitsuba_reference_matches_its_npy():
     img = read_image(REFS / "mitsuba" / "cbox" / "reference.exr")
     ref = np.load(REFS / "mitsuba" / "cbox" / "reference.npy")

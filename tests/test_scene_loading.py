@@ -10,7 +10,7 @@ from lift_gl.scene.primitives import box, geometric_normals, quad
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"
-PBRT_CORNELL = Path("/work/shared/scenes_lift/cornell-box/scene.pbrt")
+PBRT_CORNELL = Path(__file__).resolve().parent.parent.parent / "shared" / "scenes_lift" / "cornell-box" / "scene.pbrt"
 
 
 def _project_x(scene, point):
