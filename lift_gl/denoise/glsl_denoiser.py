@@ -38,16 +38,11 @@ class GlslDenoiser:
 
     def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
         """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
-        from .model_io import network_input, network_output  # the onnxruntime path's own preparation
+        from .model_io import checked_color, network_input, network_output  # the onnxruntime path's own preparation
 
         if self.net is None:
             self._load()
-        color = np.asarray(color, dtype=np.float32)
-        if color.ndim != 3 or color.shape[2] != 3:
-            raise ValueError(f"color must be (H, W, 3), not {color.shape}")
-        for label, guide in (("albedo", albedo), ("normal", normal)):
-            if np.shape(guide) != color.shape:
-                raise ValueError(f"{label} must have the colour's shape {color.shape}, not {np.shape(guide)}")
+        color = checked_color(color, albedo, normal)
         x, exposure = network_input(color, albedo, normal)
         return network_output(self.net.run_numpy(x), exposure, albedo)
 

@@ -39,6 +39,17 @@ def autoexposure(color: np.ndarray) -> float:
     return float(np.clip(EXPOSURE_KEY / key, *EXPOSURE_RANGE))
 
 
+def checked_color(color, albedo, normal) -> np.ndarray:
+    """The colour as float32 (H, W, 3), its guides checked to have its shape (ValueError)."""
+    color = np.asarray(color, dtype=np.float32)
+    if color.ndim != 3 or color.shape[2] != 3:
+        raise ValueError(f"color must be (H, W, 3), not {color.shape}")
+    for label, guide in (("albedo", albedo), ("normal", normal)):
+        if np.shape(guide) != color.shape:
+            raise ValueError(f"{label} must have the colour's shape {color.shape}, not {np.shape(guide)}")
+    return color
+
+
 def network_input(color, albedo, normal) -> tuple[np.ndarray, float]:
     """(1, 9, H, W) float32 network input and the exposure used (see the module docstring)."""
     albedo = np.clip(clean(albedo), 0.0, 1.0)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LiftError
-from .model_io import network_input, network_output
+from .model_io import checked_color, network_input, network_output
 from .tiling import pad_to_multiple, run_tiled
 
 DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "assets" / "denoiser" / "lift_unet.onnx"
@@ -93,12 +93,7 @@ class OnnxDenoiser:
         """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
         if self._session is None:
             self._load()
-        color = np.asarray(color, dtype=np.float32)
-        if color.ndim != 3 or color.shape[2] != 3:
-            raise ValueError(f"color must be (H, W, 3), not {color.shape}")
-        for label, guide in (("albedo", albedo), ("normal", normal)):
-            if np.shape(guide) != color.shape:
-                raise ValueError(f"{label} must have the colour's shape {color.shape}, not {np.shape(guide)}")
+        color = checked_color(color, albedo, normal)
         h, w = color.shape[:2]
         x, exposure = network_input(color, albedo, normal)
         y = run_tiled(self._run, pad_to_multiple(x, self._multiple), self._tile, self._overlap)
