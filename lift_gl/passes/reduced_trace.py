@@ -41,35 +41,7 @@ uniform ivec2 u_block_offset; // this frame's representative pixel inside every 
 // ---- plugin ----
 #include "{entry}"
 // ---- host ----
-// The G-buffer's first hit at a full-resolution pixel, rebuilt exactly along the camera ray.
-Hit reduced_gbuffer_hit(ivec2 pixel, Ray ray) {{
-    uvec4 v = texelFetch(u_visibility, pixel, 0);
-    Hit hit;
-    hit.prim = NO_HIT;
-    hit.t = ray.tmax;
-    hit.bary = vec2(0.0);
-    if (v.x == 0u) return hit;
-    uint prim = v.x - 1u;
-    float t = ray.tmax;
-    vec2 bary;
-    if (prim < u_num_triangles && intersect_triangle(ray, prim, t, bary)) {{
-        hit.prim = prim; hit.t = t; hit.bary = bary;
-        return hit;
-    }}
-#ifdef HAS_SPHERES
-    if (prim >= u_num_triangles && intersect_sphere(ray, prim - u_num_triangles, t)) {{
-        hit.prim = prim; hit.t = t;
-        return hit;
-    }}
-#endif
-    trace_closest(ray, hit);
-    return hit;
-}}
-
-bool reduced_is_finite(vec3 v) {{
-    uvec3 bits = floatBitsToUint(v) & 0x7f800000u;
-    return all(notEqual(bits, uvec3(0x7f800000u)));
-}}
+#include "lift/primary_hit.glsl"  // gbuffer_hit: the first hit at a full-resolution pixel
 
 void main() {{
     ivec2 block = ivec2(gl_GlobalInvocationID.xy);
@@ -79,7 +51,7 @@ void main() {{
     vec3 sum = vec3(0.0);
     float valid = 0.0;
     Ray ray = camera_ray(vec2(pixel) + u_jitter);
-    Hit first = reduced_gbuffer_hit(pixel, ray);
+    Hit first = gbuffer_hit(pixel, ray);
     vec3 albedo = vec3(0.0);
     if (first.prim != NO_HIT) albedo = bsdf_albedo(materials[surface_at(ray, first).material]);
     if (max(albedo.r, max(albedo.g, albedo.b)) <= 1e-6) {{
@@ -93,7 +65,7 @@ void main() {{
         Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x5bd1e995u, u_stream);
         Hit hit = first;
         vec3 L = {function}(ray, hit, rng);
-        if (!reduced_is_finite(L)) {{
+        if (!lift_is_finite(L)) {{
             atomicAdd(stats[0], 1u);  // dropped and counted, as the full-resolution pass does
             continue;
         }}

@@ -57,38 +57,8 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 #include "{entry}"
 // ---- host ----
 #ifdef PRIMARY_GBUFFER
-// The primary hit the raster found, rebuilt exactly along the camera ray; where ray and
-// raster disagree (a sample exactly on an edge) the ray is traced instead.
-Hit gbuffer_hit(ivec2 pixel, Ray ray) {{
-    uvec4 v = texelFetch(u_visibility, pixel, 0);
-    Hit hit;
-    hit.prim = NO_HIT;
-    hit.t = ray.tmax;
-    hit.bary = vec2(0.0);
-    if (v.x == 0u) return hit;
-    uint prim = v.x - 1u;
-    float t = ray.tmax;
-    vec2 bary;
-    if (prim < u_num_triangles && intersect_triangle(ray, prim, t, bary)) {{
-        hit.prim = prim; hit.t = t; hit.bary = bary;
-        return hit;
-    }}
-#ifdef HAS_SPHERES
-    if (prim >= u_num_triangles && intersect_sphere(ray, prim - u_num_triangles, t)) {{
-        hit.prim = prim; hit.t = t;
-        return hit;
-    }}
+#include "lift/primary_hit.glsl"
 #endif
-    trace_closest(ray, hit);
-    return hit;
-}}
-#endif
-
-bool is_finite(vec3 v) {{
-    // Exponent bits all ones: NaN or infinity (robust even under fast-math compilers).
-    uvec3 bits = floatBitsToUint(v) & 0x7f800000u;
-    return all(notEqual(bits, uvec3(0x7f800000u)));
-}}
 
 void main() {{
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -111,7 +81,7 @@ void main() {{
     while (s < u_samples) {{
         if (path_step(path, rng)) continue;
         vec3 L = path_radiance(path);
-        if (is_finite(L)) {{
+        if (lift_is_finite(L)) {{
             sum += L;
             valid += 1.0;
         }} else {{
@@ -142,7 +112,7 @@ void main() {{
         trace_closest(ray, hit);
 #endif
         vec3 L = radiance(ray, hit, rng);
-        if (!is_finite(L)) {{
+        if (!lift_is_finite(L)) {{
             atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
             continue;
         }}

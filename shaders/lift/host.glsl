@@ -14,4 +14,5 @@
 #include "lift/bsdf.glsl"
 #include "lift/textures.glsl"
 #include "lift/lights.glsl"
+#include "lift/finite.glsl"
 #endif

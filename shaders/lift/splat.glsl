@@ -16,6 +16,7 @@
 #ifdef LIFT_SPLATS
 #include "lift/scene_data.glsl"
 #include "lift/camera.glsl"
+#include "lift/finite.glsl"
 
 // Three floats per pixel (r, g, b), row-major with row 0 at the bottom (pixel y up).
 #ifdef LIFT_SPLATS_CAS
@@ -43,8 +44,7 @@ void lift_splat_add(uint index, float value) {
 void splat(vec2 pixel_pos, vec3 value) {
     ivec2 pixel = ivec2(floor(pixel_pos));
     if (any(lessThan(pixel, ivec2(0))) || any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
-    uvec3 bits = floatBitsToUint(value) & 0x7f800000u;  // exponent all ones: NaN or infinity
-    if (any(equal(bits, uvec3(0x7f800000u)))) {
+    if (!lift_is_finite(value)) {
         atomicAdd(stats[1], 1u);
         return;
     }
