@@ -1,6 +1,10 @@
 """Write a lift-gl scene as a Mitsuba 3 scene (XML + PLY meshes), for side-by-side baselines.
 
-    python benchmarks/export_mitsuba.py SCENE OUTDIR [--size 128]
+    python benchmarks/export_mitsuba.py SCENE OUTDIR [--size 128] [--scene-filter]
+
+The film's filter is a box over each pixel, unless --scene-filter writes the scene's own
+pixel filter (pbrt's triangle as Mitsuba's tent, a gaussian as Mitsuba's gaussian), which is
+right at the scene's own film size.
 
 Covers what the baseline scenes use: diffuse materials, area emitters on triangle meshes,
 spheres, a constant environment, the perspective camera, path integrator depth. Mitsuba's
@@ -21,7 +25,17 @@ def _rgb(v) -> str:
     return ", ".join(f"{float(x):.9g}" for x in v)
 
 
-def export(scene, out: Path, size) -> Path:
+def _rfilter(scene, scene_filter: bool) -> str:
+    f = scene.pixel_filter
+    if not scene_filter or f is None or f.kind == "box":
+        return '<rfilter type="box"/>'
+    if f.kind == "triangle":
+        return f'<rfilter type="tent"><float name="radius" value="{max(f.radius):.9g}"/></rfilter>'
+    stddev = (0.5 / f.alpha) ** 0.5  # pbrt's exp(-alpha x^2) is Mitsuba's exp(-x^2 / (2 stddev^2))
+    return f'<rfilter type="gaussian"><float name="stddev" value="{stddev:.9g}"/></rfilter>'
+
+
+def export(scene, out: Path, size, scene_filter: bool = False) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     cam = scene.camera
     lines = ['<scene version="3.0.0">',
@@ -33,7 +47,7 @@ def export(scene, out: Path, size) -> Path:
              '    </transform>',
              '    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>',
              f'    <film type="hdrfilm"><integer name="width" value="{size[0]}"/><integer name="height" value="{size[1]}"/>',
-             '      <rfilter type="box"/><string name="pixel_format" value="rgb"/></film>',
+             f'      {_rfilter(scene, scene_filter)}<string name="pixel_format" value="rgb"/></film>',
              '  </sensor>']
     for i, m in enumerate(scene.materials):
         if m.type != "diffuse":
@@ -66,8 +80,9 @@ def main() -> None:
     parser.add_argument("scene")
     parser.add_argument("out", type=Path)
     parser.add_argument("--size", type=int, default=128)
+    parser.add_argument("--scene-filter", action="store_true", help="the scene's pixel filter instead of a box")
     args = parser.parse_args()
-    print(export(load_scene(args.scene), args.out, (args.size, args.size)))
+    print(export(load_scene(args.scene), args.out, (args.size, args.size), args.scene_filter))
 
 
 if __name__ == "__main__":

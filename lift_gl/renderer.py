@@ -31,6 +31,7 @@ from .errors import DenoiserError, LiftError
 from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
+from .passes.pixel_filter import filter_uniforms, filtered_jitter
 from .passes.denoise import DenoisePass
 from .limits import GlLimits, check_film, check_packed, check_triangle_count
 from .passes.common import (SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_LOOP_LIMITED, STAT_RAYS_HIGH,
@@ -43,7 +44,7 @@ from .passes.trace import TracePass, param_uniforms
 from .passes.upsample import UpsamplePass
 from .plugins import Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
-from .scene.model import Scene
+from .scene.model import PixelFilter, Scene
 from .scene.pack import pack_materials, pack_scene
 from .scene.validate import validate_scene
 from .temporal import DEFAULT_MIN_BLEND, MODES, history_cap, motion_uniforms, objects_moved, previous_positions, same_camera
@@ -548,9 +549,17 @@ class Renderer:
             return _NoTimer()
         return self.timers[name]
 
+    def _compiled_pixel_filter(self):
+        """The scene's pixel filter; a box over the pixel where the shaders sample one that the
+        scene lacks (compiled with every feature, `--all-features`)."""
+        if self.scene.pixel_filter is None and self.features.pixel_filter:
+            return PixelFilter("box", (0.5, 0.5))
+        return self.scene.pixel_filter
+
     def render_frame(self, samples: int | None = None) -> None:
         samples = samples or self.samples_per_frame
-        jitter = frame_jitter(self.frame_index, self.seed)
+        jitter = filtered_jitter(frame_jitter(self.frame_index, self.seed), self.scene.pixel_filter,
+                                 self.scene.film_size, self.size)
         # The accumulation's two halves (error estimate) draw from two independent streams.
         stream = 0 if half_sign(self.accumulate.frames) > 0 else 1
         self.buffers.bind()
@@ -563,7 +572,8 @@ class Renderer:
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,
                         u_sample_base=self.stream_spp[stream], u_stream=stream,
-                        u_jitter=jitter)
+                        u_jitter=jitter,
+                        **filter_uniforms(self._compiled_pixel_filter(), self.scene.film_size, self.size))
         with self._timed("trace"):
             self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None)
         if self.reduced is not None:

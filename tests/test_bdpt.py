@@ -115,7 +115,7 @@ def test_furnace_clear_glass_sphere_vanishes():
 
 # ---------------------------------------------------------------- Tungsten's Cornell box
 SIZE_REF = 64
-SPP_REF = 32
+SPP_REF = 128  # the frames' shared subpixel jitter correlates errors along the light's edge: fewer frames leave it under-sampled
 
 
 @pytest.fixture(scope="module")
@@ -142,9 +142,14 @@ def test_bdpt_converges_to_tungsten_on_the_pbrt_cornell_box(pbrt_cornell_bdpt):
     se = np.sqrt(((a - b) ** 2 / 4).reshape(-1, 3).mean(axis=0) / n)
     got, want = mean.reshape(-1, 3).mean(axis=0), ref.reshape(-1, 3).mean(axis=0)
     assert np.all(np.abs(got - want) <= 4.0 * se + MEAN_REL_FLOOR * want), (got, want, se)
-    noise = np.mean((a - b) ** 2 / (ref ** 2 + metrics.REL_MSE_EPS)) / 4
-    rel = metrics.rel_mse(mean, ref)
-    assert rel <= 1.5 * noise + RELMSE_FLOOR, (rel, noise)
+    # relMSE beyond our own noise: per pixel, (mean - ref)^2 / w minus the noise (a - b)^2 / 4w
+    # that the two halves predict. Its mean over pixels is the bias^2 (plus the reference's
+    # noise); its standard error comes from the spread over pixels (bdpt's fireflies make
+    # a fixed allowance such as 1.5x the noise too tight or too loose).
+    w = ref ** 2 + metrics.REL_MSE_EPS
+    excess = ((mean - ref) ** 2 / w - (a - b) ** 2 / (4 * w)).ravel()
+    se_excess = excess.std() / np.sqrt(excess.size)
+    assert excess.mean() <= 4.0 * se_excess + RELMSE_FLOOR, (excess.mean(), se_excess, metrics.rel_mse(mean, ref))
     assert metrics.ssim(mean, ref) >= metrics.ssim(a, b)
 
 

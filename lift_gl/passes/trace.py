@@ -50,6 +50,9 @@ uniform uint u_samples;
 uniform uint u_sample_base;  // samples per pixel of this frame's stream accumulated before it
 uniform uint u_stream;       // which half of the frames (error estimate) this one belongs to
 uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
+#if !defined(PRIMARY_GBUFFER) && defined(HAS_PIXEL_FILTER)
+#include "lift/pixel_filter.glsl"
+#endif
 
 // ---- plugin parameters ----
 {params}
@@ -104,6 +107,9 @@ void main() {{
         hit = gbuffer_hit(pixel, ray);
 #else
         vec2 subpixel = rng_next2(rng);
+#ifdef HAS_PIXEL_FILTER
+        subpixel = pixel_filter_offset(subpixel);  // drawn from the scene's pixel filter
+#endif
         vec2 lens = rng_next2(rng);
 #ifdef HAS_MOTION
         g_ray_time = rng_next(rng);  // uniform over the shutter: a box shutter

@@ -26,8 +26,13 @@ C_TYPES = {"int": "int", "float": "float", "bool": "int", "color": "float3"}
 FRAME_LAYOUT = ("cam_pos", "cam_right", "cam_up", "cam_forward", "tan_half_fov lens_radius focus samples",
                 "resolution jitter", "env_radiance frame", "num_triangles num_spheres num_lights seed")
 
+PIXEL_FILTER_STRIDE = 132  # floats per axis of the pixel filter's knots (pixel_filter.h)
+
 KERNEL_TEMPLATE = """
 #include "lift/host.h"
+#ifdef HAS_PIXEL_FILTER
+#include "lift/pixel_filter.h"
+#endif
 
 // ---- plugin parameters (plugin.toml) ----
 typedef struct {{
@@ -130,6 +135,9 @@ __kernel void lift_trace(
         hit = gbuffer_hit(&scene, visibility[index], ray);
 #else
         float2 subpixel = rng_next2(&rng);
+#ifdef HAS_PIXEL_FILTER
+        subpixel = pixel_filter_offset(frame_values + FRAME_ROWS, subpixel);  // the scene's pixel filter
+#endif
         float2 lens = rng_next2(&rng);
         ray = camera_ray_lens(&info.camera, position + subpixel, lens);
         trace_closest(&scene, ray, &hit);
@@ -179,7 +187,8 @@ def pack_params(plugin: Plugin, uniforms: dict) -> np.ndarray:
 
 
 def pack_frame(uniforms: dict) -> np.ndarray:
-    """The host uniforms trace.py sets, as FRAME_LAYOUT's float4 rows."""
+    """The host uniforms trace.py sets, as FRAME_LAYOUT's float4 rows; then, with a pixel
+    filter, its knots (shaders/opencl/lift/pixel_filter.h)."""
     f = np.zeros((len(FRAME_LAYOUT), 4), np.float32)
     f[0, :3], f[1, :3] = uniforms["u_cam_pos"], uniforms["u_cam_right"]
     f[2, :3], f[3, :3] = uniforms["u_cam_up"], uniforms["u_cam_forward"]
@@ -190,7 +199,13 @@ def pack_frame(uniforms: dict) -> np.ndarray:
     bits[4, 3] = uniforms["u_samples"]
     bits[6, 3] = uniforms["u_frame"]
     bits[7] = (uniforms["u_num_triangles"], uniforms["u_num_spheres"], uniforms["u_num_lights"], uniforms["u_seed"])
-    return f
+    if "u_filter_span" not in uniforms:
+        return f
+    cdf = np.zeros((2, PIXEL_FILTER_STRIDE), np.float32)
+    cdf[0, :len(uniforms["u_filter_cdf_x"])] = uniforms["u_filter_cdf_x"]
+    cdf[1, :len(uniforms["u_filter_cdf_y"])] = uniforms["u_filter_cdf_y"]
+    span = np.array([uniforms["u_filter_span"]], np.float32)
+    return np.concatenate([f, span, cdf.reshape(-1, 4)])
 
 
 SCENE_ARRAYS = ("bvh_nodes", "tri_pos", "tri_normal", "tri_uv", "tri_info", "materials", "lights", "spheres")
@@ -209,6 +224,7 @@ class OpenCLTracePass:
         defines = dict(defines)
         if plugin.primary == "gbuffer":
             defines["PRIMARY_GBUFFER"] = True
+        defines["FRAME_ROWS"] = len(FRAME_LAYOUT)  # where pack_frame puts the pixel filter's knots
         self.source = opencl.assemble(generate_kernel(plugin), defines, include_dirs=[plugin.folder],
                                       main_name=f"<{plugin.name} host kernel>")
         self.kernel = opencl.build(self.source, plugin.manifest).lift_trace

@@ -36,6 +36,9 @@ def scene_differences(a: Scene, b: Scene, normals_atol: float = 0.0) -> list[str
                   ("position", "target", "up", "fov_deg", "aperture_radius", "focus_distance", "shutter"))
     if tuple(a.film_size) != tuple(b.film_size):
         out.append(f"film size {a.film_size} != {b.film_size}")
+    fa, fb = (None if f is None else (f.kind, tuple(f.radius), f.alpha) for f in (a.pixel_filter, b.pixel_filter))
+    if fa != fb:
+        out.append(f"pixel filter {fa} != {fb}")
     if a.max_depth != b.max_depth:
         out.append(f"max_depth {a.max_depth} != {b.max_depth}")
     if not _same(a.environment.radiance if a.environment else None,

@@ -26,6 +26,7 @@ class SceneFeatures:
     environment_map: bool = False  # an image-based environment, importance sampled
     distant_lights: bool = False  # directional (delta) lights
     beckmann: bool = False  # rough conductors with a Beckmann distribution
+    pixel_filter: bool = False  # a film filter wider than a box over the pixel (camera rays sample it)
 
     @classmethod
     def of(cls, scene: Scene) -> "SceneFeatures":
@@ -46,6 +47,7 @@ class SceneFeatures:
             environment_map=_has_environment(scene) and scene.environment.image is not None,
             distant_lights=any((d.irradiance > 0).any() for d in scene.distant_lights),
             beckmann=any(m.type == "conductor" and m.alpha > 0 and m.distribution == "beckmann" for m in used),
+            pixel_filter=scene.pixel_filter is not None,
         )
 
     @classmethod

@@ -33,12 +33,14 @@ from .loader import warn_at
 from .mesh_io import load_mesh_file
 from .mitsuba_bsdfs import BsdfReader
 from .mitsuba_props import Props
-from .model import Camera, DistantLight, Environment, Material, Mesh, Scene
+from .model import Camera, DistantLight, Environment, Material, Mesh, PixelFilter, Scene
 from .texture_files import TextureLibrary, read_environment_image
 from .xml_tree import Node, parse_xml
 
 # Elements whose parameters lift-gl reads elsewhere or that change nothing in its image.
-IGNORED_SILENTLY = {"sampler", "rfilter"}
+IGNORED_SILENTLY = {"sampler", "rfilter"}  # rfilter: read by _film
+# Mitsuba's film filter when the scene names none: a gaussian of standard deviation 0.5 pixel, cut at 2.
+MITSUBA_DEFAULT_FILTER = PixelFilter("gaussian", (2.0, 2.0), alpha=2.0, source="Mitsuba's default rfilter")
 SHAPES = {"obj", "ply", "rectangle", "cube", "sphere", "disk"}
 DISK_SEGMENTS = 96
 
@@ -47,7 +49,8 @@ class _Loader:
     def __init__(self, path: Path):
         self.path = Path(path)
         self.folder = self.path.parent
-        self.scene = Scene(camera=Camera(position=[0, 0, 0], target=[0, 0, 1]), film_size=(768, 576))
+        self.scene = Scene(camera=Camera(position=[0, 0, 0], target=[0, 0, 1]), film_size=(768, 576),
+                           pixel_filter=MITSUBA_DEFAULT_FILTER)
         self.ids: dict[str, Node] = {}
         self.defaults: dict[str, str] = {}
         self.warned: set = set()
@@ -229,6 +232,34 @@ class _Loader:
         if np.dot(np.cross(forward, up), -left) < 0:
             prim.mirror_scene_x(self.scene)
 
+    def _rfilter(self, node: Node | None) -> None:
+        """The film's reconstruction filter (Mitsuba's default is a gaussian of standard
+        deviation 0.5 pixel, cut at 4 of them); radii in the film's pixels."""
+        if node is None:
+            self.scene.pixel_filter = MITSUBA_DEFAULT_FILTER
+            return
+        p = Props(node, self.warn)
+        where = f"{node.where[0]}:{node.where[1]}"
+        if p.kind == "box":
+            self.scene.pixel_filter = None  # a box over each pixel: what every render does anyway
+        elif p.kind == "tent":
+            radius = p.float("radius", 1.0)
+            if not radius > 0:
+                raise SceneError("the tent filter's radius must be positive", *node.where)
+            self.scene.pixel_filter = PixelFilter("triangle", (radius, radius), source=where)
+        elif p.kind == "gaussian":
+            stddev = p.float("stddev", 0.5)
+            if not stddev > 0:
+                raise SceneError("the gaussian filter's stddev must be positive", *node.where)
+            self.scene.pixel_filter = PixelFilter("gaussian", (4 * stddev, 4 * stddev), alpha=0.5 / stddev ** 2,
+                                                  source=where)
+        else:
+            self.warn(node, f"rfilter '{p.kind}' cannot be sampled as a density (negative lobes or unknown); "
+                            "using a box over each pixel")
+            self.scene.pixel_filter = None
+            return
+        p.warn_unused()
+
     def _film(self, node: Node) -> None:
         p = Props(node, self.warn)
         self.scene.film_size = (p.int("width", 768), p.int("height", 576))
@@ -238,7 +269,8 @@ class _Loader:
             if p.has(name):
                 p.int(name)
                 self.warn(node, "film crop windows are not supported; the whole image is rendered", key=("crop",))
-        # Output options (file format, pixel format, banner, gamma, filter...) belong to
+        self._rfilter(next((c for c in node.children if c.tag == "rfilter"), None))
+        # Output options (file format, pixel format, banner, gamma...) belong to
         # lift-gl's --out, not to the scene.
         p.used.update({"file_format", "pixel_format", "component_format", "banner", "gamma",
                        "high_quality_edges", "filename", "tonemap_method", "exposure", "sample_border",

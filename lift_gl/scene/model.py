@@ -182,6 +182,19 @@ class Environment:
             self.image = np.ascontiguousarray(self.image, dtype=np.float32)
 
 
+@dataclass(frozen=True)
+class PixelFilter:
+    """The film's reconstruction filter, as the scene file asks for it: `kind` "box",
+    "triangle" or "gaussian", `radius` (x, y) in pixels of the scene's film (`Scene.film_size`),
+    `alpha` the gaussian's falloff (pbrt-v3: exp(-alpha x^2) minus its value at the radius).
+    Renders importance-sample the subpixel position from it (lift_gl/passes/pixel_filter.py)."""
+
+    kind: str = "box"
+    radius: tuple[float, float] = (0.5, 0.5)
+    alpha: float = 2.0
+    source: str = ""
+
+
 @dataclass
 class DistantLight:
     """A directional (delta) light: `irradiance` on a surface facing it, arriving from
@@ -208,6 +221,7 @@ class Scene:
     distant_lights: list[DistantLight] = field(default_factory=list)
     max_depth: int = 16  # path length limit the scene file asks for
     film_size: tuple[int, int] = (256, 256)  # width, height the scene file asks for
+    pixel_filter: PixelFilter | None = None  # None: a box over each rendered pixel
     path: Path | None = None
 
     @property

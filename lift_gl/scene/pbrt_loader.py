@@ -14,8 +14,11 @@ Conventions and assumptions:
   (scattering events) a path may have, as in pbrt (0: only light seen directly).
 - Front faces follow pbrt: the geometric normal, flipped by ReverseOrientation or a
   mirroring transform, and turned towards the shading normals N where a mesh has them.
-- Sampler, PixelFilter, Accelerator and Film's filename are ignored on purpose: the
-  renderer has its own sampling and filter. Everything else that cannot be honoured warns.
+- `PixelFilter` box, triangle and gaussian are kept (Scene.pixel_filter, radii in the film's
+  pixels; renders importance-sample it); mitchell and sinc, whose negative lobes cannot be
+  sampled as a density, warn and fall back to a box. Sampler, Accelerator and Film's
+  filename are ignored on purpose: the renderer has its own sampling. Everything else that
+  cannot be honoured warns.
 """
 from __future__ import annotations
 
@@ -29,7 +32,7 @@ from ..errors import LiftError, SceneError
 from . import primitives as prim
 from .loader import internal_error, warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, DistantLight, Environment, Material, Mesh, Scene
+from .model import Camera, DistantLight, Environment, Material, Mesh, PixelFilter, Scene
 from .optics import ior_from_f0
 from .texture_files import FLOAT_EXTENSIONS, TextureLibrary, read_environment_image
 
@@ -324,7 +327,7 @@ class _State:
     emission: np.ndarray | None = None
 
 
-IGNORED = {"Sampler", "PixelFilter", "Accelerator", "WorldEnd", "ColorSpace", "Option"}
+IGNORED = {"Sampler", "Accelerator", "WorldEnd", "ColorSpace", "Option"}
 
 
 class _Builder:
@@ -483,6 +486,24 @@ class _Builder:
         if kind not in ("path", "volpath", "bdpt"):
             warn_at(st.path, st.line, f"Integrator '{kind}': only its maxdepth is used")
         ps.warn_unused(f"Integrator '{kind}'")
+
+    def do_PixelFilter(self, st):
+        kind, ps = self._kind_and_params(st)
+        default_width = {"box": 0.5, "triangle": 2.0, "gaussian": 2.0}  # pbrt-v3's defaults
+        if kind not in default_width:
+            warn_at(st.path, st.line, f"PixelFilter '{kind}' has negative lobes, which cannot be sampled as a "
+                                      "density; using a box over each pixel")
+            self.scene.pixel_filter = None
+            return
+        radius = (ps.float("xwidth", default_width[kind]), ps.float("ywidth", default_width[kind]))
+        alpha = ps.float("alpha", 2.0) if kind == "gaussian" else 2.0
+        ps.warn_unused(f"PixelFilter '{kind}'")
+        if not all(np.isfinite(r) and r > 0 for r in radius) or not alpha > 0:
+            raise SceneError(f"PixelFilter '{kind}': xwidth, ywidth and alpha must be positive", st.path, st.line)
+        if kind == "box" and radius == (0.5, 0.5):
+            self.scene.pixel_filter = None  # a box over each pixel: what every render does anyway
+        else:
+            self.scene.pixel_filter = PixelFilter(kind=kind, radius=radius, alpha=alpha, source=f"{st.path}:{st.line}")
 
     def do_Film(self, st):
         kind, ps = self._kind_and_params(st)

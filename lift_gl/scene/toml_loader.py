@@ -6,6 +6,7 @@ and `key =` lines; every error and warning then names file:line.
 from __future__ import annotations
 
 import copy
+import math
 import re
 import tomllib
 from pathlib import Path
@@ -16,7 +17,7 @@ from ..errors import SceneError, read_utf8
 from . import primitives as prim
 from .loader import framing_camera, warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, DistantLight, Environment, Material, Scene
+from .model import Camera, DistantLight, Environment, Material, PixelFilter, Scene
 from .texture_files import TextureLibrary, read_environment_image
 
 # RGB complex indices of refraction (eta, k) at roughly 650/550/450 nm.
@@ -276,13 +277,39 @@ def load_toml(path: Path) -> Scene:
 
 def _read_film(ctx, data, scene):
     r = ctx.reader(data, ("film",))
-    r.check_keys({"size"})
+    r.check_keys({"size", "filter", "filter_radius", "filter_alpha"})
+    _read_pixel_filter(r, scene)
     if r.has("size"):
         v = r.data["size"]
         if not (isinstance(v, list) and len(v) == 2 and all(
                 isinstance(x, int) and not isinstance(x, bool) and x > 0 for x in v)):
             r.error("size", f"'size' in [film] must be [width, height] in pixels, not {_show(v)}")
         scene.film_size = (v[0], v[1])
+
+
+FILTER_RADIUS = {"box": 0.5, "triangle": 1.0, "gaussian": 2.0}  # defaults, in the film's pixels
+
+
+def _read_pixel_filter(r, scene):
+    """[film] filter = "box" | "triangle" | "gaussian", filter_radius (film pixels), filter_alpha."""
+    kind = r.string("filter", None)
+    if kind is None:
+        for key in ("filter_radius", "filter_alpha"):
+            if r.has(key):
+                r.error(key, f"'{key}' in [film] needs 'filter'")
+        return
+    if kind not in FILTER_RADIUS:
+        r.error("filter", f"unknown pixel filter '{kind}' in [film] (expected one of: {', '.join(FILTER_RADIUS)})")
+    value = r.data.get("filter_radius", FILTER_RADIUS[kind])
+    radius = tuple(value) if isinstance(value, list) else (value, value)
+    if not (len(radius) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                     and math.isfinite(v) and v > 0 for v in radius)):
+        r.error("filter_radius", f"'filter_radius' in [film] must be a positive number or [x, y], not {_show(value)}")
+    alpha = r.number("filter_alpha", 2.0, positive=True)
+    if kind == "box" and radius == (0.5, 0.5):
+        return  # a box over each pixel: what every render does anyway
+    scene.pixel_filter = PixelFilter(kind, tuple(float(v) for v in radius), alpha=alpha,
+                                     source=f"{r.ctx.path}:{r.line('filter')}")
 
 
 def _read_camera(ctx, data) -> Camera:

@@ -63,6 +63,17 @@ def _floats(a) -> list:
 
 
 # ---- the parts of a scene ---------------------------------------------------------------------
+def _film(scene) -> dict:
+    film = {"size": [int(v) for v in scene.film_size]}
+    f = scene.pixel_filter
+    if f is not None:
+        rx, ry = (float(v) for v in f.radius)
+        film.update(filter=f.kind, filter_radius=rx if rx == ry else [rx, ry])
+        if f.kind == "gaussian":
+            film["filter_alpha"] = float(f.alpha)
+    return film
+
+
 def _camera(scene: Scene) -> dict:
     c = scene.camera
     out = {"position": _floats(c.position), "target": _floats(c.target), "up": _floats(c.up),
@@ -154,7 +165,7 @@ def save_toml(scene: Scene, path) -> Path:
     origin = f" from {Path(scene.path).name}" if scene.path is not None else ""
     lines = [f"# Written by lift-gl{origin}; the format is described in scenes/README.md."]
     _table(lines, "[camera]", _camera(scene))
-    _table(lines, "[film]", {"size": [int(v) for v in scene.film_size]})
+    _table(lines, "[film]", _film(scene))
     _table(lines, "[integrator]", {"max_depth": int(scene.max_depth)})
     if scene.environment is not None:
         _table(lines, "[environment]", {"radiance": _floats(scene.environment.radiance)})

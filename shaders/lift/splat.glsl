@@ -17,6 +17,9 @@
 #include "lift/scene_data.glsl"
 #include "lift/camera.glsl"
 #include "lift/finite.glsl"
+#ifdef HAS_PIXEL_FILTER
+#include "lift/pixel_filter.glsl"
+#endif
 
 // Three floats per pixel (r, g, b), row-major with row 0 at the bottom (pixel y up).
 #ifdef LIFT_SPLATS_CAS
@@ -39,20 +42,41 @@ void lift_splat_add(uint index, float value) {
 }
 
 // Adds `value` — one sample's whole contribution; the host divides by the sample count — to
-// the pixel that contains the pixel position (pixels, y up, as camera_ray takes it). Positions outside the image are
-// ignored; a NaN or infinite value is dropped and counted in stats[1].
+// the pixel that contains the pixel position (pixels, y up, as camera_ray takes it), or, with
+// the scene's pixel filter, to every pixel whose kernel covers it, weighted by the kernel
+// there (the density that pixel's own camera samples are drawn from). Positions no pixel
+// covers are ignored; a NaN or infinite value is dropped and counted in stats[1].
+void splat_pixel(ivec2 pixel, vec3 value) {
+    uint index = 3u * (uint(pixel.y) * uint(u_resolution.x) + uint(pixel.x));
+    lift_splat_add(index, value.r);
+    lift_splat_add(index + 1u, value.g);
+    lift_splat_add(index + 2u, value.b);
+}
+
 void splat(vec2 pixel_pos, vec3 value) {
-    ivec2 pixel = ivec2(floor(pixel_pos));
-    if (any(lessThan(pixel, ivec2(0))) || any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
     if (!lift_is_finite(value)) {
         atomicAdd(stats[1], 1u);
         return;
     }
     if (all(equal(value, vec3(0.0)))) return;
-    uint index = 3u * (uint(pixel.y) * uint(u_resolution.x) + uint(pixel.x));
-    lift_splat_add(index, value.r);
-    lift_splat_add(index + 1u, value.g);
-    lift_splat_add(index + 2u, value.b);
+#ifdef HAS_PIXEL_FILTER
+    // Pixel c's kernel covers offsets pixel_pos - c in [first, last).
+    vec2 first = u_filter_span.xz;
+    vec2 last = first + float(PIXEL_FILTER_KNOTS - 1) * u_filter_span.yw;
+    ivec2 lo = max(ivec2(floor(pixel_pos - last)) + 1, ivec2(0));
+    ivec2 hi = min(ivec2(floor(pixel_pos - first)), ivec2(u_resolution) - 1);
+    for (int y = lo.y; y <= hi.y; ++y) {
+        float wy = pixel_filter_density(1, pixel_pos.y - float(y));
+        for (int x = lo.x; x <= hi.x; ++x) {
+            float w = wy * pixel_filter_density(0, pixel_pos.x - float(x));
+            if (w > 0.0) splat_pixel(ivec2(x, y), value * w);
+        }
+    }
+#else
+    ivec2 pixel = ivec2(floor(pixel_pos));
+    if (any(lessThan(pixel, ivec2(0))) || any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
+    splat_pixel(pixel, value);
+#endif
 }
 #endif
 #endif
