@@ -10,8 +10,9 @@ For a full-resolution pixel p, each of the 3 x 3 reduced samples q around it is 
   * max(0, n_p . n_q)^normal_power           the G-buffer normals at p and x_q
   * exp(-|z_p - z_q| / (depth_sigma z_p))    the G-buffer view depths
 and the weighted mean, multiplied by p's own albedo (the G-buffer's, textures applied; the
-reduced pass divided by x_q's), is p's estimate. A pixel whose neighbours all fail the guides (a thin object) falls back to
-the distance weights alone rather than staying black. Background pixels get nothing.
+reduced pass divided by x_q's), is p's estimate. A pixel whose neighbours all fail the guides
+(a thin object) falls back to the distance weights alone rather than staying black.
+Background pixels get nothing.
 This is where the bias is: q's estimate belongs to another point of the scene.
 """
 from __future__ import annotations
