@@ -25,12 +25,13 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
 
         // ---- A surface vertex ----
         Surface s = surface_at(ray, hit);
-        Material m = material_at(s.material, s.uv);  // textures applied
+        vec3 tint = texture_tint(s.material, s.uv);
+        Material m = material_tinted(s.material, tint);  // = material_at(s.material, s.uv)
         vec3 wo = -ray.dir;
         bdpt_path[i] = PathVertex(s.p, s.ng, shading_normal(s, m, wo), wo, beta, 0.0, 0.0, pdf_light_point(s),
                                   vertex_tag(s.material, VERTEX_SURFACE));
 #ifdef HAS_TEXTURES
-        bdpt_uv[i] = s.uv;  // the joins look the texture up again there (vertex_bsdf_material)
+        bdpt_tint[i] = tint;  // for the joins (vertex_bsdf_material)
 #endif
         bdpt_path[i].pdf_fwd = i == last + 1 && first_pdf_pos > 0.0 ? first_pdf_pos * abs(dot(ray.dir, s.ng))
                                                                      : area_density(pdf_dir, bdpt_path[i - 1].p, i);

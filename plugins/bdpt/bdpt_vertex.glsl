@@ -42,9 +42,10 @@ uint vertex_tag(uint material, uint kind) { return material << 4u | kind << 1u; 
 // Private to each invocation: camera subpath first, then the light subpath.
 PathVertex bdpt_path[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
 #ifdef HAS_TEXTURES
-// The texture coordinates of each surface vertex, beside bdpt_path rather than in it: only
-// scenes with image textures carry them.
-vec2 bdpt_uv[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
+// What the texture multiplies each surface vertex's base colour by (texture_tint), looked up
+// once when the vertex is made rather than at every join. Beside bdpt_path rather than in it:
+// only scenes with image textures carry it.
+vec3 bdpt_tint[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
 #endif
 
 uint vertex_kind(int i) { return bdpt_path[i].tag >> 1u & 7u; }
@@ -54,9 +55,9 @@ bool vertex_delta(int i) { return (bdpt_path[i].tag & 1u) != 0u; }
 // The material that scatters at surface vertex i: its texture applied, as pt shades it.
 Material vertex_bsdf_material(int i) {
 #ifdef HAS_TEXTURES
-    return material_at(vertex_material(i), bdpt_uv[i]);
+    return material_tinted(vertex_material(i), bdpt_tint[i]);
 #else
-    return material_at(vertex_material(i), vec2(0.0));  // no textures: uv unused
+    return materials[vertex_material(i)];
 #endif
 }
 
