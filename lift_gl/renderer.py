@@ -580,7 +580,7 @@ class Renderer:
             scale = int(self._reduced_setting("scale"))
             offset = block_offset(self.frame_index, scale)
             with self._timed("reduced"):
-                self.reduced.run(uniforms, self.gbuffer.visibility, scale, offset)
+                self.reduced.run(uniforms, self.gbuffer, scale, offset)
             with self._timed("upsample"):
                 self.upsample.run(self.trace.frame, self.reduced.reduced, self.gbuffer, scale, offset,
                                   self._reduced_setting("normal_power"), self._reduced_setting("depth_sigma"))

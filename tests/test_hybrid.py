@@ -83,7 +83,7 @@ def test_reduced_resolution_follows_the_parameter_and_explain_labels_the_bias(ca
     assert r.reduced.reduced.size == (15, 11)
     text = r.explain()
     assert "BIASED: indirect light" in text
-    for line in ("reduced     scene, camera, visibility -> reduced", "upsample    frame, reduced, normal_depth"):
+    for line in ("reduced     scene, camera, visibility, albedo -> reduced", "upsample    frame, reduced, normal_depth"):
         assert line in text
     assert "reduced" not in Renderer(load_scene(CORNELL), size=(8, 8)).explain()  # pt: no such passes
     assert main(["plugins"]) == 0

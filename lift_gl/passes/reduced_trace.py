@@ -1,7 +1,7 @@
 """Reduced trace pass: a plugin's second estimate (its `[reduced]` function) for one pixel in
 every scale x scale block (a hybrid plugin's indirect light).
 
-inputs:  scene buffers, camera, G-buffer visibility (the full-resolution first hits)
+inputs:  scene buffers, camera, G-buffer visibility (the full-resolution first hits) and albedo
 outputs: reduced (RGBA32F, ceil(W / scale) x ceil(H / scale): the estimate divided by the
          first hit's albedo, summed over this frame's samples, in rgb; their count in a;
          0 samples where the first hit is black or missing: no information to spread)
@@ -10,8 +10,10 @@ Block b is represented by full-resolution pixel b * scale + offset, where the of
 same for the whole frame and walks over the block from frame to frame (`block_offset`), so
 that over scale^2 frames every pixel is traced. The estimate is demodulated (divided by the
 albedo of the surface it starts from) so that the upsampling pass can multiply each pixel's
-own albedo back in: material edges stay sharp. The upsampling pass (passes/upsample.py)
-reads the guides (normal, depth) of the same representative pixels from the G-buffer.
+own albedo back in: material and texture edges stay sharp. Both passes take that albedo from
+the G-buffer (textures applied, as the denoiser's guide), so that demodulating and remodulating
+one pixel cancel exactly. The upsampling pass (passes/upsample.py) reads the guides (normal,
+depth) of the same representative pixels from the G-buffer.
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ layout(local_size_x = {local}, local_size_y = {local}) in;
 #include "lift/host.glsl"
 layout(rgba32f, binding = 0) uniform writeonly image2D u_reduced_out;
 uniform usampler2D u_visibility;
+uniform sampler2D u_albedo;  // G-buffer: the first hit's albedo, textures applied
 uniform uint u_frame;
 uniform uint u_seed;
 uniform uint u_samples;
@@ -52,8 +55,7 @@ void main() {{
     float valid = 0.0;
     Ray ray = camera_ray(vec2(pixel) + u_jitter);
     Hit first = gbuffer_hit(pixel, ray);
-    vec3 albedo = vec3(0.0);
-    if (first.prim != NO_HIT) albedo = bsdf_albedo(materials[surface_at(ray, first).material]);
+    vec3 albedo = first.prim != NO_HIT ? texelFetch(u_albedo, pixel, 0).rgb : vec3(0.0);
     if (max(albedo.r, max(albedo.g, albedo.b)) <= 1e-6) {{
         // Black (an emitter's face, the background): it tells its neighbours nothing about
         // their indirect light, so it must not count as zero in their filter.
@@ -98,7 +100,7 @@ def generate_main(plugin: Plugin) -> str:
 
 class ReducedTracePass:
     name = "reduced"
-    inputs = ("scene", "camera", "visibility")
+    inputs = ("scene", "camera", "visibility", "albedo")
     outputs = ("reduced",)
 
     def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict):
@@ -119,11 +121,12 @@ class ReducedTracePass:
         self.scale = scale
         self.reduced = self.ctx.texture(reduced_size(self.size, scale), 4, dtype="f4")
 
-    def run(self, uniforms: dict, visibility, scale: int, offset: tuple[int, int]) -> None:
+    def run(self, uniforms: dict, gbuffer, scale: int, offset: tuple[int, int]) -> None:
         self._allocate(int(scale))
         set_uniforms(self.program, dict(uniforms, u_scale=self.scale, u_block_offset=offset))
-        visibility.use(location=0)
-        self.program["u_visibility"].value = 0
+        for unit, (name, texture) in enumerate((("u_visibility", gbuffer.visibility), ("u_albedo", gbuffer.albedo))):
+            texture.use(location=unit)
+            self.program[name].value = unit
         self.reduced.bind_to_image(0, read=False, write=True)
         self.program.run(*groups(*self.reduced.size))
 

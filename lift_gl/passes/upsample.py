@@ -2,16 +2,17 @@
 added into the frame.
 
 inputs:  frame (RGBA32F: this frame's full-resolution radiance sum, sample count), reduced
-         (passes/reduced_trace.py), G-buffer normal_depth and visibility (guides, albedo)
+         (passes/reduced_trace.py), G-buffer normal_depth and visibility (guides), albedo
 outputs: frame (in place: + count * albedo * upsampled estimate)
 
 For a full-resolution pixel p, each of the 3 x 3 reduced samples q around it is weighted by
     exp(-|p - x_q|^2 / (2 (0.75 scale)^2))    distance to q's representative pixel x_q
   * max(0, n_p . n_q)^normal_power           the G-buffer normals at p and x_q
   * exp(-|z_p - z_q| / (depth_sigma z_p))    the G-buffer view depths
-and the weighted mean, multiplied by p's own albedo (the reduced pass divided by x_q's),
-is p's estimate. A pixel whose neighbours all fail the guides (a thin object) falls back to
-the distance weights alone rather than staying black. Background pixels get nothing.
+and the weighted mean, multiplied by p's own albedo (the G-buffer's, textures applied; the
+reduced pass divided by x_q's), is p's estimate. A pixel whose neighbours all fail the guides
+(a thin object) falls back to the distance weights alone rather than staying black.
+Background pixels get nothing.
 This is where the bias is: q's estimate belongs to another point of the scene.
 """
 from __future__ import annotations
@@ -23,12 +24,11 @@ from .common import groups, set_uniforms
 
 SOURCE = """
 layout(local_size_x = 8, local_size_y = 8) in;
-#include "lift/scene_data.glsl"
-#include "lift/bsdf.glsl"
 layout(rgba32f, binding = 0) uniform image2D u_frame;
 uniform sampler2D u_reduced;       // demodulated estimate sum (rgb), sample count (a)
 uniform sampler2D u_normal_depth;  // G-buffer: normal (xyz), view depth (w; 0 = background)
-uniform usampler2D u_visibility;   // G-buffer: primitive id + 1 (x), material (w)
+uniform usampler2D u_visibility;   // G-buffer: primitive id + 1 (x)
+uniform sampler2D u_albedo;        // G-buffer: albedo, textures applied
 uniform int u_scale;
 uniform ivec2 u_block_offset;
 uniform float u_normal_power;
@@ -69,7 +69,7 @@ void main() {
     }
     vec3 estimate = guided_w > 1e-4 ? guided / guided_w : (spatial_w > 0.0 ? spatial / spatial_w : vec3(0.0));
     vec4 frame = imageLoad(u_frame, p);
-    vec3 albedo = bsdf_albedo(materials[vis.w]);
+    vec3 albedo = texelFetch(u_albedo, p, 0).rgb;
     imageStore(u_frame, p, vec4(frame.rgb + frame.a * albedo * estimate, frame.a));
 }
 """
@@ -77,7 +77,7 @@ void main() {
 
 class UpsamplePass:
     name = "upsample"
-    inputs = ("frame", "reduced", "normal_depth", "visibility")
+    inputs = ("frame", "reduced", "normal_depth", "visibility", "albedo")
     outputs = ("frame",)
 
     def __init__(self, ctx: moderngl.Context, size, defines: dict):
@@ -90,7 +90,7 @@ class UpsamplePass:
         set_uniforms(self.program, {"u_scale": int(scale), "u_block_offset": tuple(offset),
                                     "u_normal_power": float(normal_power), "u_depth_sigma": float(depth_sigma)})
         for unit, (name, texture) in enumerate((("u_reduced", reduced), ("u_normal_depth", gbuffer.normal_depth),
-                                                ("u_visibility", gbuffer.visibility))):
+                                                ("u_visibility", gbuffer.visibility), ("u_albedo", gbuffer.albedo))):
             texture.use(location=unit)
             self.program[name].value = unit
         frame.bind_to_image(0, read=True, write=True)

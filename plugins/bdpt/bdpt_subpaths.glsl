@@ -25,10 +25,14 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
 
         // ---- A surface vertex ----
         Surface s = surface_at(ray, hit);
-        Material m = materials[s.material];
+        vec3 tint = texture_tint(s.material, s.uv);
+        Material m = material_tinted(s.material, tint);  // = material_at(s.material, s.uv)
         vec3 wo = -ray.dir;
         bdpt_path[i] = PathVertex(s.p, s.ng, shading_normal(s, m, wo), wo, beta, 0.0, 0.0, pdf_light_point(s),
                                   vertex_tag(s.material, VERTEX_SURFACE));
+#ifdef HAS_TEXTURES
+        bdpt_tint[i] = tint;  // for the joins (vertex_bsdf_material)
+#endif
         bdpt_path[i].pdf_fwd = i == last + 1 && first_pdf_pos > 0.0 ? first_pdf_pos * abs(dot(ray.dir, s.ng))
                                                                      : area_density(pdf_dir, bdpt_path[i - 1].p, i);
         if (i + 1 >= end) return i + 1;
@@ -39,7 +43,7 @@ int extend_subpath(int last, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir
         BsdfSample bs;
         if (!bsdf_sample(m, wo_local, rng_next3(rng), bs)) return i + 1;
         vec3 wi = to_world(frame, bs.wi);
-        if (vertex_blocks(i, wo, wi)) return i + 1;
+        if (vertex_blocks(m, i, wo, wi)) return i + 1;
         vec3 weight = bs.weight;
         if (importance) weight *= adjoint_refraction(m, wo_local, bs.wi) * adjoint_shading_normal(i, wo, wi);
         if (bs.is_delta) {

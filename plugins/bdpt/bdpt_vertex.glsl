@@ -41,10 +41,25 @@ uint vertex_tag(uint material, uint kind) { return material << 4u | kind << 1u; 
 
 // Private to each invocation: camera subpath first, then the light subpath.
 PathVertex bdpt_path[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
+#ifdef HAS_TEXTURES
+// What the texture multiplies each surface vertex's base colour by (texture_tint), looked up
+// once when the vertex is made rather than at every join. Beside bdpt_path rather than in it:
+// only scenes with image textures carry it.
+vec3 bdpt_tint[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
+#endif
 
 uint vertex_kind(int i) { return bdpt_path[i].tag >> 1u & 7u; }
 uint vertex_material(int i) { return bdpt_path[i].tag >> 4u; }
 bool vertex_delta(int i) { return (bdpt_path[i].tag & 1u) != 0u; }
+
+// The material that scatters at surface vertex i: its texture applied, as pt shades it.
+Material vertex_bsdf_material(int i) {
+#ifdef HAS_TEXTURES
+    return material_tinted(vertex_material(i), bdpt_tint[i]);
+#else
+    return materials[vertex_material(i)];
+#endif
+}
 
 bool vertex_on_surface(int i) {
     return vertex_kind(i) == VERTEX_SURFACE || vertex_kind(i) == VERTEX_EMITTER;
@@ -70,11 +85,10 @@ float area_density(float pdf_dir, vec3 from, int i) {
     return pdf_dir * cos_i / dist2;
 }
 
-// Opaque surfaces pass no light from one side of their geometry to the other, whatever the
-// shading normal says.
-bool vertex_blocks(int i, vec3 wo, vec3 wi) {
-    return is_opaque(materials[vertex_material(i)])
-        && dot(wi, bdpt_path[i].ng) * dot(wo, bdpt_path[i].ng) <= 0.0;
+// Opaque surfaces (m: vertex i's material) pass no light from one side of their geometry to
+// the other, whatever the shading normal says.
+bool vertex_blocks(Material m, int i, vec3 wo, vec3 wi) {
+    return is_opaque(m) && dot(wi, bdpt_path[i].ng) * dot(wo, bdpt_path[i].ng) <= 0.0;
 }
 
 // Light subpaths carry importance, whose BSDF is the adjoint of radiance's. Two differences:
@@ -105,8 +119,8 @@ struct VertexScatter {
 
 VertexScatter vertex_scatter(int i, vec3 wo, vec3 wi, bool importance) {
     VertexScatter v = VertexScatter(vec3(0.0), 0.0, 0.0);
-    if (vertex_blocks(i, wo, wi)) return v;
-    Material m = materials[vertex_material(i)];
+    Material m = vertex_bsdf_material(i);
+    if (vertex_blocks(m, i, wo, wi)) return v;
     Frame frame = frame_from_normal(bdpt_path[i].ns);
     vec3 wo_local = to_local(frame, wo), wi_local = to_local(frame, wi);
     v.f = bsdf_eval(m, wo_local, wi_local);

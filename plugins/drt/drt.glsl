@@ -76,7 +76,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #endif
         if (depth >= max_depth) break;
 
-        Material m = materials[s.material];
+        Material m = material_at(s.material, s.uv);  // textures applied
         Frame frame = shading_frame(s, m, wo_world);
         vec3 wo = to_local(frame, wo_world);
         bool diffuse = bsdf_type(m) == MAT_DIFFUSE;

@@ -38,7 +38,7 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
         }
 #endif
         if (depth >= last_bounce) break;
-        Material m = materials[s.material];
+        Material m = material_at(s.material, s.uv);  // textures applied
         Frame frame = shading_frame(s, m, wo_world);
         vec3 wo = to_local(frame, wo_world);
         // ---- Next event estimation (bounce depth + 1): a shadow ray ----

@@ -44,14 +44,30 @@ vec2 sphere_uv(vec3 n) {
     return vec2(atan(n.z, n.x) * 0.15915494 + 0.5, acos(clamp(n.y, -1.0, 1.0)) * 0.31830989);
 }
 
+// What material id's texture multiplies its base colour by at uv: 1 where it has none.
+vec3 texture_tint(uint id, vec2 uv) {
+#ifdef HAS_TEXTURES
+    uint tex = uint(materials[id].k_pad.w + 0.5);
+    if (tex > 0u) return texture_lookup(tex - 1u, uv).rgb;
+#endif
+    return vec3(1.0);
+}
+
+// materials[id] with a tint from texture_tint applied: for code that keeps the tint of a
+// point to shade it again later (bdpt's path vertices) instead of looking the texture up again.
+Material material_tinted(uint id, vec3 tint) {
+    Material m = materials[id];
+    m.color_type.rgb *= tint;
+    return m;
+}
+
 // The material at a surface point: materials[id] with its textures applied (the base
 // colour times the texture's colour at uv). Plugins use this rather than materials[id].
 Material material_at(uint id, vec2 uv) {
-    Material m = materials[id];
 #ifdef HAS_TEXTURES
-    uint tex = uint(m.k_pad.w + 0.5);
-    if (tex > 0u) m.color_type.rgb *= texture_lookup(tex - 1u, uv).rgb;
+    return material_tinted(id, texture_tint(id, uv));
+#else
+    return materials[id];
 #endif
-    return m;
 }
 #endif
