@@ -1,0 +1,492 @@
+"""Where `pt`'s trace pass spends its GPU time: variants of its compute program, timed alike.
+
+    python benchmarks/gpu_pt_variants.py SCENE... [--size 1920x1080] [--max-depth 32]
+        [--variants base,ls16x8,...] [--reps 7] [--out FILE.json] [--dump-binaries DIR]
+
+For each scene the renderer is built once (pt, 1 spp, path length --max-depth); its trace
+program's source (lift_gl/passes/trace.py) is then edited into variants (VARIANTS below),
+each compiled into its own program, and the programs are dispatched in turn, round after
+round (order reversed every other round), over the same G-buffer, scene buffers and uniforms.
+Each dispatch is timed by a GL timer query (on llvmpipe by the CPU clock between two
+ctx.finish()); the JSON keeps every time and the median. Some variants are exact (same
+image: work-group shape, stack placement); others are diagnostics that change the image on
+purpose (no shadow rays, shorter paths) to tell what a part of the path costs. For each
+variant the image's difference from the base is recorded, so an "exact" variant that
+changed the picture shows up.
+
+The G-buffer pass is timed too, with fragment-shader variants (diagnostics: what rasterizing
+costs on this GPU), and `camera`: pt with camera rays traced in the trace pass instead of a
+G-buffer (primary = "camera", one sample a frame), which replaces the raster pass.
+
+--dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
+text, from which local-memory arrays and register use can be read).
+"""
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+
+# ---- source edits ----
+
+def _sub(text: str, old: str, new: str, count: int = 1) -> str:
+    if text.count(old) < 1:
+        raise ValueError(f"variant edit: {old!r} not in the source")
+    return text.replace(old, new) if count == 0 else text.replace(old, new, count)
+
+
+def local_size(x: int, y: int):
+    def edit(text):
+        return re.sub(r"layout\(local_size_x = \d+, local_size_y = \d+\) in;",
+                      f"layout(local_size_x = {x}, local_size_y = {y}) in;", text)
+    edit.local = (x, y)
+    return edit
+
+
+def no_entry_distance(text: str) -> str:
+    """trace_closest's stack without entry distances: every popped node is re-tested."""
+    text = _sub(text, "        float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit\n", "")
+    text = _sub(text, "                    stack_t[sp] = a_first ? tb : ta;\n", "")
+    text = _sub(text, """            live = false;
+            while (sp > 0) {
+                --sp;
+                if (stack_t[sp] <= t) { node = stack_node[sp]; live = true; break; }
+            }""", """            live = sp > 0;
+            if (live) node = stack_node[--sp];""")
+    return text
+
+
+def shared_stack(text: str) -> str:
+    """The traversal stacks in shared memory, one column per invocation (no local memory)."""
+    decl = ("shared uint lift_sh_node[LIFT_BVH_STACK * LIFT_WG];\n"
+            "shared float lift_sh_t[LIFT_BVH_STACK * LIFT_WG];\n")
+    m = re.search(r"layout\(local_size_x = (\d+), local_size_y = (\d+)\) in;", text)
+    wg = int(m.group(1)) * int(m.group(2))
+    text = _sub(text, "#define LIFT_BVH_STACK 48\n", f"#define LIFT_BVH_STACK 48\n#define LIFT_WG {wg}u\n{decl}")
+    text = text.replace("        uint stack_node[LIFT_BVH_STACK];\n", "")
+    text = text.replace("    uint stack_node[LIFT_BVH_STACK];\n", "")
+    text = text.replace("        float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit\n", "")
+    text = re.sub(r"stack_node\[([^\]]+)\]", r"lift_sh_node[uint(\1) * LIFT_WG + gl_LocalInvocationIndex]", text)
+    text = re.sub(r"stack_t\[([^\]]+)\]", r"lift_sh_t[uint(\1) * LIFT_WG + gl_LocalInvocationIndex]", text)
+    return text
+
+
+def no_shadow_rays(text: str) -> str:
+    """Diagnostic: every shadow ray unblocked (what tracing them costs)."""
+    return _sub(text, "bool trace_occluded(Ray ray) {", "bool trace_occluded(Ray ray) { return false; }\nbool unused_occluded(Ray ray) {")
+
+
+def no_path_steps(text: str) -> str:
+    """The host's loop over samples calling radiance() instead of the vertex-at-a-time loop."""
+    return _sub(text, "#define LIFT_PATH_STEPS\n", "")
+
+
+def no_probe(text: str) -> str:
+    """Diagnostic: without the loop-budget probe (llvmpipe's loop limit; passes/trace.py)."""
+    return _sub(text, "if (probe < u_samples + 1u) atomicAdd(stats[4], 1u);", "")
+
+
+WHILE_WHILE = r'''
+// Closest hit: while-while traversal (Aila and Laine 2009): an inner loop descends through
+// interior nodes to the next leaf, the leaf's triangles are tested after it; the stack holds
+// node ids only (a popped node's children are tested against the current t).
+bool trace_closest(Ray ray, out Hit hit) {
+    LIFT_COUNT_RAY();
+    hit.t = ray.tmax;
+    hit.prim = NO_HIT;
+    hit.bary = vec2(0.0);
+    float t = ray.tmax;
+#ifdef HAS_SPHERES
+    for (uint s = 0u; s < u_num_spheres; ++s) {
+        if (intersect_sphere(ray, s, t)) hit.prim = u_num_triangles + s;
+    }
+#endif
+    if (u_num_triangles > 0u) {
+        vec3 inv = lift_bvh_inv_dir(ray.dir);
+        uint stack_node[LIFT_BVH_STACK];
+        int sp = 0;
+        uint node = 0u;
+        float troot;
+        bool live = lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot);
+        while (live) {
+            uint first = floatBitsToUint(bvh_node_row(2u * node).w);
+            uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+            while (count == 0u) {
+                float ta, tb;
+                bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
+                bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
+                if (ha && hb && sp < LIFT_BVH_STACK) {
+                    bool a_first = ta <= tb;
+                    stack_node[sp++] = a_first ? first + 1u : first;
+                    node = a_first ? first : first + 1u;
+                } else if (ha || hb) {
+                    node = ha ? first : first + 1u;
+                } else if (sp > 0) {
+                    node = stack_node[--sp];
+                } else {
+                    live = false;
+                    break;
+                }
+                first = floatBitsToUint(bvh_node_row(2u * node).w);
+                count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+            }
+            for (uint i = first; i < first + count; ++i) {
+                vec2 bary;
+                if (intersect_triangle(ray, i, t, bary)) {
+                    hit.prim = i;
+                    hit.bary = bary;
+                }
+            }
+            live = live && sp > 0;
+            if (live) node = stack_node[--sp];
+        }
+    }
+    if (hit.prim != NO_HIT) {
+        hit.t = t;
+        if (hit.prim >= u_num_triangles) hit.bary = vec2(0.0);
+    }
+    return hit.prim != NO_HIT;
+}
+
+// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
+bool trace_occluded(Ray ray) {
+    LIFT_COUNT_RAY();
+    float t = ray.tmax;
+#ifdef HAS_SPHERES
+    for (uint s = 0u; s < u_num_spheres; ++s) {
+        if (intersect_sphere(ray, s, t)) return true;
+    }
+#endif
+    if (u_num_triangles == 0u) return false;
+    vec3 inv = lift_bvh_inv_dir(ray.dir);
+    uint stack_node[LIFT_BVH_STACK];
+    int sp = 0;
+    float troot;
+    if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
+    uint node = 0u;
+    while (true) {
+        uint first = floatBitsToUint(bvh_node_row(2u * node).w);
+        uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+        while (count == 0u) {
+            float ta, tb;
+            bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
+            bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
+            if (ha && hb && sp < LIFT_BVH_STACK) {
+                stack_node[sp++] = first + 1u;
+                node = first;
+            } else if (ha || hb) {
+                node = ha ? first : first + 1u;
+            } else if (sp > 0) {
+                node = stack_node[--sp];
+            } else {
+                return false;
+            }
+            first = floatBitsToUint(bvh_node_row(2u * node).w);
+            count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+        }
+        for (uint i = first; i < first + count; ++i) {
+            vec2 bary;
+            if (intersect_triangle(ray, i, t, bary)) return true;
+        }
+        if (sp == 0) return false;
+        node = stack_node[--sp];
+    }
+    return false;
+}
+'''
+
+
+def while_while(text: str) -> str:
+    """trace_closest and trace_occluded replaced by WHILE_WHILE."""
+    start = text.index("// Closest hit among triangles (BVH")
+    end_marker = "        node = stack_node[--sp];\n    }\n    return false;\n}\n"
+    end = text.index(end_marker, start) + len(end_marker)
+    return text[:start] + WHILE_WHILE.lstrip("\n") + text[end:]
+
+
+def compose(*edits):
+    def edit(text):
+        for e in edits:
+            text = e(text)
+        return text
+    edit.local = next((e.local for e in edits if hasattr(e, "local")), None)
+    return edit
+
+
+# name -> (source edit or None, uniform overrides, exact: same image as the base)
+VARIANTS = {
+    "base": (None, {}, True),
+    "ls16x8": (local_size(16, 8), {}, True),
+    "ls32x4": (local_size(32, 4), {}, True),
+    "ls8x4": (local_size(8, 4), {}, True),
+    "ls32x2": (local_size(32, 2), {}, True),
+    "nost": (no_entry_distance, {}, True),
+    "shstack": (shared_stack, {}, True),
+    "shstack_nost": (compose(no_entry_distance, shared_stack), {}, True),
+    "shstack_8x4": (compose(local_size(8, 4), shared_stack), {}, True),
+    "whilewhile": (while_while, {}, True),
+    "whilewhile_8x4": (compose(local_size(8, 4), while_while), {}, True),
+    "whilewhile_sh": (compose(while_while, shared_stack), {}, True),
+    "nosteps": (no_path_steps, {}, True),
+    "noprobe": (no_probe, {}, True),
+    "noshadow": (no_shadow_rays, {}, False),
+    "depth1": (None, {"max_depth": 1}, False),
+    "depth2": (None, {"max_depth": 2}, False),
+    "depth4": (None, {"max_depth": 4}, False),
+    "nold": (None, {"low_discrepancy": False}, False),
+}
+
+
+# ---- program binaries (NVIDIA: assembly text inside) ----
+
+GL_PROGRAM_BINARY_LENGTH = 0x8741
+
+
+def program_binary(program) -> bytes | None:
+    """glGetProgramBinary of a moderngl program, through the EGL/GL loader; None if unsupported."""
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+        egl.eglGetProcAddress.restype = ctypes.c_void_p
+        egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+        get_iv = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(
+            egl.eglGetProcAddress(b"glGetProgramiv"))
+        get_bin = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_int),
+                                   ctypes.POINTER(ctypes.c_uint), ctypes.c_void_p)(
+            egl.eglGetProcAddress(b"glGetProgramBinary"))
+        n = ctypes.c_int(0)
+        get_iv(program.glo, GL_PROGRAM_BINARY_LENGTH, ctypes.byref(n))
+        if n.value <= 0:
+            return None
+        buf = ctypes.create_string_buffer(n.value)
+        length, fmt = ctypes.c_int(0), ctypes.c_uint(0)
+        get_bin(program.glo, n.value, ctypes.byref(length), ctypes.byref(fmt), buf)
+        return buf.raw[:length.value]
+    except (OSError, AttributeError, TypeError):
+        return None
+
+
+def binary_summary(blob: bytes | None) -> dict:
+    """What the NVIDIA assembly in a program binary says about local memory and temporaries."""
+    if not blob:
+        return {}
+    text = blob.decode("latin-1")
+    out = {"bytes": len(blob)}
+    lmem = re.findall(r"TEMP lmem\[(\d+)\]", text)
+    if lmem:
+        out["lmem_vec4"] = [int(v) for v in lmem]
+    for key in ("REG", "reg", "NumRegs", "numRegs"):
+        m = re.search(rf"{key}\D{{0,4}}(\d+)", text)
+        if m:
+            out[f"hint_{key}"] = int(m.group(1))
+    return out
+
+
+# ---- the measurement ----
+
+def trace_uniforms(renderer) -> dict:
+    from lift_gl.passes.camera import frame_jitter
+    from lift_gl.passes.trace import param_uniforms
+
+    return dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
+                u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
+                u_jitter=frame_jitter(7, renderer.seed))
+
+
+def camera_source(renderer):
+    """The trace program of pt with primary = "camera" (the host traces camera rays)."""
+    from lift_gl import shaders
+    from lift_gl.passes.trace import generate_main
+    from lift_gl.plugins import param_defines
+
+    defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params))
+    return shaders.assemble(generate_main(renderer.plugin), defines, include_dirs=[renderer.plugin.folder],
+                            main_name="<pt camera-primary main>").text
+
+
+def gbuffer_variants(renderer) -> dict:
+    """Fragment-shader variants of the G-buffer pass (diagnostics of raster cost)."""
+    from lift_gl import shaders
+    from lift_gl.passes.gbuffer import SHADER_DIR
+
+    vert = shaders.assemble(SHADER_DIR / "gbuffer.vert", renderer.defines).text
+    frag = shaders.assemble(SHADER_DIR / "gbuffer.frag", renderer.defines).text
+    flat = re.sub(r"void main\(\) \{.*\}\s*$", "void main() {\n    o_visibility = uvec4(v_prim + 1u, 0u, 0u, 0u);\n"
+                  "    o_normal_depth = vec4(0.0);\n    o_albedo = vec4(0.0);\n}\n", frag, flags=re.S)
+    early = frag.replace("gl_FragDepth = clamp(view_depth * u_inv_far, 0.0, 1.0);", "")
+    return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
+
+
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir):
+    from lift_gl.gl.context import is_software
+    from lift_gl.passes.camera import frame_jitter, view_projection, near_far
+    from lift_gl.passes.common import set_uniforms
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.loader import load_scene
+
+    scene = load_scene(path)
+    r = Renderer(scene, size=size, integrator="pt", params={"max_depth": max_depth}, ctx=ctx)
+    r.render(spp=2)  # warm-up; leaves a G-buffer for the variants
+    cpu = is_software(ctx)
+    base_source = r.trace.source.text
+    uniforms = trace_uniforms(r)
+    programs, info = {}, {}
+    for name in names:
+        if name == "camera":
+            src, over, exact, local = camera_source(r), {}, False, (8, 8)
+        else:
+            edit, over, exact = VARIANTS[name]
+            src = edit(base_source) if edit else base_source
+            local = getattr(edit, "local", None) or (8, 8)
+        start = time.perf_counter()
+        prog = ctx.compute_shader(src)
+        compile_s = time.perf_counter() - start
+        blob = program_binary(prog)
+        if dump_dir and blob:
+            dump_dir.mkdir(parents=True, exist_ok=True)
+            (dump_dir / f"{Path(path).parent.name}_{name}.bin").write_bytes(blob)
+        programs[name] = (prog, dict(uniforms, **over), local)
+        info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
+                      "binary": binary_summary(blob)}
+    w, h = size
+    frame = r.trace.frame
+    query = ctx.query(time=True)
+    gb = gbuffer_variants(r) if r.gbuffer is not None else {}
+    gb_programs = {k: ctx.program(vertex_shader=v, fragment_shader=f) for k, (v, f) in gb.items()}
+    gb_vaos = {k: ctx.vertex_array(p, []) for k, p in gb_programs.items()}
+
+    def dispatch(name):
+        prog, unif, (lx, ly) = programs[name]
+        r.buffers.bind()
+        set_uniforms(prog, unif)
+        if "u_visibility" in prog:
+            r.gbuffer.visibility.use(location=0)
+            prog["u_visibility"].value = 0
+        frame.bind_to_image(0, read=False, write=True)
+        prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+
+    def raster(name):
+        g = r.gbuffer
+        vao = gb_vaos[name]
+        unif = dict(r.scene_uniforms, **r.camera_uniforms)
+        unif["u_view_proj"] = view_projection(r.camera, size, r.packed.bounds, frame_jitter(7, r.seed)).ravel()
+        unif["u_inv_far"] = 1.0 / near_far(r.camera, r.packed.bounds)[1]
+        g.fbo.use()
+        g.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        set_uniforms(vao.program, unif)
+        vao.render(ctx.TRIANGLES, vertices=3 * r.packed.num_triangles)
+        ctx.disable(ctx.DEPTH_TEST)
+
+    def timed(fn, name):
+        ctx.finish()
+        start = time.perf_counter_ns()
+        with query:
+            fn(name)
+        ctx.finish()
+        return (time.perf_counter_ns() - start if cpu else query.elapsed) / 1e6
+
+    # images first (one dispatch each), then the timing rounds
+    images = {}
+    if gb:
+        raster("gbuffer")  # the real G-buffer back for the trace variants
+    for name in names:
+        dispatch(name)
+        images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()
+    times = {name: [] for name in names}
+    gb_times = {name: [] for name in gb}
+    for rep in range(reps + 1):
+        order = names if rep % 2 == 0 else names[::-1]
+        for name in order:
+            if gb:
+                raster("gbuffer")
+            ms = timed(dispatch, name)
+            if rep:
+                times[name].append(ms)
+        for name in (list(gb) if rep % 2 == 0 else list(gb)[::-1]):
+            ms = timed(raster, name)
+            if rep:
+                gb_times[name].append(ms)
+        if gb:
+            raster("gbuffer")
+    base = images[names[0]]
+    result = {"scene": Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
+              "size": [w, h], "triangles": int(r.packed.num_triangles), "max_depth": max_depth, "variants": {}}
+    for name in names:
+        img = images[name]
+        result["variants"][name] = dict(info[name], ms=times[name], median_ms=float(np.median(times[name])),
+                                        mean_rgb=float(np.mean(img)), max_abs_diff_vs_first=float(np.max(np.abs(img - base))),
+                                        finite=bool(np.isfinite(img).all()))
+    result["gbuffer"] = {name: {"ms": t, "median_ms": float(np.median(t))} for name, t in gb_times.items()}
+    for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values())]:
+        obj.release()
+    r.release()
+    return result
+
+
+def table(record: dict) -> str:
+    names = record["variants"]
+    lines = [f"{record['gl']}; pt, 1 spp, path length {record['max_depth']}; trace pass ms (median of "
+             f"{record['reps']} timer-queried dispatches, variants interleaved); x base = base ms / variant ms.", "",
+             "| variant | exact | " + " | ".join(f"{c['scene']} ms | x base" for c in record["results"]) + " |",
+             "|---|---|" + "---|---|" * len(record["results"])]
+    for name in names:
+        cells = [name, "yes" if name == names[0] or record["results"][0]["variants"][name]["exact"] else "no"]
+        for c in record["results"]:
+            v = c["variants"][name]
+            base = c["variants"][names[0]]["median_ms"]
+            cells += [f"{v['median_ms']:.3f}", f"{base / v['median_ms']:.2f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "| scene | " + " | ".join(record["results"][0]["gbuffer"]) + " |",
+              "|---|" + "---|" * len(record["results"][0]["gbuffer"])]
+    for c in record["results"]:
+        lines.append(f"| {c['scene']} | " + " | ".join(f"{v['median_ms']:.3f}" for v in c["gbuffer"].values()) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("--size", default="1920x1080")
+    ap.add_argument("--max-depth", type=int, default=32)
+    ap.add_argument("--variants", default=",".join(list(VARIANTS) + ["camera"]))
+    ap.add_argument("--reps", type=int, default=7)
+    ap.add_argument("--out", type=Path)
+    ap.add_argument("--dump-binaries", type=Path)
+    ap.add_argument("--backend", default="auto")
+    args = ap.parse_args(argv)
+    names = [n.strip() for n in args.variants.split(",") if n.strip()]
+    for n in names:
+        if n not in VARIANTS and n != "camera":
+            raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
+    ctx = create_context(args.backend)
+    record = {"gl": describe(ctx), "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
+              "variants": names, "results": []}
+    for path in args.scenes:
+        start = time.perf_counter()
+        res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries)
+        record["results"].append(res)
+        print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
+            f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())
+            + "; gbuffer " + ", ".join(f"{n} {v['median_ms']:.3f}" for n, v in res["gbuffer"].items()), flush=True)
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(json.dumps(record, indent=1))
+    print(table(record))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
