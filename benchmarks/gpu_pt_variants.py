@@ -1,7 +1,8 @@
 """Where `pt`'s trace pass spends its GPU time: variants of its compute program, timed alike.
 
     python benchmarks/gpu_pt_variants.py SCENE... [--size 1920x1080] [--max-depth 32]
-        [--variants base,ls16x8,...] [--reps 7] [--out FILE.json] [--dump-binaries DIR]
+        [--variants main,base,s8x8,...] [--base-tree CHECKOUT] [--reps 7] [--out FILE.json]
+        [--dump-binaries DIR]
 
 For each scene the renderer is built once (pt, 1 spp, path length --max-depth); its trace
 program's source (lift_gl/passes/trace.py) is then edited into variants (VARIANTS below),
@@ -11,8 +12,10 @@ Each dispatch is timed by a GL timer query (on llvmpipe by the CPU clock between
 ctx.finish()); the JSON keeps every time and the median. Some variants are exact (same
 image: work-group shape, stack placement); others are diagnostics that change the image on
 purpose (no shadow rays, shorter paths) to tell what a part of the path costs. For each
-variant the image's difference from the base is recorded, so an "exact" variant that
-changed the picture shows up.
+variant the image's difference from the first is recorded, so an "exact" variant that
+changed the picture shows up. `main` is the trace program of another checkout
+(--base-tree: its shaders/ and plugins/), as it ran there, so a change is measured against
+the code it replaces in the same process.
 
 The G-buffer pass is timed too, with fragment-shader variants (diagnostics: what rasterizing
 costs on this GPU), and `camera`: pt with camera rays traced in the trace pass instead of a
@@ -44,40 +47,18 @@ def _sub(text: str, old: str, new: str, count: int = 1) -> str:
     return text.replace(old, new) if count == 0 else text.replace(old, new, count)
 
 
-def local_size(x: int, y: int):
+def shape(x: int, y: int, shared: bool = True):
+    """Work groups of x by y invocations, the BVH stack in shared memory or local arrays
+    (LIFT_BVH_SHARED_STACK, shaders/lift/bvh.glsl)."""
     def edit(text):
-        return re.sub(r"layout\(local_size_x = \d+, local_size_y = \d+\) in;",
+        text = re.sub(r"layout\(local_size_x = \d+, local_size_y = \d+\) in;",
                       f"layout(local_size_x = {x}, local_size_y = {y}) in;", text)
+        text = re.sub(r"#define LIFT_BVH_SHARED_STACK \d+\n", "", text)
+        if shared:
+            text = text.replace("\n", f"\n#define LIFT_BVH_SHARED_STACK {x * y}\n", 1)  # after #version
+        return text
     edit.local = (x, y)
     return edit
-
-
-def no_entry_distance(text: str) -> str:
-    """trace_closest's stack without entry distances: every popped node is re-tested."""
-    text = _sub(text, "        float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit\n", "")
-    text = _sub(text, "                    stack_t[sp] = a_first ? tb : ta;\n", "")
-    text = _sub(text, """            live = false;
-            while (sp > 0) {
-                --sp;
-                if (stack_t[sp] <= t) { node = stack_node[sp]; live = true; break; }
-            }""", """            live = sp > 0;
-            if (live) node = stack_node[--sp];""")
-    return text
-
-
-def shared_stack(text: str) -> str:
-    """The traversal stacks in shared memory, one column per invocation (no local memory)."""
-    decl = ("shared uint lift_sh_node[LIFT_BVH_STACK * LIFT_WG];\n"
-            "shared float lift_sh_t[LIFT_BVH_STACK * LIFT_WG];\n")
-    m = re.search(r"layout\(local_size_x = (\d+), local_size_y = (\d+)\) in;", text)
-    wg = int(m.group(1)) * int(m.group(2))
-    text = _sub(text, "#define LIFT_BVH_STACK 48\n", f"#define LIFT_BVH_STACK 48\n#define LIFT_WG {wg}u\n{decl}")
-    text = text.replace("        uint stack_node[LIFT_BVH_STACK];\n", "")
-    text = text.replace("    uint stack_node[LIFT_BVH_STACK];\n", "")
-    text = text.replace("        float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit\n", "")
-    text = re.sub(r"stack_node\[([^\]]+)\]", r"lift_sh_node[uint(\1) * LIFT_WG + gl_LocalInvocationIndex]", text)
-    text = re.sub(r"stack_t\[([^\]]+)\]", r"lift_sh_t[uint(\1) * LIFT_WG + gl_LocalInvocationIndex]", text)
-    return text
 
 
 def no_shadow_rays(text: str) -> str:
@@ -90,160 +71,50 @@ def no_path_steps(text: str) -> str:
     return _sub(text, "#define LIFT_PATH_STEPS\n", "")
 
 
-def no_probe(text: str) -> str:
-    """Diagnostic: without the loop-budget probe (llvmpipe's loop limit; passes/trace.py)."""
-    return _sub(text, "if (probe < u_samples + 1u) atomicAdd(stats[4], 1u);", "")
-
-
-WHILE_WHILE = r'''
-// Closest hit: while-while traversal (Aila and Laine 2009): an inner loop descends through
-// interior nodes to the next leaf, the leaf's triangles are tested after it; the stack holds
-// node ids only (a popped node's children are tested against the current t).
-bool trace_closest(Ray ray, out Hit hit) {
-    LIFT_COUNT_RAY();
-    hit.t = ray.tmax;
-    hit.prim = NO_HIT;
-    hit.bary = vec2(0.0);
-    float t = ray.tmax;
-#ifdef HAS_SPHERES
-    for (uint s = 0u; s < u_num_spheres; ++s) {
-        if (intersect_sphere(ray, s, t)) hit.prim = u_num_triangles + s;
-    }
-#endif
-    if (u_num_triangles > 0u) {
-        vec3 inv = lift_bvh_inv_dir(ray.dir);
-        uint stack_node[LIFT_BVH_STACK];
-        int sp = 0;
-        uint node = 0u;
-        float troot;
-        bool live = lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot);
-        while (live) {
-            uint first = floatBitsToUint(bvh_node_row(2u * node).w);
-            uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-            while (count == 0u) {
-                float ta, tb;
-                bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
-                bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-                if (ha && hb && sp < LIFT_BVH_STACK) {
-                    bool a_first = ta <= tb;
-                    stack_node[sp++] = a_first ? first + 1u : first;
-                    node = a_first ? first : first + 1u;
-                } else if (ha || hb) {
-                    node = ha ? first : first + 1u;
-                } else if (sp > 0) {
-                    node = stack_node[--sp];
-                } else {
-                    live = false;
-                    break;
-                }
-                first = floatBitsToUint(bvh_node_row(2u * node).w);
-                count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-            }
-            for (uint i = first; i < first + count; ++i) {
-                vec2 bary;
-                if (intersect_triangle(ray, i, t, bary)) {
-                    hit.prim = i;
-                    hit.bary = bary;
-                }
-            }
-            live = live && sp > 0;
-            if (live) node = stack_node[--sp];
-        }
-    }
-    if (hit.prim != NO_HIT) {
-        hit.t = t;
-        if (hit.prim >= u_num_triangles) hit.bary = vec2(0.0);
-    }
-    return hit.prim != NO_HIT;
-}
-
-// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
-bool trace_occluded(Ray ray) {
-    LIFT_COUNT_RAY();
-    float t = ray.tmax;
-#ifdef HAS_SPHERES
-    for (uint s = 0u; s < u_num_spheres; ++s) {
-        if (intersect_sphere(ray, s, t)) return true;
-    }
-#endif
-    if (u_num_triangles == 0u) return false;
-    vec3 inv = lift_bvh_inv_dir(ray.dir);
-    uint stack_node[LIFT_BVH_STACK];
-    int sp = 0;
-    float troot;
-    if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
-    uint node = 0u;
-    while (true) {
-        uint first = floatBitsToUint(bvh_node_row(2u * node).w);
-        uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-        while (count == 0u) {
-            float ta, tb;
-            bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
-            bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-            if (ha && hb && sp < LIFT_BVH_STACK) {
-                stack_node[sp++] = first + 1u;
-                node = first;
-            } else if (ha || hb) {
-                node = ha ? first : first + 1u;
-            } else if (sp > 0) {
-                node = stack_node[--sp];
-            } else {
-                return false;
-            }
-            first = floatBitsToUint(bvh_node_row(2u * node).w);
-            count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-        }
-        for (uint i = first; i < first + count; ++i) {
-            vec2 bary;
-            if (intersect_triangle(ray, i, t, bary)) return true;
-        }
-        if (sp == 0) return false;
-        node = stack_node[--sp];
-    }
-    return false;
-}
-'''
-
-
-def while_while(text: str) -> str:
-    """trace_closest and trace_occluded replaced by WHILE_WHILE."""
-    start = text.index("// Closest hit among triangles (BVH")
-    end_marker = "        node = stack_node[--sp];\n    }\n    return false;\n}\n"
-    end = text.index(end_marker, start) + len(end_marker)
-    return text[:start] + WHILE_WHILE.lstrip("\n") + text[end:]
-
-
 def compose(*edits):
     def edit(text):
         for e in edits:
             text = e(text)
         return text
-    edit.local = next((e.local for e in edits if hasattr(e, "local")), None)
+    edit.local = next((e.local for e in reversed(edits) if hasattr(e, "local")), None)
     return edit
 
 
-# name -> (source edit or None, uniform overrides, exact: same image as the base)
+# name -> (source edit or None, uniform overrides, exact: same image as the base). The base
+# is lift-gl's own trace program for this GL (on a GPU: 8x4, stack in shared memory);
+# `main` (with --base-tree) is another checkout's. The variants of the first device run
+# (stack placement and traversal loops on main's bvh.glsl) are this script at 242c491.
 VARIANTS = {
     "base": (None, {}, True),
-    "ls16x8": (local_size(16, 8), {}, True),
-    "ls32x4": (local_size(32, 4), {}, True),
-    "ls8x4": (local_size(8, 4), {}, True),
-    "ls32x2": (local_size(32, 2), {}, True),
-    "nost": (no_entry_distance, {}, True),
-    "shstack": (shared_stack, {}, True),
-    "shstack_nost": (compose(no_entry_distance, shared_stack), {}, True),
-    "shstack_8x4": (compose(local_size(8, 4), shared_stack), {}, True),
-    "whilewhile": (while_while, {}, True),
-    "whilewhile_8x4": (compose(local_size(8, 4), while_while), {}, True),
-    "whilewhile_sh": (compose(while_while, shared_stack), {}, True),
-    "nosteps": (no_path_steps, {}, True),
-    "noprobe": (no_probe, {}, True),
-    "noshadow": (no_shadow_rays, {}, False),
-    "depth1": (None, {"max_depth": 1}, False),
-    "depth2": (None, {"max_depth": 2}, False),
-    "depth4": (None, {"max_depth": 4}, False),
-    "nold": (None, {"low_discrepancy": False}, False),
+    "s8x8": (shape(8, 8), {}, True),
+    "s16x4": (shape(16, 4), {}, True),
+    "s4x8": (shape(4, 8), {}, True),
+    "s16x2": (shape(16, 2), {}, True),
+    "s32x1": (shape(32, 1), {}, True),
+    "s8x4_local": (shape(8, 4, shared=False), {}, True),
+    "s4x8_local": (shape(4, 8, shared=False), {}, True),
+    "s8x8_local": (shape(8, 8, shared=False), {}, True),
+    "nosteps": (compose(no_path_steps, shape(8, 4)), {}, True),
+    "noshadow": (compose(no_shadow_rays, shape(8, 4)), {}, False),
+    "depth1": (shape(8, 4), {"max_depth": 1}, False),
+    "depth2": (shape(8, 4), {"max_depth": 2}, False),
+    "depth4": (shape(8, 4), {"max_depth": 4}, False),
 }
+
+
+def tree_source(renderer, tree: Path) -> str:
+    """The trace program that checkout `tree` (its shaders/ and plugins/pt) builds for this
+    renderer's defines, in 8x8 work groups with local stacks (what main ran on GPUs)."""
+    from lift_gl import shaders
+    from lift_gl.passes.trace import generate_main
+    from lift_gl.plugins import param_defines
+
+    defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params), PRIMARY_GBUFFER=True)
+    folder = tree / "plugins" / renderer.plugin.name
+    main = generate_main(renderer.plugin, (8, 8)).replace(
+        renderer.plugin.entry_path.as_posix(), (folder / renderer.plugin.entry_path.name).resolve().as_posix())
+    return shaders.assemble(main, defines, include_dirs=[folder, tree / "shaders"],
+                            main_name=f"<{tree} trace main>").text
 
 
 # ---- program binaries (NVIDIA: assembly text inside) ----
@@ -308,7 +179,10 @@ def camera_source(renderer):
     from lift_gl.plugins import param_defines
 
     defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params))
-    return shaders.assemble(generate_main(renderer.plugin), defines, include_dirs=[renderer.plugin.folder],
+    local = renderer.trace.local_size
+    if "LIFT_BVH_SHARED_STACK" in renderer.trace.source.text:
+        defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
+    return shaders.assemble(generate_main(renderer.plugin, local), defines, include_dirs=[renderer.plugin.folder],
                             main_name="<pt camera-primary main>").text
 
 
@@ -325,7 +199,7 @@ def gbuffer_variants(renderer) -> dict:
     return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
 
 
-def run_scene(ctx, path, size, max_depth, names, reps, dump_dir):
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
@@ -341,11 +215,13 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir):
     programs, info = {}, {}
     for name in names:
         if name == "camera":
-            src, over, exact, local = camera_source(r), {}, False, (8, 8)
+            src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
+        elif name == "main":
+            src, over, exact, local = tree_source(r, base_tree), {}, True, (8, 8)
         else:
             edit, over, exact = VARIANTS[name]
             src = edit(base_source) if edit else base_source
-            local = getattr(edit, "local", None) or (8, 8)
+            local = getattr(edit, "local", None) or r.trace.local_size
         start = time.perf_counter()
         prog = ctx.compute_shader(src)
         compile_s = time.perf_counter() - start
@@ -461,22 +337,26 @@ def main(argv=None) -> int:
     ap.add_argument("scenes", nargs="+")
     ap.add_argument("--size", default="1920x1080")
     ap.add_argument("--max-depth", type=int, default=32)
-    ap.add_argument("--variants", default=",".join(list(VARIANTS) + ["camera"]))
+    ap.add_argument("--variants", default=",".join(list(VARIANTS) + ["camera"]),
+                    help="comma-separated, the first is the reference of the image check; also camera, main")
     ap.add_argument("--reps", type=int, default=7)
     ap.add_argument("--out", type=Path)
     ap.add_argument("--dump-binaries", type=Path)
+    ap.add_argument("--base-tree", type=Path, help="another checkout: variant `main` is its trace program")
     ap.add_argument("--backend", default="auto")
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
     for n in names:
-        if n not in VARIANTS and n != "camera":
+        if n == "main" and args.base_tree is None:
+            raise SystemExit("--variants main needs --base-tree")
+        if n not in VARIANTS and n not in ("camera", "main"):
             raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
     ctx = create_context(args.backend)
     record = {"gl": describe(ctx), "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
               "variants": names, "results": []}
     for path in args.scenes:
         start = time.perf_counter()
-        res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries)
+        res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree)
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())
