@@ -17,9 +17,11 @@ changed the picture shows up. `main` is the trace program of another checkout
 (--base-tree: its shaders/ and plugins/), as it ran there, so a change is measured against
 the code it replaces in the same process.
 
-The G-buffer pass is timed too, with fragment-shader variants (diagnostics: what rasterizing
-costs on this GPU), and `camera`: pt with camera rays traced in the trace pass instead of a
-G-buffer (primary = "camera", one sample a frame), which replaces the raster pass.
+The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
+one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
+diagnostics of what rasterizing costs on this GPU), and `traced` (TracedGBufferPass, one
+camera ray a pixel). Variant `camera`: pt with camera rays traced in the trace pass instead
+of a G-buffer (primary = "camera", one sample a frame).
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
 text, from which local-memory arrays and register use can be read).
@@ -203,6 +205,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
+    from lift_gl.passes.gbuffer import GBufferPass, TracedGBufferPass
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
 
@@ -238,6 +241,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
     gb = gbuffer_variants(r) if r.gbuffer is not None else {}
     gb_programs = {k: ctx.program(vertex_shader=v, fragment_shader=f) for k, (v, f) in gb.items()}
     gb_vaos = {k: ctx.vertex_array(p, []) for k, p in gb_programs.items()}
+    raster_pass = GBufferPass(ctx, size, r.defines, r.packed.num_triangles, r.packed.num_spheres) if gb else None
+    traced_pass = TracedGBufferPass(ctx, size, r.defines) if gb else None
+    jitter = frame_jitter(7, r.seed)
 
     def dispatch(name):
         prog, unif, (lx, ly) = programs[name]
@@ -249,11 +255,20 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
         frame.bind_to_image(0, read=False, write=True)
         prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
 
+    def refresh():  # the renderer's own G-buffer (raster or traced) for the trace variants
+        if r.gbuffer is not None:
+            r.buffers.bind()
+            r.gbuffer.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
+
     def raster(name):
-        g = r.gbuffer
+        r.buffers.bind()
+        if name == "traced":
+            traced_pass.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
+            return
+        g = raster_pass
         vao = gb_vaos[name]
         unif = dict(r.scene_uniforms, **r.camera_uniforms)
-        unif["u_view_proj"] = view_projection(r.camera, size, r.packed.bounds, frame_jitter(7, r.seed)).ravel()
+        unif["u_view_proj"] = view_projection(r.camera, size, r.packed.bounds, jitter).ravel()
         unif["u_inv_far"] = 1.0 / near_far(r.camera, r.packed.bounds)[1]
         g.fbo.use()
         g.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
@@ -273,27 +288,24 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
 
     # images first (one dispatch each), then the timing rounds
     images = {}
-    if gb:
-        raster("gbuffer")  # the real G-buffer back for the trace variants
+    refresh()
     for name in names:
         dispatch(name)
         images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()
     times = {name: [] for name in names}
-    gb_times = {name: [] for name in gb}
+    gb_names = [*gb, "traced"] if gb else []
+    gb_times = {name: [] for name in gb_names}
     for rep in range(reps + 1):
         order = names if rep % 2 == 0 else names[::-1]
         for name in order:
-            if gb:
-                raster("gbuffer")
+            refresh()
             ms = timed(dispatch, name)
             if rep:
                 times[name].append(ms)
-        for name in (list(gb) if rep % 2 == 0 else list(gb)[::-1]):
+        for name in (gb_names if rep % 2 == 0 else gb_names[::-1]):
             ms = timed(raster, name)
             if rep:
                 gb_times[name].append(ms)
-        if gb:
-            raster("gbuffer")
     base = images[names[0]]
     result = {"scene": Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
               "size": [w, h], "triangles": int(r.packed.num_triangles), "max_depth": max_depth, "variants": {}}
@@ -303,7 +315,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
                                         mean_rgb=float(np.mean(img)), max_abs_diff_vs_first=float(np.max(np.abs(img - base))),
                                         finite=bool(np.isfinite(img).all()))
     result["gbuffer"] = {name: {"ms": t, "median_ms": float(np.median(t))} for name, t in gb_times.items()}
-    for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values())]:
+    result["gbuffer_kind"] = type(r.gbuffer).__name__ if r.gbuffer is not None else None
+    for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
+                *([raster_pass, traced_pass] if gb else [])]:
         obj.release()
     r.release()
     return result
