@@ -153,7 +153,7 @@ def binary_summary(blob: bytes | None) -> dict:
         return {}
     text = blob.decode("latin-1")
     out = {"bytes": len(blob)}
-    lmem = re.findall(r"TEMP lmem\[(\d+)\]", text)
+    lmem = re.findall(r"TEMP lmem\d*\[(\d+)\]", text)
     if lmem:
         out["lmem_vec4"] = [int(v) for v in lmem]
     for key in ("REG", "reg", "NumRegs", "numRegs"):
