@@ -36,7 +36,7 @@ from .passes.denoise import DenoisePass
 from .limits import GlLimits, check_film, check_packed, check_triangle_count
 from .passes.common import (SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_LOOP_LIMITED, STAT_RAYS_HIGH,
                             STAT_RAYS_LOW, GpuTimer, SceneBuffers)
-from .passes.gbuffer import GBufferPass
+from .passes.gbuffer import GBufferPass, TracedGBufferPass, traced_gbuffer_wanted
 from .passes.reduced_trace import ReducedTracePass, block_offset
 from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
@@ -170,9 +170,7 @@ class Renderer:
         """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
         uses_gbuffer = self.plugin.primary == "gbuffer"
         reproject = self.temporal == "reproject"  # motion vectors need the G-buffer, whatever the primary
-        self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                    self.packed.num_spheres, motion_vectors=reproject)
-                        if uses_gbuffer or reproject else None)
+        self.gbuffer = self._new_gbuffer(motion_vectors=reproject) if uses_gbuffer or reproject else None
         self.trace = self._create_trace(self.plugin, self.params)
         # A plugin with a [reduced] estimate (hybrid): traced at reduced resolution, upsampled into the frame.
         reduced = self.plugin.reduced is not None
@@ -186,6 +184,14 @@ class Renderer:
         self.tonemap = None  # created on the first display() call: headless float output needs none
         self.tonemap_noisy = None  # display(source="noisy") while denoising: the viewer's split view
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
+
+    def _new_gbuffer(self, motion_vectors: bool = False):
+        """The raster G-buffer, or on GPUs with few raster units its ray-cast equivalent
+        (passes/gbuffer.py: traced_gbuffer_wanted); motion vectors only come from the raster."""
+        if not motion_vectors and traced_gbuffer_wanted(self.ctx):
+            return TracedGBufferPass(self.ctx, self.size, self.defines)
+        return GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles, self.packed.num_spheres,
+                           motion_vectors=motion_vectors)
 
     def _create_denoise_pass(self) -> DenoisePass:
         if self.denoiser == "atrous":
@@ -394,8 +400,7 @@ class Renderer:
         self.trace.release()
         self.plugin, self.params, self.trace, self.reload_error = plugin, params, trace, None
         if plugin.primary == "gbuffer" and self.gbuffer is None:
-            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                       self.packed.num_spheres)
+            self.gbuffer = self._new_gbuffer()
         elif plugin.primary == "camera" and self.gbuffer is not None and self.reproject is None:
             self.gbuffer.release()  # the plugin now traces its own camera rays
             self.gbuffer = None
@@ -447,7 +452,9 @@ class Renderer:
         if self.denoise_pass is not None:
             lines.append(f"BIASED: denoise={self.denoise_mode} ({self.denoiser}): {DENOISER_BIASED}")
         lines.append("passes:")
-        reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")",
+        reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")"
+                              + ("; ray cast, one camera ray a pixel: this GPU's raster units are few ($LIFT_GL_GBUFFER)"
+                                 if isinstance(self.gbuffer, TracedGBufferPass) else ""),
                    "trace": f"runs {self.plugin.entry}" + self._trace_device(),
                    "reduced": f"runs {self.plugin.reduced.function}() for 1 pixel in "
                               f"{self._reduced_setting('scale')}x{self._reduced_setting('scale')} "
@@ -604,8 +611,7 @@ class Renderer:
         """The G-buffer rendered through the pixel centres (no jitter): the denoiser's guides
         and the AOVs match the image's pixels rather than the last frame's subpixel offset."""
         if self.gbuffer is None:
-            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                       self.packed.num_spheres)
+            self.gbuffer = self._new_gbuffer()
         self.buffers.bind()
         motion = None
         if self.gbuffer.motion_vectors:

@@ -16,6 +16,8 @@ scene needs cannot tell a wall from the back of the same wall (tests/test_stress
 """
 from __future__ import annotations
 
+import os
+
 import moderngl
 
 from .. import shaders
@@ -101,3 +103,68 @@ class GBufferPass:
                 obj.release()
         if self.sphere_vao is not None:
             self.sphere_vao.release()
+
+
+GBUFFER_ENV_VAR = "LIFT_GL_GBUFFER"
+# GPUs whose graphics units are few (NVIDIA's data-centre parts: graphics on a couple of
+# TPCs): on an H100 rasterizing the 36-triangle cornell-box at 1920x1080 took 2.8 ms, however
+# little the fragment shader did, while one camera ray per pixel takes a fraction of that.
+RASTER_POOR_GPUS = ("h100", "h200", "h800", "gh200", "a100", "a800")
+
+
+def traced_gbuffer_wanted(ctx: moderngl.Context) -> bool:
+    """Whether the G-buffer is ray cast (TracedGBufferPass) rather than rasterized: on the
+    GPUs of RASTER_POOR_GPUS; $LIFT_GL_GBUFFER (raster, traced, auto) overrides."""
+    from ..errors import LiftError
+    from ..gl.context import is_software
+
+    mode = os.environ.get(GBUFFER_ENV_VAR, "auto").strip().lower() or "auto"
+    if mode not in ("auto", "raster", "traced"):
+        raise LiftError(f"${GBUFFER_ENV_VAR} must be raster, traced or auto, not {mode!r}")
+    if mode != "auto":
+        return mode == "traced"
+    renderer = ctx.info["GL_RENDERER"].lower()
+    return not is_software(ctx) and any(name in renderer for name in RASTER_POOR_GPUS)
+
+
+class TracedGBufferPass:
+    """The G-buffer's visibility, normal_depth and albedo by one camera ray per pixel (a
+    compute pass over lift/bvh.glsl) instead of the raster: the same outputs, for GPUs whose
+    raster units are the bottleneck (traced_gbuffer_wanted). No motion vectors: temporal
+    reprojection keeps the raster pass. The primary hit is then the traced camera ray's,
+    which the trace pass rebuilds exactly (lift/primary_hit.glsl)."""
+
+    name = "gbuffer"
+    inputs = ("scene", "camera", "jitter")
+    outputs = ("visibility", "normal_depth", "albedo")
+    motion_vectors = False
+    motion = prev_normal_depth = None
+
+    def __init__(self, ctx: moderngl.Context, size, defines: dict):
+        from .trace import trace_layout
+
+        self.ctx = ctx
+        self.size = size
+        self.visibility = ctx.texture(size, 4, dtype="u4")
+        self.normal_depth = ctx.texture(size, 4, dtype="f4")
+        self.albedo = ctx.texture(size, 4, dtype="f2")
+        for t in (self.visibility, self.normal_depth, self.albedo):
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.local_size, shared_stack = trace_layout(ctx)
+        defines = dict(defines, LIFT_GBUFFER_LOCAL_X=self.local_size[0], LIFT_GBUFFER_LOCAL_Y=self.local_size[1])
+        if shared_stack:
+            defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
+        self.program = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "gbuffer_traced.comp", defines))
+
+    def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict,
+            motion_uniforms: dict | None = None) -> None:
+        set_uniforms(self.program, dict(scene_uniforms, **camera_uniforms, u_jitter=tuple(float(v) for v in jitter)))
+        self.visibility.bind_to_image(0, read=False, write=True)
+        self.normal_depth.bind_to_image(1, read=False, write=True)
+        self.albedo.bind_to_image(2, read=False, write=True)
+        (lx, ly), (w, h) = self.local_size, self.size
+        self.program.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+
+    def release(self) -> None:
+        for obj in (self.visibility, self.normal_depth, self.albedo, self.program):
+            obj.release()

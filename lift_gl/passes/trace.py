@@ -23,21 +23,31 @@ the several samples of a frame (samples_per_frame > 1, G-buffer primary) as one 
 their vertices, each lane starting its next sample when its path ends: on a CPU rasterizer
 the 8 lanes of a SIMD batch otherwise wait for the longest path of the batch, sample after
 sample (docs/cpu-speed.md). The samples and their random numbers are the same either way.
+
+On a GPU the program runs in 8x4 work groups with the BVH traversal stack in shared memory
+(LIFT_BVH_SHARED_STACK, shaders/lift/bvh.glsl): a per-invocation stack array is local
+memory there, and on an H100 the two together made pt's trace pass 2.6-3.6x faster than 8x8
+groups with local stacks (docs/gpu.md). CPU rasterizers keep 8x8 groups and local stacks.
+$LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways).
 """
 from __future__ import annotations
+
+import os
 
 import moderngl
 
 from .. import shaders
+from ..errors import LiftError
+from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
-from .common import LOCAL_SIZE, groups, set_uniforms
+from .common import LOCAL_SIZE, set_uniforms
 from .splat import SplatBuffer, splat_defines
 
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
 #extension GL_NV_shader_atomic_float : require
 #endif
-layout(local_size_x = {local}, local_size_y = {local}) in;
+layout(local_size_x = {local_x}, local_size_y = {local_y}) in;
 #include "lift/host.glsl"
 #include "lift/splat.glsl"
 layout(rgba32f, binding = 0) uniform writeonly image2D u_frame_out;
@@ -143,10 +153,26 @@ void main() {{
 """
 
 
-def generate_main(plugin: Plugin) -> str:
+BVH_STACK_ENV_VAR = "LIFT_GL_BVH_STACK"
+GPU_LOCAL_SIZE = (8, 4)  # one warp of 32 a work group (docs/gpu.md has the shapes measured)
+
+
+def trace_layout(ctx: moderngl.Context) -> tuple[tuple[int, int], bool]:
+    """The trace program's work-group shape and whether its BVH stack is in shared memory:
+    GPUs 8x4 and shared, CPU rasterizers 8x8 and local; $LIFT_GL_BVH_STACK (shared, local,
+    auto) overrides the stack's place, and the shape follows it."""
+    mode = os.environ.get(BVH_STACK_ENV_VAR, "auto").strip().lower() or "auto"
+    if mode not in ("auto", "shared", "local"):
+        raise LiftError(f"${BVH_STACK_ENV_VAR} must be shared, local or auto, not {mode!r}")
+    shared = not is_software(ctx) if mode == "auto" else mode == "shared"
+    return (GPU_LOCAL_SIZE if shared else (LOCAL_SIZE, LOCAL_SIZE)), shared
+
+
+def generate_main(plugin: Plugin, local_size: tuple[int, int] = (LOCAL_SIZE, LOCAL_SIZE)) -> str:
     params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {' '.join(p.help.split())}"
                        for p in plugin.params.values())
-    return MAIN_TEMPLATE.format(local=LOCAL_SIZE, params=params, entry=plugin.entry_path.as_posix())
+    return MAIN_TEMPLATE.format(local_x=local_size[0], local_y=local_size[1], params=params,
+                                entry=plugin.entry_path.as_posix())
 
 
 def param_uniforms(plugin: Plugin, values: dict) -> dict:
@@ -174,7 +200,10 @@ class TracePass:
             defines.update(splat_defines(ctx))
             self.splats = SplatBuffer(ctx, size)
             self.outputs = ("frame (with splats)",)
-        self.source = shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
+        self.local_size, shared_stack = trace_layout(ctx)
+        if shared_stack:
+            defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
+        self.source = shaders.assemble(generate_main(plugin, self.local_size), defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} host main>")
         self.program = shaders.compile_compute(ctx, self.source)
         self.frame = ctx.texture(size, 4, dtype="f4")
@@ -187,7 +216,8 @@ class TracePass:
         self.frame.bind_to_image(0, read=False, write=True)
         if self.splats is not None:
             self.splats.bind()
-        self.program.run(*groups(*self.size))
+        (lx, ly), (w, h) = self.local_size, self.size
+        self.program.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
         if self.splats is not None:
             self.splats.add_to(self.frame)
 

@@ -32,6 +32,23 @@ vec3 prim_displacement(uint prim) {
 // one postponed sibling per level of the current path.
 #define LIFT_BVH_STACK 48
 
+// Where the traversal stack lives. A per-invocation array indexed at run time is local
+// memory on NVIDIA GPUs (off-chip, one vec4 slot per element in its assembly): on an H100
+// that made pt's trace pass 1.7-2.2x slower than the same stack in shared memory
+// (docs/gpu.md). A compute host that knows its work-group size defines
+// LIFT_BVH_SHARED_STACK to it (lift_gl/passes/trace.py, on GPUs), and each invocation then
+// keeps its stack in one column of a shared array (consecutive invocations in consecutive
+// words: no bank conflicts). No two traversals of one invocation overlap, so they share it.
+// Otherwise (CPU rasterizers, fragment shaders, other hosts) the stack is a local array.
+#ifdef LIFT_BVH_SHARED_STACK
+shared uint lift_bvh_stack[LIFT_BVH_STACK * LIFT_BVH_SHARED_STACK];
+#define LIFT_BVH_STACK_DECLARE
+#define LIFT_BVH_STACK_AT(i) lift_bvh_stack[uint(i) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex]
+#else
+#define LIFT_BVH_STACK_DECLARE uint lift_bvh_stack[LIFT_BVH_STACK];
+#define LIFT_BVH_STACK_AT(i) lift_bvh_stack[i]
+#endif
+
 // With LIFT_COUNT_RAYS (lift-gl bench), each invocation counts its traversals here and the
 // host adds the count to the statistics once, at the end: one atomic per pixel, not per ray.
 #ifdef LIFT_COUNT_RAYS
@@ -114,6 +131,11 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
 }
 
 // Closest hit among triangles (BVH, nearer child first) and, with HAS_SPHERES, spheres.
+// While-while traversal (Aila and Laine 2009): an inner loop descends through interior
+// nodes to the next leaf, whose triangles are then tested, so the lanes of a SIMD group
+// that are between leaves step together. The stack holds node ids only: a popped node is
+// not re-tested, its children are tested against the t found so far (entry distances on
+// the stack doubled its size for little culling; docs/gpu.md).
 bool trace_closest(Ray ray, out Hit hit) {
     LIFT_COUNT_RAY();
     hit.t = ray.tmax;
@@ -127,8 +149,7 @@ bool trace_closest(Ray ray, out Hit hit) {
 #endif
     if (u_num_triangles > 0u) {
         vec3 inv = lift_bvh_inv_dir(ray.dir);
-        uint stack_node[LIFT_BVH_STACK];
-        float stack_t[LIFT_BVH_STACK];   // entry distance, to skip nodes behind a closer hit
+        LIFT_BVH_STACK_DECLARE
         int sp = 0;
         uint node = 0u;
         float troot;
@@ -136,37 +157,35 @@ bool trace_closest(Ray ray, out Hit hit) {
         while (live) {
             uint first = floatBitsToUint(bvh_node_row(2u * node).w);
             uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-            if (count > 0u) {
-                for (uint i = first; i < first + count; ++i) {
-                    vec2 bary;
-                    if (intersect_triangle(ray, i, t, bary)) {
-                        hit.prim = i;
-                        hit.bary = bary;
-                    }
-                }
-            } else {
+            while (count == 0u) {   // interior: go to the nearer child hit, postpone the other
                 float ta, tb;
                 bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
                 bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
                 if (ha && hb && sp < LIFT_BVH_STACK) {   // the bound holds by construction
                     bool a_first = ta <= tb;
-                    stack_node[sp] = a_first ? first + 1u : first;
-                    stack_t[sp] = a_first ? tb : ta;
+                    LIFT_BVH_STACK_AT(sp) = a_first ? first + 1u : first;
                     ++sp;
                     node = a_first ? first : first + 1u;
-                    continue;
-                }
-                if (ha || hb) {
+                } else if (ha || hb) {
                     node = ha ? first : first + 1u;
-                    continue;
+                } else if (sp > 0) {
+                    node = LIFT_BVH_STACK_AT(--sp);
+                } else {
+                    live = false;
+                    break;
+                }
+                first = floatBitsToUint(bvh_node_row(2u * node).w);
+                count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+            }
+            for (uint i = first; i < first + count; ++i) {   // a leaf (count 0 when none was left)
+                vec2 bary;
+                if (intersect_triangle(ray, i, t, bary)) {
+                    hit.prim = i;
+                    hit.bary = bary;
                 }
             }
-            // pop the next postponed node that may still hold something nearer than t
-            live = false;
-            while (sp > 0) {
-                --sp;
-                if (stack_t[sp] <= t) { node = stack_node[sp]; live = true; break; }
-            }
+            live = live && sp > 0;
+            if (live) node = LIFT_BVH_STACK_AT(--sp);
         }
     }
     if (hit.prim != NO_HIT) {
@@ -177,6 +196,7 @@ bool trace_closest(Ray ray, out Hit hit) {
 }
 
 // Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
+// The same while-while traversal as trace_closest.
 bool trace_occluded(Ray ray) {
     LIFT_COUNT_RAY();
     float t = ray.tmax;
@@ -187,7 +207,7 @@ bool trace_occluded(Ray ray) {
 #endif
     if (u_num_triangles == 0u) return false;
     vec3 inv = lift_bvh_inv_dir(ray.dir);
-    uint stack_node[LIFT_BVH_STACK];
+    LIFT_BVH_STACK_DECLARE
     int sp = 0;
     float troot;
     if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
@@ -195,27 +215,30 @@ bool trace_occluded(Ray ray) {
     while (true) {
         uint first = floatBitsToUint(bvh_node_row(2u * node).w);
         uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-        if (count > 0u) {
-            for (uint i = first; i < first + count; ++i) {
-                vec2 bary;
-                if (intersect_triangle(ray, i, t, bary)) return true;
-            }
-        } else {
+        while (count == 0u) {
             float ta, tb;
             bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
             bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
             if (ha && hb && sp < LIFT_BVH_STACK) {
-                stack_node[sp++] = first + 1u;
+                LIFT_BVH_STACK_AT(sp) = first + 1u;
+                ++sp;
                 node = first;
-                continue;
-            }
-            if (ha || hb) {
+            } else if (ha || hb) {
                 node = ha ? first : first + 1u;
-                continue;
+            } else if (sp > 0) {
+                node = LIFT_BVH_STACK_AT(--sp);
+            } else {
+                return false;
             }
+            first = floatBitsToUint(bvh_node_row(2u * node).w);
+            count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+        }
+        for (uint i = first; i < first + count; ++i) {
+            vec2 bary;
+            if (intersect_triangle(ray, i, t, bary)) return true;
         }
         if (sp == 0) return false;
-        node = stack_node[--sp];
+        node = LIFT_BVH_STACK_AT(--sp);
     }
     return false;
 }

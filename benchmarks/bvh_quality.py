@@ -1,0 +1,82 @@
+"""How good the SAH BVH of a scene is, and whether more bins would help: triangle sizes
+against the scene, nodes, depth, leaf sizes, SAH cost (benchmarks/bvh_build.py) and how much
+sibling boxes add up to over their parent's (overlap), for builds with several bin counts.
+
+    python benchmarks/bvh_quality.py SCENE... [--bins 32,128] [--json FILE]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bvh_build import sah_cost  # noqa: E402
+
+
+def _areas(b) -> np.ndarray:
+    e = np.maximum(b.bmax.astype(np.float64) - b.bmin, 0)
+    return e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+
+
+def scene_quality(path: str, bin_counts) -> dict:
+    from lift_gl.accel.bvh import build_bvh
+    from lift_gl.scene.loader import load_scene
+
+    scene = load_scene(path)
+    tris = np.concatenate([m.positions[m.indices] for m in scene.meshes]).astype(np.float32)
+    points = tris.reshape(-1, 3)
+    diag = float(np.linalg.norm(points.max(0) - points.min(0)))
+    extent = np.linalg.norm(tris.max(1) - tris.min(1), axis=1) / diag  # each triangle's box diagonal
+    out = {"scene": Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
+           "triangles": int(len(tris)),
+           "extent_over_scene": {"median": float(np.median(extent)), "p99": float(np.quantile(extent, 0.99)),
+                                 "max": float(extent.max()), "over_1pct": int((extent > 0.01).sum()),
+                                 "over_10pct": int((extent > 0.1).sum())},
+           "builds": []}
+    for bins in bin_counts:
+        start = time.process_time()
+        b = build_bvh(tris, bins=bins)
+        cpu = time.process_time() - start
+        leaves = b.count[b.count > 0]
+        area = _areas(b)
+        interior = np.nonzero(b.count == 0)[0]
+        child = b.first[interior]
+        overlap = (area[child] + area[child + 1]) / np.maximum(area[interior], 1e-30)
+        out["builds"].append({"bins": bins, "cpu_s": cpu, "nodes": b.num_nodes, "depth": b.depth,
+                              "leaves": int(len(leaves)), "tris_per_leaf": float(leaves.mean()),
+                              "sah_cost": sah_cost(b), "children_over_parent_area_median": float(np.median(overlap)),
+                              "children_over_parent_area_p90": float(np.quantile(overlap, 0.9))})
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("--bins", default="32,128")
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args(argv)
+    results = [scene_quality(p, [int(b) for b in args.bins.split(",")]) for p in args.scenes]
+    print("| scene | triangles | tri extent / scene: median, p99 | tris > 1% / > 10% of it | bins | nodes | depth "
+          "| tris/leaf | SAH cost | children/parent area (median, p90) | build CPU s |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in results:
+        e = r["extent_over_scene"]
+        for b in r["builds"]:
+            print(f"| {r['scene']} | {r['triangles']:,} | {e['median']:.2g}, {e['p99']:.2g} | {e['over_1pct']:,} / "
+                  f"{e['over_10pct']:,} | {b['bins']} | {b['nodes']:,} | {b['depth']} | {b['tris_per_leaf']:.2f} | "
+                  f"{b['sah_cost']:.1f} | {b['children_over_parent_area_median']:.2f}, "
+                  f"{b['children_over_parent_area_p90']:.2f} | {b['cpu_s']:.1f} |")
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,386 @@
+"""Where `pt`'s trace pass spends its GPU time: variants of its compute program, timed alike.
+
+    python benchmarks/gpu_pt_variants.py SCENE... [--size 1920x1080] [--max-depth 32]
+        [--variants main,base,s8x8,...] [--base-tree CHECKOUT] [--reps 7] [--out FILE.json]
+        [--dump-binaries DIR]
+
+For each scene the renderer is built once (pt, 1 spp, path length --max-depth); its trace
+program's source (lift_gl/passes/trace.py) is then edited into variants (VARIANTS below),
+each compiled into its own program, and the programs are dispatched in turn, round after
+round (order reversed every other round), over the same G-buffer, scene buffers and uniforms.
+Each dispatch is timed by a GL timer query (on llvmpipe by the CPU clock between two
+ctx.finish()); the JSON keeps every time and the median. Some variants are exact (same
+image: work-group shape, stack placement); others are diagnostics that change the image on
+purpose (no shadow rays, shorter paths) to tell what a part of the path costs. For each
+variant the image's difference from the first is recorded, so an "exact" variant that
+changed the picture shows up. `main` is the trace program of another checkout
+(--base-tree: its shaders/ and plugins/), as it ran there, so a change is measured against
+the code it replaces in the same process.
+
+The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
+one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
+diagnostics of what rasterizing costs on this GPU), and `traced` (TracedGBufferPass, one
+camera ray a pixel). Variant `camera`: pt with camera rays traced in the trace pass instead
+of a G-buffer (primary = "camera", one sample a frame).
+
+--dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
+text, from which local-memory arrays and register use can be read).
+"""
+from __future__ import annotations
+
+import argparse
+import ctypes
+import json
+import re
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+
+# ---- source edits ----
+
+def _sub(text: str, old: str, new: str, count: int = 1) -> str:
+    if text.count(old) < 1:
+        raise ValueError(f"variant edit: {old!r} not in the source")
+    return text.replace(old, new) if count == 0 else text.replace(old, new, count)
+
+
+def shape(x: int, y: int, shared: bool = True):
+    """Work groups of x by y invocations, the BVH stack in shared memory or local arrays
+    (LIFT_BVH_SHARED_STACK, shaders/lift/bvh.glsl)."""
+    def edit(text):
+        text = re.sub(r"layout\(local_size_x = \d+, local_size_y = \d+\) in;",
+                      f"layout(local_size_x = {x}, local_size_y = {y}) in;", text)
+        text = re.sub(r"#define LIFT_BVH_SHARED_STACK \d+\n", "", text)
+        if shared:
+            text = text.replace("\n", f"\n#define LIFT_BVH_SHARED_STACK {x * y}\n", 1)  # after #version
+        return text
+    edit.local = (x, y)
+    return edit
+
+
+def no_shadow_rays(text: str) -> str:
+    """Diagnostic: every shadow ray unblocked (what tracing them costs)."""
+    return _sub(text, "bool trace_occluded(Ray ray) {", "bool trace_occluded(Ray ray) { return false; }\nbool unused_occluded(Ray ray) {")
+
+
+def no_path_steps(text: str) -> str:
+    """The host's loop over samples calling radiance() instead of the vertex-at-a-time loop."""
+    return _sub(text, "#define LIFT_PATH_STEPS\n", "")
+
+
+def compose(*edits):
+    def edit(text):
+        for e in edits:
+            text = e(text)
+        return text
+    edit.local = next((e.local for e in reversed(edits) if hasattr(e, "local")), None)
+    return edit
+
+
+# name -> (source edit or None, uniform overrides, exact: same image as the base). The base
+# is lift-gl's own trace program for this GL (on a GPU: 8x4, stack in shared memory);
+# `main` (with --base-tree) is another checkout's. The variants of the first device run
+# (stack placement and traversal loops on main's bvh.glsl) are this script at 242c491.
+VARIANTS = {
+    "base": (None, {}, True),
+    "s8x8": (shape(8, 8), {}, True),
+    "s16x4": (shape(16, 4), {}, True),
+    "s4x8": (shape(4, 8), {}, True),
+    "s16x2": (shape(16, 2), {}, True),
+    "s32x1": (shape(32, 1), {}, True),
+    "s8x4_local": (shape(8, 4, shared=False), {}, True),
+    "s4x8_local": (shape(4, 8, shared=False), {}, True),
+    "s8x8_local": (shape(8, 8, shared=False), {}, True),
+    "nosteps": (compose(no_path_steps, shape(8, 4)), {}, True),
+    "noshadow": (compose(no_shadow_rays, shape(8, 4)), {}, False),
+    "depth1": (shape(8, 4), {"max_depth": 1}, False),
+    "depth2": (shape(8, 4), {"max_depth": 2}, False),
+    "depth4": (shape(8, 4), {"max_depth": 4}, False),
+}
+
+
+def tree_source(renderer, tree: Path) -> str:
+    """The trace program that checkout `tree` (its shaders/ and plugins/pt) builds for this
+    renderer's defines, in 8x8 work groups with local stacks (what main ran on GPUs)."""
+    from lift_gl import shaders
+    from lift_gl.passes.trace import generate_main
+    from lift_gl.plugins import param_defines
+
+    defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params), PRIMARY_GBUFFER=True)
+    folder = tree / "plugins" / renderer.plugin.name
+    main = generate_main(renderer.plugin, (8, 8)).replace(
+        renderer.plugin.entry_path.as_posix(), (folder / renderer.plugin.entry_path.name).resolve().as_posix())
+    return shaders.assemble(main, defines, include_dirs=[folder, tree / "shaders"],
+                            main_name=f"<{tree} trace main>").text
+
+
+# ---- program binaries (NVIDIA: assembly text inside) ----
+
+GL_PROGRAM_BINARY_LENGTH = 0x8741
+
+
+def program_binary(program) -> bytes | None:
+    """glGetProgramBinary of a moderngl program, through the EGL/GL loader; None if unsupported."""
+    try:
+        egl = ctypes.CDLL("libEGL.so.1")
+        egl.eglGetProcAddress.restype = ctypes.c_void_p
+        egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+        get_iv = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(
+            egl.eglGetProcAddress(b"glGetProgramiv"))
+        get_bin = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_int),
+                                   ctypes.POINTER(ctypes.c_uint), ctypes.c_void_p)(
+            egl.eglGetProcAddress(b"glGetProgramBinary"))
+        n = ctypes.c_int(0)
+        get_iv(program.glo, GL_PROGRAM_BINARY_LENGTH, ctypes.byref(n))
+        if n.value <= 0:
+            return None
+        buf = ctypes.create_string_buffer(n.value)
+        length, fmt = ctypes.c_int(0), ctypes.c_uint(0)
+        get_bin(program.glo, n.value, ctypes.byref(length), ctypes.byref(fmt), buf)
+        return buf.raw[:length.value]
+    except (OSError, AttributeError, TypeError):
+        return None
+
+
+def binary_summary(blob: bytes | None) -> dict:
+    """What the NVIDIA assembly in a program binary says about local memory and temporaries."""
+    if not blob:
+        return {}
+    text = blob.decode("latin-1")
+    out = {"bytes": len(blob)}
+    lmem = re.findall(r"TEMP lmem\d*\[(\d+)\]", text)
+    if lmem:
+        out["lmem_vec4"] = [int(v) for v in lmem]
+    for key in ("REG", "reg", "NumRegs", "numRegs"):
+        m = re.search(rf"{key}\D{{0,4}}(\d+)", text)
+        if m:
+            out[f"hint_{key}"] = int(m.group(1))
+    return out
+
+
+# ---- the measurement ----
+
+def trace_uniforms(renderer) -> dict:
+    from lift_gl.passes.camera import frame_jitter
+    from lift_gl.passes.trace import param_uniforms
+
+    return dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
+                u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
+                u_jitter=frame_jitter(7, renderer.seed))
+
+
+def camera_source(renderer):
+    """The trace program of pt with primary = "camera" (the host traces camera rays)."""
+    from lift_gl import shaders
+    from lift_gl.passes.trace import generate_main
+    from lift_gl.plugins import param_defines
+
+    defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params))
+    local = renderer.trace.local_size
+    if "LIFT_BVH_SHARED_STACK" in renderer.trace.source.text:
+        defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
+    return shaders.assemble(generate_main(renderer.plugin, local), defines, include_dirs=[renderer.plugin.folder],
+                            main_name="<pt camera-primary main>").text
+
+
+def gbuffer_variants(renderer) -> dict:
+    """Fragment-shader variants of the G-buffer pass (diagnostics of raster cost)."""
+    from lift_gl import shaders
+    from lift_gl.passes.gbuffer import SHADER_DIR
+
+    vert = shaders.assemble(SHADER_DIR / "gbuffer.vert", renderer.defines).text
+    frag = shaders.assemble(SHADER_DIR / "gbuffer.frag", renderer.defines).text
+    flat = re.sub(r"void main\(\) \{.*\}\s*$", "void main() {\n    o_visibility = uvec4(v_prim + 1u, 0u, 0u, 0u);\n"
+                  "    o_normal_depth = vec4(0.0);\n    o_albedo = vec4(0.0);\n}\n", frag, flags=re.S)
+    early = frag.replace("gl_FragDepth = clamp(view_depth * u_inv_far, 0.0, 1.0);", "")
+    return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
+
+
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None):
+    from lift_gl.gl.context import is_software
+    from lift_gl.passes.camera import frame_jitter, view_projection, near_far
+    from lift_gl.passes.common import set_uniforms
+    from lift_gl.passes.gbuffer import GBufferPass, TracedGBufferPass
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.loader import load_scene
+
+    scene = load_scene(path)
+    r = Renderer(scene, size=size, integrator="pt", params={"max_depth": max_depth}, ctx=ctx)
+    r.render(spp=2)  # warm-up; leaves a G-buffer for the variants
+    cpu = is_software(ctx)
+    base_source = r.trace.source.text
+    uniforms = trace_uniforms(r)
+    programs, info = {}, {}
+    for name in names:
+        if name == "camera":
+            src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
+        elif name == "main":
+            src, over, exact, local = tree_source(r, base_tree), {}, True, (8, 8)
+        else:
+            edit, over, exact = VARIANTS[name]
+            src = edit(base_source) if edit else base_source
+            local = getattr(edit, "local", None) or r.trace.local_size
+        start = time.perf_counter()
+        prog = ctx.compute_shader(src)
+        compile_s = time.perf_counter() - start
+        blob = program_binary(prog)
+        if dump_dir and blob:
+            dump_dir.mkdir(parents=True, exist_ok=True)
+            (dump_dir / f"{Path(path).parent.name}_{name}.bin").write_bytes(blob)
+        programs[name] = (prog, dict(uniforms, **over), local)
+        info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
+                      "binary": binary_summary(blob)}
+    w, h = size
+    frame = r.trace.frame
+    query = ctx.query(time=True)
+    gb = gbuffer_variants(r) if r.gbuffer is not None else {}
+    gb_programs = {k: ctx.program(vertex_shader=v, fragment_shader=f) for k, (v, f) in gb.items()}
+    gb_vaos = {k: ctx.vertex_array(p, []) for k, p in gb_programs.items()}
+    raster_pass = GBufferPass(ctx, size, r.defines, r.packed.num_triangles, r.packed.num_spheres) if gb else None
+    traced_pass = TracedGBufferPass(ctx, size, r.defines) if gb else None
+    jitter = frame_jitter(7, r.seed)
+
+    def dispatch(name):
+        prog, unif, (lx, ly) = programs[name]
+        r.buffers.bind()
+        set_uniforms(prog, unif)
+        if "u_visibility" in prog:
+            r.gbuffer.visibility.use(location=0)
+            prog["u_visibility"].value = 0
+        frame.bind_to_image(0, read=False, write=True)
+        prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+
+    def refresh():  # the renderer's own G-buffer (raster or traced) for the trace variants
+        if r.gbuffer is not None:
+            r.buffers.bind()
+            r.gbuffer.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
+
+    def raster(name):
+        r.buffers.bind()
+        if name == "traced":
+            traced_pass.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
+            return
+        g = raster_pass
+        vao = gb_vaos[name]
+        unif = dict(r.scene_uniforms, **r.camera_uniforms)
+        unif["u_view_proj"] = view_projection(r.camera, size, r.packed.bounds, jitter).ravel()
+        unif["u_inv_far"] = 1.0 / near_far(r.camera, r.packed.bounds)[1]
+        g.fbo.use()
+        g.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        set_uniforms(vao.program, unif)
+        vao.render(ctx.TRIANGLES, vertices=3 * r.packed.num_triangles)
+        ctx.disable(ctx.DEPTH_TEST)
+
+    def timed(fn, name):
+        ctx.finish()
+        start = time.perf_counter_ns()
+        with query:
+            fn(name)
+        ctx.finish()
+        return (time.perf_counter_ns() - start if cpu else query.elapsed) / 1e6
+
+    # images first (one dispatch each), then the timing rounds
+    images = {}
+    refresh()
+    for name in names:
+        dispatch(name)
+        images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()
+    times = {name: [] for name in names}
+    gb_names = [*gb, "traced"] if gb else []
+    gb_times = {name: [] for name in gb_names}
+    for rep in range(reps + 1):
+        order = names if rep % 2 == 0 else names[::-1]
+        for name in order:
+            refresh()
+            ms = timed(dispatch, name)
+            if rep:
+                times[name].append(ms)
+        for name in (gb_names if rep % 2 == 0 else gb_names[::-1]):
+            ms = timed(raster, name)
+            if rep:
+                gb_times[name].append(ms)
+    base = images[names[0]]
+    result = {"scene": Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
+              "size": [w, h], "triangles": int(r.packed.num_triangles), "max_depth": max_depth, "variants": {}}
+    for name in names:
+        img = images[name]
+        result["variants"][name] = dict(info[name], ms=times[name], median_ms=float(np.median(times[name])),
+                                        mean_rgb=float(np.mean(img)), max_abs_diff_vs_first=float(np.max(np.abs(img - base))),
+                                        finite=bool(np.isfinite(img).all()))
+    result["gbuffer"] = {name: {"ms": t, "median_ms": float(np.median(t))} for name, t in gb_times.items()}
+    result["gbuffer_kind"] = type(r.gbuffer).__name__ if r.gbuffer is not None else None
+    for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
+                *([raster_pass, traced_pass] if gb else [])]:
+        obj.release()
+    r.release()
+    return result
+
+
+def table(record: dict) -> str:
+    names = record["variants"]
+    lines = [f"{record['gl']}; pt, 1 spp, path length {record['max_depth']}; trace pass ms (median of "
+             f"{record['reps']} timer-queried dispatches, variants interleaved); x base = base ms / variant ms.", "",
+             "| variant | exact | " + " | ".join(f"{c['scene']} ms | x base" for c in record["results"]) + " |",
+             "|---|---|" + "---|---|" * len(record["results"])]
+    for name in names:
+        cells = [name, "yes" if name == names[0] or record["results"][0]["variants"][name]["exact"] else "no"]
+        for c in record["results"]:
+            v = c["variants"][name]
+            base = c["variants"][names[0]]["median_ms"]
+            cells += [f"{v['median_ms']:.3f}", f"{base / v['median_ms']:.2f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "| scene | " + " | ".join(record["results"][0]["gbuffer"]) + " |",
+              "|---|" + "---|" * len(record["results"][0]["gbuffer"])]
+    for c in record["results"]:
+        lines.append(f"| {c['scene']} | " + " | ".join(f"{v['median_ms']:.3f}" for v in c["gbuffer"].values()) + " |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("--size", default="1920x1080")
+    ap.add_argument("--max-depth", type=int, default=32)
+    ap.add_argument("--variants", default=",".join(list(VARIANTS) + ["camera"]),
+                    help="comma-separated, the first is the reference of the image check; also camera, main")
+    ap.add_argument("--reps", type=int, default=7)
+    ap.add_argument("--out", type=Path)
+    ap.add_argument("--dump-binaries", type=Path)
+    ap.add_argument("--base-tree", type=Path, help="another checkout: variant `main` is its trace program")
+    ap.add_argument("--backend", default="auto")
+    args = ap.parse_args(argv)
+    names = [n.strip() for n in args.variants.split(",") if n.strip()]
+    for n in names:
+        if n == "main" and args.base_tree is None:
+            raise SystemExit("--variants main needs --base-tree")
+        if n not in VARIANTS and n not in ("camera", "main"):
+            raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
+    ctx = create_context(args.backend)
+    record = {"gl": describe(ctx), "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
+              "variants": names, "results": []}
+    for path in args.scenes:
+        start = time.perf_counter()
+        res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree)
+        record["results"].append(res)
+        print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
+            f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())
+            + "; gbuffer " + ", ".join(f"{n} {v['median_ms']:.3f}" for n, v in res["gbuffer"].items()), flush=True)
+        if args.out:
+            args.out.parent.mkdir(parents=True, exist_ok=True)
+            args.out.write_text(json.dumps(record, indent=1))
+    print(table(record))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
