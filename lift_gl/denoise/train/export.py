@@ -15,7 +15,7 @@ OPSET = 17
 def sidecar(model: DenoiseUNet, record: dict) -> dict:
     if model.arch["transform"] == "log":
         color_in = (f"the graph applies log(1 + x/{LOG_EPS}) / log(1 + 1/{LOG_EPS}) itself")
-        color_out = f"(the graph applies {LOG_EPS} * (exp(y) - 1))"
+        color_out = f"(the graph applies {LOG_EPS} * exp(y))"
     else:
         color_in, color_out = "the graph applies log1p itself", "(the graph applies expm1)"
     return {

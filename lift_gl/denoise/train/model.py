@@ -6,7 +6,9 @@ Colour transform (`transform`, inside the graph, inverted on the output):
 - "log": t(x) = log(1 + x/eps) / log(1 + 1/eps) with eps = LOG_EPS, the loss's steep curve
   (0 at 0, 1 at 1, slope 22 at 0): dark regions (exposed radiance 0.005-0.05) get as much of
   the input's and the output's range as bright ones. The output y is mapped back by
-  eps * (exp(y) - 1), so that an error in y is a relative error of the radiance down to eps.
+  eps * exp(y), so that an error in y is a relative error of the radiance, and no output has
+  a zero gradient (an earlier relu(eps * (exp(y) - 1)) let a wider network die at the start
+  of training: every y below 0, so every output 0 with no gradient).
 - "log1p": log(1 + x) in, exp(y) - 1 out, the first shipped model's: almost linear below
   0.2, so that a small offset in y is an additive haze in the dark.
 
@@ -68,8 +70,8 @@ class DenoiseUNet(nn.Module):
         return torch.log(1.0 + v)  # log1p: not in ONNX opset 17
 
     def _color_out(self, y: torch.Tensor) -> torch.Tensor:
-        e = torch.exp(torch.clamp(y, max=LOG_CLAMP)) - 1.0
-        return torch.relu(e * LOG_EPS if self.arch["transform"] == "log" else e)
+        e = torch.exp(torch.clamp(y, max=LOG_CLAMP))
+        return e * LOG_EPS if self.arch["transform"] == "log" else torch.relu(e - 1.0)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         h = torch.cat([self._color_in(x[:, :3]), x[:, 3:]], dim=1)
