@@ -1,15 +1,12 @@
-"""Train the denoiser and export it (torch: the `train` extra). The shipped weights, in two stages:
+"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
 
-    python -m lift_gl.denoise.train --out runs/denoiser --loss-tonemap log1p --stop-at 2604 \
-        --workers 10 --backend egl --no-export
     python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
         --workers 10 --backend egl
 
-Each renders the training and validation scenes (resumable: existing files are kept), trains
-(resuming from --out/checkpoint.pt), and exports the ONNX model and its sidecar JSON. The
-defaults are the settings of the shipped model; its first session stopped at step 2604 with the
-log1p loss, the second resumed there and finished the 10000-step schedule with the default
-`log` loss tone map (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the step-10000 state).
+It renders the training and validation scenes (resumable: existing files are kept), trains
+(resuming from --out/checkpoint.pt, whose architecture then wins over the options), and
+exports the ONNX model and its sidecar JSON. The defaults are the settings of the shipped
+model (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is its step-11000 state).
 """
 from __future__ import annotations
 
@@ -26,13 +23,13 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m lift_gl.denoise.train", description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True, help="working folder: data, checkpoint, log")
     p.add_argument("--onnx", type=Path, default=None, help="where to write the model (default: OUT/lift_unet.onnx)")
-    p.add_argument("--scenes", type=int, default=166, help="training scenes")
+    p.add_argument("--scenes", type=int, default=181, help="training scenes")
     p.add_argument("--first-scene", type=int, default=0, help="the first training scene's seed (a later stage "
                    "can train on scenes an earlier one never saw)")
     p.add_argument("--val-scenes", type=int, default=8, help="validation scenes (never trained on)")
     p.add_argument("--size", type=int, default=256, help="image size of each scene (square)")
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
-    p.add_argument("--steps", type=int, default=10000)
+    p.add_argument("--steps", type=int, default=11000)
     p.add_argument("--batch", type=int, default=16)
     p.add_argument("--crop", type=int, default=128)
     p.add_argument("--lr", type=float, default=2e-3)
@@ -46,7 +43,8 @@ def main(argv=None) -> int:
                    help="stop at this step (the schedule still spans --steps; resumable)")
     p.add_argument("--loss-tonemap", default="log", choices=("log", "log1p"),  # loss.TONEMAPS (torch loads later)
                    help="the loss's tone map (lift_gl/denoise/train/loss.py); log1p trained the first 2604 steps")
-    p.add_argument("--encoder", default="16,32,48,64", help="encoder channels at 1, 1/2, 1/4, 1/8 resolution")
+    p.add_argument("--encoder", default="32,48,64,80",  # model.ENCODER (torch loads later)
+                   help="encoder channels at 1, 1/2, 1/4, 1/8 resolution")
     p.add_argument("--bottleneck", type=int, default=80, help="bottleneck channels at 1/16")
     p.add_argument("--full-res-convs", type=int, default=1, help="3x3 convs at full resolution on each side")
     p.add_argument("--transform", default="log", choices=("log", "log1p"),  # model.TRANSFORMS

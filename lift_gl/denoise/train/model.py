@@ -24,7 +24,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-ENCODER = (16, 32, 48, 64)  # channels at 1, 1/2, 1/4, 1/8 resolution
+ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first model: 16, 32, 48, 64)
 BOTTLENECK = 80  # at 1/16
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")

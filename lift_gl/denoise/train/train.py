@@ -80,7 +80,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     ckpt_path = Path(out_dir) / "checkpoint.pt"
     ckpt = torch.load(ckpt_path, map_location=device) if ckpt_path.exists() else None
     if ckpt is not None:  # checkpoints before "arch" was stored are the first shipped network's
-        arch = ckpt.get("arch", {"transform": "log1p"})
+        arch = ckpt.get("arch", {"encoder": (16, 32, 48, 64), "bottleneck": 80, "transform": "log1p"})
     model = DenoiseUNet(**(arch or {})).to(device).to(memory_format=torch.channels_last)
     opt = torch.optim.Adam(model.parameters(), lr=lr)
     step, seconds_before = 0, 0.0
