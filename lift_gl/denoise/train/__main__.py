@@ -42,7 +42,8 @@ def main(argv=None) -> int:
     p.add_argument("--stop-at", type=int, default=None,
                    help="stop at this step (the schedule still spans --steps; resumable)")
     p.add_argument("--loss-tonemap", default="log", choices=("log", "log1p"),  # loss.TONEMAPS (torch loads later)
-                   help="the loss's tone map (lift_gl/denoise/train/loss.py); log1p trained the first 2604 steps")
+                   help="the loss's tone map (lift_gl/denoise/train/loss.py); "
+                        "log1p trained the first model's first 2604 steps")
     p.add_argument("--encoder", default="32,48,64,80",  # model.ENCODER (torch loads later)
                    help="encoder channels at 1, 1/2, 1/4, 1/8 resolution")
     p.add_argument("--bottleneck", type=int, default=80, help="bottleneck channels at 1/16")
@@ -73,7 +74,8 @@ def main(argv=None) -> int:
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
               "train_scenes": result["train_scenes"], "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
-              "reproduce": f"--first-scene {a.first_scene} --scenes {len(train_paths)} --ref-spp {a.ref_spp} --steps {a.steps}"
+              "reproduce": f"--first-scene {a.first_scene} --scenes {len(train_paths)} --ref-spp {a.ref_spp} "
+                           f"--steps {a.steps}"
                            + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
