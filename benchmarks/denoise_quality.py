@@ -52,7 +52,7 @@ class PyOidnDenoiser:
 
 def get_denoiser(name: str):
     """The registry's denoiser of that name (lift_gl.denoise.get_denoiser) where there is one,
-    else the built-ins of this benchmark."""
+    else the built-ins of this benchmark (`onnx:PATH`: the ONNX denoiser with another model file)."""
     try:
         from lift_gl.denoise import get_denoiser as registry
     except ImportError:
@@ -63,9 +63,9 @@ def get_denoiser(name: str):
             return found() if isinstance(found, type) else found
         except Exception:  # not registered there (whatever error the registry raises): the built-ins
             pass
-    if name == "onnx":
+    if name == "onnx" or name.startswith("onnx:"):  # onnx:PATH, another model file (e.g. an earlier one)
         from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
-        return OnnxDenoiser()
+        return OnnxDenoiser(name[5:] or None)
     if name == "oidn":
         return PyOidnDenoiser()
     raise SystemExit(f"unknown denoiser {name!r} (no lift_gl.denoise.get_denoiser entry and no built-in)")

@@ -90,3 +90,20 @@ def test_generator_still_makes_the_shipped_models_scenes():
     to the generator that changes a seed's scene breaks that, and must come with new weights."""
     assert {seed: _digest(seed) for seed in (0, 165, 1_000_000)} == {
         0: "b41e57fd79c1d308", 165: "c3eb2a46bee0effc", 1_000_000: "8ecf9c08ccaed2bc"}
+
+
+def test_log_transform_values_and_gradient():
+    """The network's `log` colour transform: the loss's curve in (0 -> 0, eps -> log 2 / log 101,
+    1 -> 1), eps * exp(y) out, whose gradient is never zero (a relu there let a network die)."""
+    torch = pytest.importorskip("torch")
+    from lift_gl.denoise.train.model import LOG_EPS, DenoiseUNet
+    model = DenoiseUNet(transform="log")
+    t = model._color_in(torch.tensor([0.0, LOG_EPS, 1.0, -3.0]))
+    np.testing.assert_allclose(t.numpy(), [0.0, np.log(2) / np.log(101), 1.0, 0.0], atol=1e-6)
+    y = torch.tensor([-8.0, -1.0, 0.0, 3.0], requires_grad=True)
+    v = model._color_out(y)
+    v.sum().backward()
+    np.testing.assert_allclose(v.detach().numpy(), LOG_EPS * np.exp(y.detach().numpy()), rtol=1e-6)
+    assert bool(torch.all(y.grad > 0))
+    with pytest.raises(ValueError, match="transform"):
+        DenoiseUNet(transform="pu")

@@ -2,9 +2,9 @@
 inference, so that both prepare inputs the same way).
 
 Input (1, 9, H, W) float32: demodulated radiance times an exposure (3), albedo clipped to
-[0, 1] (3), world-space normal in [-1, 1] (3). The network itself applies log1p to the colour
-and expm1 to its output (that transform is inside the ONNX graph). Output (1, 3, H, W): the
-denoised demodulated radiance times the same exposure. The sidecar JSON beside the .onnx file
+[0, 1] (3), world-space normal in [-1, 1] (3). The network itself takes the colour into a log
+domain and its output back (that transform is inside the ONNX graph; the sidecar names it).
+Output (1, 3, H, W): the denoised demodulated radiance times the same exposure. The sidecar JSON beside the .onnx file
 says the same for other programs.
 """
 from __future__ import annotations

@@ -1,15 +1,12 @@
-"""Train the denoiser and export it (torch: the `train` extra). The shipped weights, in two stages:
+"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
 
-    python -m lift_gl.denoise.train --out runs/denoiser --loss-tonemap log1p --stop-at 2604 \
-        --workers 10 --backend egl --no-export
     python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
         --workers 10 --backend egl
 
-Each renders the training and validation scenes (resumable: existing files are kept), trains
-(resuming from --out/checkpoint.pt), and exports the ONNX model and its sidecar JSON. The
-defaults are the settings of the shipped model; its first session stopped at step 2604 with the
-log1p loss, the second resumed there and finished the 10000-step schedule with the default
-`log` loss tone map (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the step-10000 state).
+It renders the training and validation scenes (resumable: existing files are kept), trains
+(resuming from --out/checkpoint.pt, whose architecture then wins over the options), and
+exports the ONNX model and its sidecar JSON. The defaults are the settings of the shipped
+model (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is its step-11000 state).
 """
 from __future__ import annotations
 
@@ -26,11 +23,13 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="python -m lift_gl.denoise.train", description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True, help="working folder: data, checkpoint, log")
     p.add_argument("--onnx", type=Path, default=None, help="where to write the model (default: OUT/lift_unet.onnx)")
-    p.add_argument("--scenes", type=int, default=166, help="training scenes")
+    p.add_argument("--scenes", type=int, default=181, help="training scenes")
+    p.add_argument("--first-scene", type=int, default=0, help="the first training scene's seed (a later stage "
+                   "can train on scenes an earlier one never saw)")
     p.add_argument("--val-scenes", type=int, default=8, help="validation scenes (never trained on)")
     p.add_argument("--size", type=int, default=256, help="image size of each scene (square)")
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
-    p.add_argument("--steps", type=int, default=10000)
+    p.add_argument("--steps", type=int, default=11000)
     p.add_argument("--batch", type=int, default=16)
     p.add_argument("--crop", type=int, default=128)
     p.add_argument("--lr", type=float, default=2e-3)
@@ -43,7 +42,14 @@ def main(argv=None) -> int:
     p.add_argument("--stop-at", type=int, default=None,
                    help="stop at this step (the schedule still spans --steps; resumable)")
     p.add_argument("--loss-tonemap", default="log", choices=("log", "log1p"),  # loss.TONEMAPS (torch loads later)
-                   help="the loss's tone map (lift_gl/denoise/train/loss.py); log1p trained the first 2604 steps")
+                   help="the loss's tone map (lift_gl/denoise/train/loss.py); "
+                        "log1p trained the first model's first 2604 steps")
+    p.add_argument("--encoder", default="32,48,64,80",  # model.ENCODER (torch loads later)
+                   help="encoder channels at 1, 1/2, 1/4, 1/8 resolution")
+    p.add_argument("--bottleneck", type=int, default=80, help="bottleneck channels at 1/16")
+    p.add_argument("--full-res-convs", type=int, default=1, help="3x3 convs at full resolution on each side")
+    p.add_argument("--transform", default="log", choices=("log", "log1p"),  # model.TRANSFORMS
+                   help="the network's colour transform (lift_gl/denoise/train/model.py)")
     p.add_argument("--no-export", action="store_true")
     a = p.parse_args(argv)
     log = lambda msg: print(msg, flush=True)
@@ -53,27 +59,30 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     val_paths = generate(a.out / "val", VALIDATION_SEEDS[: a.val_scenes], size, a.ref_spp, a.backend, log,
                          a.workers)
-    train_seeds = list(TRAIN_SEEDS[: a.scenes])
+    train_seeds = list(TRAIN_SEEDS[a.first_scene: a.first_scene + a.scenes])
     train_paths = generate(a.out / "train", train_seeds, size, a.ref_spp, a.backend, log, a.workers,
                            a.data_minutes)
     log(f"data: {len(train_paths)} training scenes (seeds {train_seeds[0]}..{train_seeds[len(train_paths) - 1]})")
     data_seconds = time.perf_counter() - t0
 
     from .train import train
+    arch = {"encoder": [int(c) for c in a.encoder.split(",")], "bottleneck": a.bottleneck,
+            "transform": a.transform, "full_res_convs": a.full_res_convs}
     result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at,
-                   a.loss_tonemap)
+                   a.loss_tonemap, arch)
     model = result.pop("model")
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
               "train_scenes": result["train_scenes"], "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
-              "reproduce": f"--scenes {len(train_paths)} --ref-spp {a.ref_spp} --steps {a.steps}"
+              "reproduce": f"--first-scene {a.first_scene} --scenes {len(train_paths)} --ref-spp {a.ref_spp} "
+                           f"--steps {a.steps}"
                            + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
               "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
               "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "batch": a.batch, "crop": a.crop, "lr": a.lr,
               "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),
-              "data_bytes": data_bytes, "device": result["device"]}
+              "data_bytes": data_bytes, "device": result["device"], "arch": model.arch}
     (a.out / "record.json").write_text(json.dumps(record, indent=2) + "\n")
     log("record: " + json.dumps(record))
     if not a.no_export:

@@ -7,12 +7,17 @@ from pathlib import Path
 import torch
 
 from .. import model_io
-from .model import BOTTLENECK, ENCODER, IN_CHANNELS, MULTIPLE, RECEPTIVE_RADIUS, DenoiseUNet, macs_per_pixel
+from .model import IN_CHANNELS, LOG_EPS, MULTIPLE, RECEPTIVE_RADIUS, DenoiseUNet, macs_per_pixel
 
 OPSET = 17
 
 
 def sidecar(model: DenoiseUNet, record: dict) -> dict:
+    if model.arch["transform"] == "log":
+        color_in = (f"the graph applies log(1 + x/{LOG_EPS}) / log(1 + 1/{LOG_EPS}) itself")
+        color_out = f"(the graph applies {LOG_EPS} * exp(y))"
+    else:
+        color_in, color_out = "the graph applies log1p itself", "(the graph applies expm1)"
     return {
         "format": "lift-gl denoiser 1",
         "input": {"name": "input", "shape": ["N", IN_CHANNELS, "H", "W"], "dtype": "float32", "channels": [
@@ -21,19 +26,19 @@ def sidecar(model: DenoiseUNet, record: dict) -> dict:
         "normalisation": {
             "color": ("linear radiance demodulated by the first-hit albedo (lift_gl/denoise/demodulate.py: "
                       "radiance / albedo where albedo >= 1e-3, else unchanged), times `exposure`; "
-                      "the graph applies log1p itself"),
+                      + color_in),
             "exposure": (f"{model_io.EXPOSURE_KEY} / exp(mean(log(L))) over the {model_io.EXPOSURE_BLOCK}x"
                          f"{model_io.EXPOSURE_BLOCK} block means L of the demodulated colour's luminance "
                          "(Rec. 709 weights) that are above 1e-8, clamped to "
                          f"[{model_io.EXPOSURE_RANGE[0]}, {model_io.EXPOSURE_RANGE[1]}]"),
             "albedo": "first-hit albedo clipped to [0, 1]",
             "normal": "first-hit world-space shading normal, components in [-1, 1]",
-            "output": "denoised demodulated radiance times `exposure` (the graph applies expm1); "
+            "output": f"denoised demodulated radiance times `exposure` {color_out}; "
                       "divide by exposure and multiply the albedo back (remodulate)",
         },
         "multiple": MULTIPLE,
         "receptive_radius": RECEPTIVE_RADIUS,
-        "architecture": {"encoder": list(ENCODER), "bottleneck": BOTTLENECK,
+        "architecture": {**model.arch,
                          "parameters": sum(p.numel() for p in model.parameters()),
                          "macs_per_pixel": macs_per_pixel(model)},
         "training": record,

@@ -4,7 +4,7 @@ all on tone-mapped values of the exposed radiance (v around 0.18 for a mid grey)
 Tone maps: "log" (the default), log(1 + v/0.01) / log(1 + 1/0.01), is steep in the dark (slope
 22 at 0, 1.1 at 0.18) so that errors in dark regions count, as they do in the sRGB SSIM the
 denoiser is judged by; it maps 0 to 0 and 1 to 1, so the SSIM term's [0, 1] clamp still applies.
-"log1p", log(1 + v), almost linear below 0.2, trained the first 2604 steps of the shipped model.
+"log1p", log(1 + v), almost linear below 0.2, trained the first 2604 steps of the first model.
 """
 from __future__ import annotations
 

@@ -67,22 +67,25 @@ def lr_at(step: int, steps: int, peak: float, warmup: int = 200) -> float:
 
 def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, crop: int = 128, lr: float = 2e-3,
           seed: int = 0, minutes: float | None = None, log=print, stop_at: int | None = None,
-          loss_tonemap: str = "log") -> dict:
+          loss_tonemap: str = "log", arch: dict | None = None) -> dict:
     """Train (resuming from out_dir/checkpoint.pt when present); returns a summary dict.
 
     The learning rate follows a cosine over `steps`; `stop_at` ends the run earlier at that
     step (a resumable checkpoint; also how the shipped weights, cut short by a time cap, are
-    reproduced exactly). `loss_tonemap` picks the loss's tone map (loss.TONEMAPS)."""
+    reproduced exactly). `loss_tonemap` picks the loss's tone map (loss.TONEMAPS); `arch` the
+    network's DenoiseUNet arguments (a resumed checkpoint's own architecture wins)."""
     device = "cuda" if torch.cuda.is_available() else "cpu"
     torch.manual_seed(seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
-    model = DenoiseUNet().to(device).to(memory_format=torch.channels_last)
-    opt = torch.optim.Adam(model.parameters(), lr=lr)
     ckpt_path = Path(out_dir) / "checkpoint.pt"
+    ckpt = torch.load(ckpt_path, map_location=device) if ckpt_path.exists() else None
+    if ckpt is not None:  # checkpoints before "arch" was stored are the first shipped network's
+        arch = ckpt.get("arch", {"encoder": (16, 32, 48, 64), "bottleneck": 80, "transform": "log1p"})
+    model = DenoiseUNet(**(arch or {})).to(device).to(memory_format=torch.channels_last)
+    opt = torch.optim.Adam(model.parameters(), lr=lr)
     step, seconds_before = 0, 0.0
     gen = torch.Generator().manual_seed(seed)
-    if ckpt_path.exists():
-        ckpt = torch.load(ckpt_path, map_location=device)
+    if ckpt is not None:
         model.load_state_dict(ckpt["model"])
         opt.load_state_dict(ckpt["optimizer"])
         step, seconds_before = ckpt["step"], ckpt.get("seconds", 0.0)
@@ -94,7 +97,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     start = time.perf_counter()
 
     def save():
-        torch.save({"model": model.state_dict(), "optimizer": opt.state_dict(), "step": step,
+        torch.save({"model": model.state_dict(), "arch": model.arch, "optimizer": opt.state_dict(), "step": step,
                     "seconds": seconds_before + time.perf_counter() - start, "generator": gen.get_state()}, ckpt_path)
 
     losses = []
