@@ -44,6 +44,7 @@ from .passes.upsample import UpsamplePass
 from .plugins import Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
 from .scene.model import Scene
+from .scene.instances import flatten_instances
 from .scene.pack import pack_materials, pack_scene
 from .scene.validate import validate_scene
 from .temporal import DEFAULT_MIN_BLEND, MODES, history_cap, motion_uniforms, objects_moved, previous_positions, same_camera
@@ -129,6 +130,9 @@ class Renderer:
         check_film(self.size, self.limits, scene.path if size is None else None)
         check_triangle_count(scene.triangle_count, self.limits, scene.path)
         self.plugin = find_plugin(integrator, plugin_dirs)
+        if self.plugin.language == "opencl" and scene.instances:
+            # The OpenCL traversal (passes/trace_cl.py) has one level: instances become world meshes.
+            scene = self.scene = flatten_instances(self.scene)
         self.param_overrides = dict(params or {})  # what the caller set; survives a reload
         self.params = self._resolve_params(self.param_overrides)
         self._fixed_features = features  # None: follow the scene (also after edits)
@@ -142,7 +146,8 @@ class Renderer:
             uniform_blocks = is_software(self.ctx)
         block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
         self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes,
-                                    max_buffer_bytes=self.limits.max_ssbo_bytes)  # a big scene is split
+                                    max_buffer_bytes=self.limits.max_ssbo_bytes,  # a big scene is split
+                                    instances=self.features.instances)
         self.defines = self._shader_defines()
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
@@ -169,9 +174,7 @@ class Renderer:
         """The passes this plugin and resolution need (programs come from the driver's cache on resize)."""
         uses_gbuffer = self.plugin.primary == "gbuffer"
         reproject = self.temporal == "reproject"  # motion vectors need the G-buffer, whatever the primary
-        self.gbuffer = (GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                    self.packed.num_spheres, motion_vectors=reproject)
-                        if uses_gbuffer or reproject else None)
+        self.gbuffer = self._gbuffer_pass(motion_vectors=reproject) if uses_gbuffer or reproject else None
         self.trace = self._create_trace(self.plugin, self.params)
         # A plugin with a [reduced] estimate (hybrid): traced at reduced resolution, upsampled into the frame.
         reduced = self.plugin.reduced is not None
@@ -185,6 +188,11 @@ class Renderer:
         self.tonemap = None  # created on the first display() call: headless float output needs none
         self.tonemap_noisy = None  # display(source="noisy") while denoising: the viewer's split view
         self.timers = {p.name: self._timer() for p in self.passes} if self.use_timers else None
+
+    def _gbuffer_pass(self, motion_vectors: bool = False) -> GBufferPass:
+        p = self.packed
+        return GBufferPass(self.ctx, self.size, self.defines, p.num_world_triangles, p.num_spheres,
+                           motion_vectors=motion_vectors, instance_draws=p.instance_draws)
 
     def _create_denoise_pass(self) -> DenoisePass:
         if self.denoiser == "atrous":
@@ -393,8 +401,7 @@ class Renderer:
         self.trace.release()
         self.plugin, self.params, self.trace, self.reload_error = plugin, params, trace, None
         if plugin.primary == "gbuffer" and self.gbuffer is None:
-            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                       self.packed.num_spheres)
+            self.gbuffer = self._gbuffer_pass()
         elif plugin.primary == "camera" and self.gbuffer is not None and self.reproject is None:
             self.gbuffer.release()  # the plugin now traces its own camera rays
             self.gbuffer = None
@@ -594,8 +601,7 @@ class Renderer:
         """The G-buffer rendered through the pixel centres (no jitter): the denoiser's guides
         and the AOVs match the image's pixels rather than the last frame's subpixel offset."""
         if self.gbuffer is None:
-            self.gbuffer = GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles,
-                                       self.packed.num_spheres)
+            self.gbuffer = self._gbuffer_pass()
         self.buffers.bind()
         motion = None
         if self.gbuffer.motion_vectors:

@@ -69,7 +69,7 @@ void main() {
     }
     vec3 estimate = guided_w > 1e-4 ? guided / guided_w : (spatial_w > 0.0 ? spatial / spatial_w : vec3(0.0));
     vec4 frame = imageLoad(u_frame, p);
-    vec3 albedo = bsdf_albedo(materials[vis.w]);
+    vec3 albedo = bsdf_albedo(materials[visibility_material(vis)]);
     imageStore(u_frame, p, vec4(frame.rgb + frame.a * albedo * estimate, frame.a));
 }
 """

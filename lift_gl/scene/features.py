@@ -5,8 +5,10 @@ not compiled (a diffuse-only scene compiles no conductor or glass code).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, fields
 
+from .instances import instance_material, split_instances
 from .model import Scene
 
 
@@ -26,10 +28,16 @@ class SceneFeatures:
     environment_map: bool = False  # an image-based environment, importance sampled
     distant_lights: bool = False  # directional (delta) lights
     beckmann: bool = False  # rough conductors with a Beckmann distribution
+    instances: bool = False  # meshes placed by transforms: a second level of BVH (scene/instances.py)
 
     @classmethod
     def of(cls, scene: Scene) -> "SceneFeatures":
+        traced = []
+        if scene.instances:  # emissive and moving instances become world meshes (as pack.py does)
+            flat, traced = split_instances(scene)
+            scene = dataclasses.replace(scene, meshes=list(scene.meshes) + flat)
         used = [scene.materials[m.material] for m in scene.meshes if len(m.indices)]
+        used += [scene.materials[instance_material(scene, scene.instances[i])] for i in traced]
         used += [scene.materials[s.material] for s in scene.spheres]
         return cls(
             conductor=any(m.type == "conductor" for m in used),
@@ -46,6 +54,7 @@ class SceneFeatures:
             environment_map=_has_environment(scene) and scene.environment.image is not None,
             distant_lights=any((d.irradiance > 0).any() for d in scene.distant_lights),
             beckmann=any(m.type == "conductor" and m.alpha > 0 and m.distribution == "beckmann" for m in used),
+            instances=bool(traced),
         )
 
     @classmethod
