@@ -44,8 +44,8 @@ from .passes.upsample import UpsamplePass
 from .plugins import Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
 from .scene.model import Scene
-from .scene.instances import flatten_instances
-from .scene.pack import pack_materials, pack_scene
+from .scene.instances import flatten_instances, only_instances_moved
+from .scene.pack import pack_materials, pack_scene, repack_instances
 from .scene.validate import validate_scene
 from .temporal import DEFAULT_MIN_BLEND, MODES, history_cap, motion_uniforms, objects_moved, previous_positions, same_camera
 from .watch import FileWatcher
@@ -323,14 +323,22 @@ class Renderer:
                      and len(scene.distant_lights) == len(self.scene.distant_lights) == 0
                      and len(scene.textures) == len(self.scene.textures) == 0)
         emission_changed = materials.shape != old.shape or not np.array_equal(materials[:, 1, :3], old[:, 1, :3])
-        if geometry or emission_changed:
+        if self.plugin.language == "opencl" and scene.instances:
+            scene = flatten_instances(scene)  # as __init__ does
+        if geometry and not emission_changed and only_instances_moved(self.scene, scene):
+            packed = repack_instances(self.packed, scene)  # a new TLAS; every BVH below it stays
+        elif geometry or emission_changed:
             packed = pack_scene(scene)
         else:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
         self.packed = packed
         self.camera_uniforms = camera_uniforms(self.camera, self.size)  # the origin may have moved
+        self.buffers.instances = self._fixed_features.instances if self._fixed_features else packed.instances is not None
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
+        if self.gbuffer is not None:
+            self.gbuffer.num_triangles = packed.num_world_triangles
+            self.gbuffer.instance_draws = list(packed.instance_draws)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         features = self._fixed_features or SceneFeatures.of(scene)
@@ -660,6 +668,7 @@ class Renderer:
             self.gbuffer.swap_history()  # this frame's normal and depth go into the older texture
         moved = objects or not same_camera(before_camera, camera)
         uniforms = motion_uniforms(self.packed.to_gpu_camera(before_camera), self.camera, self.size, self.packed.bounds)
+        uniforms["u_prev_instance_rows"] = 3 * self.packed.num_triangles + self.packed.num_spheres
         return moved, uniforms
 
     def render(self, spp: int | None = None, seconds: float | None = None, progress=None,

@@ -17,7 +17,8 @@ passes that do not traverse a TLAS (OpenCL plugins) and the tests' reference.
 Record layout (INSTANCE_ROWS vec4 rows, shaders/lift/bvh.glsl reads it):
     rows 0-2: object -> GPU world transform, rows of a 3x4 matrix
     rows 3-5: GPU world -> object transform, rows of a 3x4 matrix
-    row 6:    uint bits (BLAS root node, material or NO_MATERIAL, prototype index, 0)
+    row 6:    uint bits (BLAS root node, material or NO_MATERIAL, prototype index, 1 if the
+              transform mirrors, else 0)
 """
 from __future__ import annotations
 
@@ -119,6 +120,25 @@ def check_instances(scene: Scene) -> None:
         raise SceneError(f"a scene with instances may have at most {MAX_MATERIALS:,} materials", scene.path)
 
 
+def only_instances_moved(old: Scene, new: Scene) -> bool:
+    """Whether `new` differs from `old` in the transforms of traced instances only (then
+    pack.repack_instances places them anew without building any BVH)."""
+    if not old.instances or len(old.instances) != len(new.instances):
+        return False
+    same_objects = (len(old.meshes) == len(new.meshes) and all(a is b for a, b in zip(old.meshes, new.meshes))
+                    and len(old.spheres) == len(new.spheres) and all(a is b for a, b in zip(old.spheres, new.spheres))
+                    and len(old.prototypes) == len(new.prototypes)
+                    and all(a is b for a, b in zip(old.prototypes, new.prototypes)))
+    if not same_objects:
+        return False
+    for a, b in zip(old.instances, new.instances):
+        if a.mesh != b.mesh or a.material != b.material:
+            return False
+        if must_flatten(new, b) and not np.array_equal(a.transform, b.transform):
+            return False  # a flattened instance is world geometry: the world BVH changes
+    return True
+
+
 # --- packing -------------------------------------------------------------------------------
 
 @dataclass
@@ -194,7 +214,8 @@ def instance_table(scene: Scene, traced: list[int], blas_of: dict, origin: np.nd
         records[r, 0:3] = m[:3]
         records[r, 3:6] = np.linalg.inv(m)[:3]
         material = NO_MATERIAL if inst.material is None else inst.material
-        records[r, 6] = np.array([root, material, inst.mesh, 0], np.uint32).view(np.float32)
+        mirrored = int(np.linalg.det(m[:3, :3]) < 0)
+        records[r, 6] = np.array([root, material, inst.mesh, mirrored], np.uint32).view(np.float32)
         if draws and draws[-1][0] == first_tri and draws[-1][2] + draws[-1][3] == r:
             draws[-1] = (first_tri, len(blas.positions), draws[-1][2], draws[-1][3] + 1)
         else:

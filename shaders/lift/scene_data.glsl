@@ -187,7 +187,8 @@ layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 // node as bvh_nodes (a leaf holds instance records first .. first + count - 1); then
 // INSTANCE_ROWS rows per instance record: rows 0-2 the object -> world transform and rows 3-5
 // the world -> object transform (rows of 3x4 matrices), row 6 uint bits (root node of the
-// instance's BLAS in bvh_nodes, material or NO_MATERIAL for the mesh's own, prototype, 0).
+// instance's BLAS in bvh_nodes, material or NO_MATERIAL for the mesh's own, prototype,
+// 1 if the transform mirrors (negative determinant), else 0).
 // Each BLAS's nodes and object-space triangles follow the world geometry's in bvh_nodes and
 // the triangle arrays; the world BVH (node 0) holds triangles 0 .. u_world_triangles - 1.
 #ifdef LIFT_UBO_INSTANCES

@@ -46,6 +46,10 @@ Surface surface_at(Ray ray, Hit hit) {
         // The barycentric point is more accurate than origin + t * dir far from the camera.
         s.p = b0 * p0 + hit.bary.x * p1 + hit.bary.y * p2;
         vec3 n = cross(p1 - p0, p2 - p0);
+#ifdef HAS_INSTANCES
+        // A mirroring transform turns the winding around: keep the front where the author's was.
+        if (hit.instance != NO_INSTANCE && instance_info(hit.instance).w != 0u) n = -n;
+#endif
         float len = length(n);
         s.ng = len > 0.0 ? n / len : -ray.dir;
         s.area = 0.5 * len;
