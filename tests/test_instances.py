@@ -86,13 +86,15 @@ def test_features_and_flattening():
 @pytest.mark.parametrize("integrator", ["pt", "drt"])
 def test_instanced_image_matches_flattened(integrator):
     """Same seed, same random numbers: the images differ only where float rounding of the
-    object-space hits sends a path elsewhere."""
+    object-space hits sends a path elsewhere (measured: mean |difference| 0.14% of the mean,
+    0.05% of pixels off by 2% of the peak; normals transformed by the matrix itself instead
+    of its inverse transpose give 5% and 2.6%)."""
     scene = instanced_scene()
     traced = render(scene, integrator)
     flat = render(flatten_instances(scene), integrator)
     assert np.isfinite(traced).all()
     diff = np.abs(traced - flat)
-    assert diff.mean() < 2e-3 * flat.mean(), (diff.mean(), flat.mean())
+    assert diff.mean() < 1e-2 * flat.mean(), (diff.mean(), flat.mean())
     assert (diff.max(axis=2) > 0.02 * max(flat.max(), 1e-6)).mean() < 0.01
 
 
@@ -250,7 +252,10 @@ def test_moving_instance_keeps_its_history_with_reprojection():
         r.render(spp=1)
         motion = np.frombuffer(r.gbuffer.motion.read(), np.float32).reshape(64, 64, 4)
         vis = np.frombuffer(r.gbuffer.visibility.read(), np.uint32).reshape(64, 64, 4)
+        history = r.aov("history").reshape(64, 64, -1)[..., 0][::-1]  # GL rows, bottom first
     on_instance = (vis[..., 3] >> 16) > 0
+    # 4 samples before the move + 1 after where the history was kept (1: rejected)
+    assert np.median(history[on_instance]) > 2
     on_floor = (vis[..., 0] > 0) & ~on_instance
     # the instances moved right (+x) by ~0.5 pixel or more: their previous position is to the left
     assert np.median(motion[on_instance, 0]) < -0.3
@@ -329,6 +334,14 @@ def test_toml_instances(tmp_path):
     assert scene.instances[0].source.endswith(":21")
     image = render(scene, spp=2, size=(32, 32))
     assert np.isfinite(image).all() and image.mean() > 0
+    # written back (the viewer's save) and read again: the same prototypes and instances
+    from lift_gl.scene.toml_writer import save_toml
+
+    again = load_scene(save_toml(scene, tmp_path / "saved.toml"))
+    assert [m.name for m in again.meshes] == ["floor"] and [m.name for m in again.prototypes] == ["crate", "floor"]
+    for a, b in zip(scene.instances, again.instances):
+        assert (a.mesh, a.material, a.name) == (b.mesh, b.material, b.name)
+        np.testing.assert_array_equal(a.transform, b.transform)
 
 
 @pytest.mark.parametrize("body, line, words", [
