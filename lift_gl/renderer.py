@@ -516,6 +516,20 @@ class Renderer:
             how = f"{self.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
         return f"--denoise {self.denoise_mode}: {how}, {when}; guides from an unjittered G-buffer"
 
+    def _explain_instances(self) -> list[str]:
+        if not self.scene.instances:
+            return []
+        p = self.packed
+        flattened = len(self.scene.instances) - p.num_instances
+        blas = p.instance_blas or {}
+        line = (f"instances: {p.num_instances:,} traced through {len(blas)} BLAS "
+                f"({sum(len(b.positions) for b, _, _ in blas.values()):,} triangles, built once) under a TLAS of depth "
+                f"{p.instance_table.tlas_depth if p.instance_table else 0}")
+        if flattened:
+            line += (f"; {flattened:,} copied into world space (emissive or moving within the shutter, "
+                     "or an OpenCL plugin: lift_gl/scene/instances.py)")
+        return [line]
+
     def _explain_memory(self) -> list[str]:
         """The scene's storage buffers, each with its size, and how a big scene was split."""
         p, plan = self.packed, self.buffers.plan
@@ -523,6 +537,7 @@ class Renderer:
         total = sum(size for _, _, size in buffers)
         lines = [f"BVH: {p.bvh_nodes.shape[0]:,} nodes, depth {p.bvh_depth}, built by {p.bvh_builder} "
                  f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER chooses)",
+                 *self._explain_instances(),
                  f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
                  f"(limit {self.limits.max_ssbo_bytes / (1 << 20):,.0f} MiB a buffer)"
                  + (f"; BVH and triangles split into {plan.chunks} buffers of up to "
