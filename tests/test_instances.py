@@ -365,3 +365,59 @@ def test_bad_instances_name_file_and_line(tmp_path, body, line, words):
     message = str(err.value)
     assert words in message
     assert f"{path}:{line}" in message
+
+
+PBRT = """LookAt 0 3 6  0 0.3 0  0 1 0
+Camera "perspective" "float fov" [40]
+Film "image" "integer xresolution" [64] "integer yresolution" [64]
+WorldBegin
+LightSource "infinite" "rgb L" [1 1 1]
+ObjectBegin "pair"
+  Material "matte" "rgb Kd" [0.8 0.3 0.2]
+  Shape "trianglemesh" "point P" [-0.3 0 0  0.3 0 0  0 0.6 0] "integer indices" [0 1 2]
+  Translate 0 0.8 0
+  Shape "sphere" "float radius" 0.15
+ObjectEnd
+AttributeBegin
+  Translate 1 0 0
+  Rotate 90 0 1 0
+  Scale 1 2 1
+  ObjectInstance "pair"
+AttributeEnd
+ObjectInstance "pair"
+Shape "trianglemesh" "point P" [-3 0 -3  3 0 -3  3 0 3  -3 0 3] "integer indices" [0 1 2 0 2 3]
+"""
+
+
+def test_pbrt_object_instances(tmp_path):
+    from lift_gl import load_scene
+
+    path = tmp_path / "inst.pbrt"
+    path.write_text(PBRT)
+    scene = load_scene(path)
+    assert len(scene.meshes) == 1 and len(scene.prototypes) == 1 and len(scene.instances) == 2
+    assert len(scene.spheres) == 2                       # spheres are copied, not instanced
+    assert scene.instances[0].source == f"{path}:16"
+    # the first instance: scaled, turned 90 degrees about y, moved +1 in x (then the loader's
+    # mirror in x, as for every pbrt LookAt scene): apex (0, 0.6, 0) -> (-1, 1.2, 0)
+    world = flatten_instances(scene).meshes[1]
+    np.testing.assert_allclose(world.positions.max(axis=0)[1], 1.2, atol=1e-12)
+    np.testing.assert_allclose(sorted(s.center[1] for s in scene.spheres), [0.8, 1.6], atol=1e-12)
+    np.testing.assert_allclose(world.positions[:, 0].mean(), -1.0, atol=1e-12)
+    image, flat = render(scene, spp=4, size=(32, 32)), render(flatten_instances(scene), spp=4, size=(32, 32))
+    assert np.abs(image - flat).mean() < 1e-2 * flat.mean()
+
+
+@pytest.mark.parametrize("directive, line, words", [
+    ('ObjectInstance "tree"\n', 20, "unknown object 'tree'"),
+    ('ObjectEnd\n', 20, "ObjectEnd without"),
+    ('AttributeBegin\nScale 0 1 1\nObjectInstance "pair"\nAttributeEnd\n', 22, "singular"),
+])
+def test_pbrt_bad_instances(tmp_path, directive, line, words):
+    from lift_gl import load_scene
+
+    path = tmp_path / "bad.pbrt"
+    path.write_text(PBRT + directive)
+    with pytest.raises(SceneError) as err:
+        load_scene(path)
+    assert words in str(err.value) and f"{path}:{line}" in str(err.value)
