@@ -83,7 +83,7 @@ def test_features_and_flattening():
     assert SceneFeatures.of(lit).emissive
 
 
-@pytest.mark.parametrize("integrator", ["pt", "drt"])
+@pytest.mark.parametrize("integrator", ["pt", "drt", "bdpt", "hybrid"])
 def test_instanced_image_matches_flattened(integrator):
     """Same seed, same random numbers: the images differ only where float rounding of the
     object-space hits sends a path elsewhere (measured: mean |difference| 0.14% of the mean,
@@ -116,6 +116,59 @@ void main() {
     results[3u * i + 2u] = vec4(found ? s.ng : vec3(0.0), 0.0);
 }
 """
+
+
+def test_split_heap_renders_the_same_image(monkeypatch):
+    """The BLAS live in the heap with the world's arrays: a scene split into several buffers
+    renders bit for bit the image of the whole one; also the G-buffer's normal AOV."""
+    from lift_gl import limits
+    from lift_gl.scene.split import HEAP_ARRAYS
+
+    scene = instanced_scene()
+
+    def images():
+        with Renderer(scene, size=(40, 32), integrator="pt", seed=3) as r:
+            return r.render(spp=4), r.aov("normal"), r.buffers.plan
+
+    whole, whole_normal, plan = images()
+    assert not plan.split
+    packed = pack_scene(scene)
+    heap_bytes = sum(getattr(packed, n).nbytes for n in HEAP_ARRAYS)
+    monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(heap_bytes // 4))  # 4 to 8 chunks (powers of two rows)
+    split, split_normal, plan = images()
+    assert plan.split and plan.chunks >= 3
+    np.testing.assert_array_equal(split, whole)
+    np.testing.assert_array_equal(split_normal, whole_normal)
+
+
+def test_motion_blur_scene_with_instances():
+    """A moving world mesh (HAS_MOTION) beside instances: the motion rows cover the BLAS
+    (no displacement) and the image is the flattened scene's; an instance of a moving mesh
+    is flattened."""
+    scene = instanced_scene()
+    box = prim.box([0, 1.5, -1.5], [0.4, 0.4, 0.4], 2)
+    box.name, box.velocity = "flyer", np.array([0.6, 0.0, 0.0])
+    scene = dataclasses.replace(scene, meshes=[*scene.meshes, box])
+    assert SceneFeatures.of(scene).motion and SceneFeatures.of(scene).instances
+    traced = render(scene, "drt", spp=16)
+    flat = render(flatten_instances(scene), "drt", spp=16)
+    assert np.abs(traced - flat).mean() < 1e-2 * flat.mean()
+    moving = dataclasses.replace(scene, prototypes=[*scene.prototypes, box],
+                                 instances=[*scene.instances, Instance(1, prim.translate_matrix([0, 0, 1]))])
+    assert pack_scene(moving).num_instances == 4   # the moving one is copied into world space
+
+
+def test_everything_features_on_a_scene_without_instances():
+    """Shaders compiled with every feature (HAS_INSTANCES too) on a scene that has none: an
+    empty instance table, and the image of the scene's own features."""
+    from lift_gl import load_scene
+
+    from pathlib import Path
+
+    scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml")
+    own = render(scene, spp=4, size=(32, 32))
+    every = render(scene, spp=4, size=(32, 32), features=SceneFeatures.everything())
+    assert np.abs(own - every).mean() < 1e-2 * own.mean()
 
 
 def test_closest_hits_match_trimesh_on_the_flattened_mesh():
