@@ -109,7 +109,8 @@ def moved_one(scene):
     from lift_gl.scene import primitives as prim
 
     instances = list(scene.instances)
-    instances[0] = dataclasses.replace(instances[0], transform=prim.translate_matrix([0.0, 0.5, 0.0]) @ instances[0].transform)
+    lift = prim.translate_matrix([0.0, 0.5, 0.0])
+    instances[0] = dataclasses.replace(instances[0], transform=lift @ instances[0].transform)
     return dataclasses.replace(scene, instances=instances)
 
 

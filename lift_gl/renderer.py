@@ -334,7 +334,8 @@ class Renderer:
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
         self.packed = packed
         self.camera_uniforms = camera_uniforms(self.camera, self.size)  # the origin may have moved
-        self.buffers.instances = self._fixed_features.instances if self._fixed_features else packed.instances is not None
+        fixed = self._fixed_features
+        self.buffers.instances = fixed.instances if fixed else packed.instances is not None  # HAS_INSTANCES
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
         if self.gbuffer is not None:
             self.gbuffer.num_triangles = packed.num_world_triangles

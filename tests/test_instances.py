@@ -474,3 +474,20 @@ def test_pbrt_bad_instances(tmp_path, directive, line, words):
     with pytest.raises(SceneError) as err:
         load_scene(path)
     assert words in str(err.value) and f"{path}:{line}" in str(err.value)
+
+
+@pytest.mark.parametrize("change, words", [
+    (dict(mesh=3), "uses mesh #3, but there are 1"),
+    (dict(material=9), "uses material #9"),
+    (dict(transform=np.diag([1.0, 1.0, 0.0, 1.0])), "singular"),
+    (dict(transform=np.full((4, 4), np.nan)), "finite"),
+])
+def test_bad_instances_from_python_are_refused(change, words):
+    from lift_gl.scene.validate import validate_scene
+
+    scene = instanced_scene()
+    bad = dataclasses.replace(scene.instances[0], source="made.toml:12", **change)
+    scene = dataclasses.replace(scene, instances=[bad, *scene.instances[1:]])
+    with pytest.raises(SceneError) as err:
+        validate_scene(scene)
+    assert words in str(err.value) and "made.toml:12" in str(err.value)

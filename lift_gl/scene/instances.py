@@ -105,14 +105,17 @@ def flatten_instances(scene: Scene) -> Scene:
 def check_instances(scene: Scene) -> None:
     """Each instance names an existing prototype and material and has an invertible affine
     transform; the counts fit the G-buffer's visibility texel."""
+    from .validate import _where  # late: validate imports this module
+
+    fallback = str(scene.path) if scene.path is not None else None
     for i, inst in enumerate(scene.instances):
         what = f"instance '{inst.name or i + 1}'"
+        where = _where(inst.source, fallback)
         if not 0 <= inst.mesh < len(scene.prototypes):
-            raise SceneError(f"{what} uses mesh #{inst.mesh}, but there are {len(scene.prototypes)}", inst.source or None)
+            raise SceneError(f"{what} uses mesh #{inst.mesh}, but there are {len(scene.prototypes)}", *where)
         if inst.material is not None and not 0 <= inst.material < len(scene.materials):
-            raise SceneError(f"{what} uses material #{inst.material}, but there are {len(scene.materials)}",
-                             inst.source or None)
-        inst.transform = check_transform(inst.transform, what, inst.source)
+            raise SceneError(f"{what} uses material #{inst.material}, but there are {len(scene.materials)}", *where)
+        inst.transform = check_transform(inst.transform, what, inst.source or fallback or "")
     if len(scene.instances) > MAX_INSTANCES:
         raise SceneError(f"{len(scene.instances):,} instances: at most {MAX_INSTANCES:,} are supported "
                          "(the G-buffer keeps an instance id in 16 bits)", scene.path)
