@@ -281,8 +281,10 @@ def test_moving_instance_rebuilds_only_the_tlas(monkeypatch):
         monkeypatch.setattr(pack_mod, "build_blas", no_build)
         monkeypatch.setattr(pack_mod, "build_bvh_cached", no_build)
         monkeypatch.setattr(inst_mod, "build_bvh_cached", no_build)
+        defines = dict(r.defines)
         r.update_scene(moved)
         assert r.uploaded == ["instances"]
+        assert r.defines == defines  # nothing recompiled: the instance array keeps its length
         image = r.render(spp=8)
         monkeypatch.undo()
     fresh = render(moved, spp=8, size=(48, 48), seed=3)

@@ -185,12 +185,13 @@ def world_box(transform: np.ndarray, box: np.ndarray) -> np.ndarray:
 @dataclass
 class InstanceTable:
     """The `instances` array and what the host needs of it."""
-    rows: np.ndarray  # float32 (2 * tlas nodes + INSTANCE_ROWS * K, 4)
-    record_base: int  # row of the first record (after the TLAS nodes)
+    rows: np.ndarray  # float32 (2 * (2K - 1) + INSTANCE_ROWS * K, 4): TLAS nodes, padding, records
+    record_base: int  # row of the first record (after the TLAS region)
     order: np.ndarray  # int (K,): record r is scene.instances[order[r]]
     draws: list  # (first triangle, triangles, first record, records): runs of one prototype
     bounds: np.ndarray  # (2, 3) GPU coordinates, around every instance
     tlas_depth: int
+    tlas_nodes: int
 
 
 def instance_table(scene: Scene, traced: list[int], blas_of: dict, origin: np.ndarray) -> InstanceTable:
@@ -223,9 +224,15 @@ def instance_table(scene: Scene, traced: list[int], blas_of: dict, origin: np.nd
             draws[-1] = (first_tri, len(blas.positions), draws[-1][2], draws[-1][3] + 1)
         else:
             draws.append((first_tri, len(blas.positions), r, 1))
-    rows = np.concatenate([tlas.nodes.reshape(-1, 4), records.reshape(-1, 4)])
+    # The TLAS region is sized for the most nodes K instances can need (2K - 1), so that the
+    # array keeps its length when instances move and the TLAS is rebuilt with another shape:
+    # a length compiled into the shaders (a uniform block's) then never changes with a move.
+    tlas_rows = 2 * max(2 * len(order) - 1, 1)
+    rows = np.zeros((tlas_rows + INSTANCE_ROWS * len(order), 4), np.float32)
+    rows[:2 * tlas.num_nodes] = tlas.nodes.reshape(-1, 4)
+    rows[tlas_rows:] = records.reshape(-1, 4)
     bounds = np.array([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)]) if len(boxes) else None
-    return InstanceTable(rows, 2 * tlas.num_nodes, order, draws, bounds, tlas.depth)
+    return InstanceTable(rows, tlas_rows, order, draws, bounds, tlas.depth, tlas.num_nodes)
 
 
 def instance_world_bounds(scene: Scene, traced: list[int]) -> np.ndarray | None:
