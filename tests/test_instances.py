@@ -493,3 +493,15 @@ def test_bad_instances_from_python_are_refused(change, words):
     with pytest.raises(SceneError) as err:
         validate_scene(scene)
     assert words in str(err.value) and "made.toml:12" in str(err.value)
+
+
+def test_opencl_plugin_gets_the_flattened_scene():
+    """The OpenCL traversal has one level: an OpenCL plugin renders the instances copied into
+    world space, the same image as with the flattened scene given directly."""
+    pytest.importorskip("pyopencl")
+    scene = instanced_scene()
+    with Renderer(scene, size=(32, 32), integrator="ao_cl", seed=2) as r:
+        assert not r.scene.instances and r.packed.num_instances == 0
+        image = r.render(spp=2)
+    flat = render(flatten_instances(scene), "ao_cl", spp=2, size=(32, 32), seed=2)
+    np.testing.assert_array_equal(image, flat)
