@@ -19,7 +19,9 @@ to write an image sequence (docs/temporal.md).
 
 Frame i of N is at time t0 + i (t1 - t0) / (N - 1) (t0, t1: first and last keyframe);
 between keyframes position, target and fov are interpolated linearly. `[[move]]` translates
-an object between frames (the scene is rebuilt for each frame); that is not motion blur
+an object between frames (the scene is rebuilt for each frame; a moved [[instances]] entry,
+named by its `name`, changes its transform only, and the renderer rebuilds just the small
+top-level tree over the instances); that is not motion blur
 (Mesh.velocity moves objects while the shutter is open, within one frame).
 """
 from __future__ import annotations
@@ -33,6 +35,7 @@ import numpy as np
 
 from .errors import SceneError
 from .scene.model import Camera, Scene
+from .scene.primitives import translate_matrix
 
 
 @dataclass(frozen=True)
@@ -83,10 +86,13 @@ class CameraPath:
                   for m in scene.meshes]
         spheres = [dataclasses.replace(s, center=s.center + time * velocity[_name(s)]) if _name(s) in velocity else s
                    for s in scene.spheres]
-        return dataclasses.replace(scene, camera=camera, meshes=meshes, spheres=spheres)
+        # an instance moves by its transform alone: its mesh's BVH stays as it is
+        instances = [dataclasses.replace(i, transform=translate_matrix(time * velocity[i.name]) @ i.transform)
+                     if i.name in velocity else i for i in scene.instances]
+        return dataclasses.replace(scene, camera=camera, meshes=meshes, spheres=spheres, instances=instances)
 
     def check_objects(self, scene: Scene) -> None:
-        names = {m.name for m in scene.meshes} | {_name(s) for s in scene.spheres}
+        names = {m.name for m in scene.meshes} | {_name(s) for s in scene.spheres} | {i.name for i in scene.instances}
         for move in self.moves:
             if move.name not in names:
                 raise SceneError(f"[[move]] names object {move.name!r}, which the scene has not "

@@ -128,7 +128,8 @@ def check_packed(packed, limits: GlLimits, names, where=None):
     for name in names:
         if plan.split and name in HEAP_ARRAYS:
             continue
-        need = int(getattr(packed, name).nbytes)
+        array = getattr(packed, name)
+        need = 0 if array is None else int(array.nbytes)  # None: instances the scene has not
         if need > limits.max_ssbo_bytes:
             raise _ssbo_error(f"the scene's '{name}' buffer", need, limits, where)
     if packed.motion is not None and packed.motion.nbytes > limits.max_ssbo_bytes:

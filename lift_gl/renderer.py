@@ -44,8 +44,9 @@ from .passes.trace import TracePass, param_uniforms
 from .passes.upsample import UpsamplePass
 from .plugins import Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
+from .scene.instances import flatten_instances, only_instances_moved
 from .scene.model import PixelFilter, Scene
-from .scene.pack import pack_materials, pack_scene
+from .scene.pack import pack_materials, pack_scene, repack_instances
 from .scene.validate import validate_scene
 from .temporal import DEFAULT_MIN_BLEND, MODES, history_cap, motion_uniforms, objects_moved, previous_positions, same_camera
 from .watch import FileWatcher
@@ -130,6 +131,9 @@ class Renderer:
         check_film(self.size, self.limits, scene.path if size is None else None)
         check_triangle_count(scene.triangle_count, self.limits, scene.path)
         self.plugin = find_plugin(integrator, plugin_dirs)
+        if self.plugin.language == "opencl" and scene.instances:
+            # The OpenCL traversal (passes/trace_cl.py) has one level: instances become world meshes.
+            scene = self.scene = flatten_instances(self.scene)
         self.param_overrides = dict(params or {})  # what the caller set; survives a reload
         self.params = self._resolve_params(self.param_overrides)
         self._fixed_features = features  # None: follow the scene (also after edits)
@@ -143,7 +147,8 @@ class Renderer:
             uniform_blocks = is_software(self.ctx)
         block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
         self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes,
-                                    max_buffer_bytes=self.limits.max_ssbo_bytes)  # a big scene is split
+                                    max_buffer_bytes=self.limits.max_ssbo_bytes,  # a big scene is split
+                                    instances=self.features.instances)
         self.defines = self._shader_defines()
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
@@ -190,8 +195,9 @@ class Renderer:
         (passes/gbuffer.py: traced_gbuffer_wanted); motion vectors only come from the raster."""
         if not motion_vectors and traced_gbuffer_wanted(self.ctx):
             return TracedGBufferPass(self.ctx, self.size, self.defines)
-        return GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles, self.packed.num_spheres,
-                           motion_vectors=motion_vectors)
+        p = self.packed
+        return GBufferPass(self.ctx, self.size, self.defines, p.num_world_triangles, p.num_spheres,
+                           motion_vectors=motion_vectors, instance_draws=p.instance_draws)
 
     def _create_denoise_pass(self) -> DenoisePass:
         if self.denoiser == "atrous":
@@ -322,14 +328,23 @@ class Renderer:
                      and len(scene.distant_lights) == len(self.scene.distant_lights) == 0
                      and len(scene.textures) == len(self.scene.textures) == 0)
         emission_changed = materials.shape != old.shape or not np.array_equal(materials[:, 1, :3], old[:, 1, :3])
-        if geometry or emission_changed:
+        if self.plugin.language == "opencl" and scene.instances:
+            scene = flatten_instances(scene)  # as __init__ does
+        if geometry and not emission_changed and only_instances_moved(self.scene, scene):
+            packed = repack_instances(self.packed, scene)  # a new TLAS; every BVH below it stays
+        elif geometry or emission_changed:
             packed = pack_scene(scene)
         else:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
         self.packed = packed
         self.camera_uniforms = camera_uniforms(self.camera, self.size)  # the origin may have moved
+        fixed = self._fixed_features
+        self.buffers.instances = fixed.instances if fixed else packed.instances is not None  # HAS_INSTANCES
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
+        if self.gbuffer is not None:
+            self.gbuffer.num_triangles = packed.num_world_triangles
+            self.gbuffer.instance_draws = list(packed.instance_draws)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         features = self._fixed_features or SceneFeatures.of(scene)
@@ -509,6 +524,20 @@ class Renderer:
             how = f"{self.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
         return f"--denoise {self.denoise_mode}: {how}, {when}; guides from an unjittered G-buffer"
 
+    def _explain_instances(self) -> list[str]:
+        if not self.scene.instances:
+            return []
+        p = self.packed
+        flattened = len(self.scene.instances) - p.num_instances
+        blas = p.instance_blas or {}
+        line = (f"instances: {p.num_instances:,} traced through {len(blas)} BLAS "
+                f"({sum(len(b.positions) for b, _, _ in blas.values()):,} triangles, built once) under a TLAS of depth "
+                f"{p.instance_table.tlas_depth if p.instance_table else 0}")
+        if flattened:
+            line += (f"; {flattened:,} copied into world space (emissive or moving within the shutter, "
+                     "or an OpenCL plugin: lift_gl/scene/instances.py)")
+        return [line]
+
     def _explain_memory(self) -> list[str]:
         """The scene's storage buffers, each with its size, and how a big scene was split."""
         p, plan = self.packed, self.buffers.plan
@@ -516,6 +545,7 @@ class Renderer:
         total = sum(size for _, _, size in buffers)
         lines = [f"BVH: {p.bvh_nodes.shape[0]:,} nodes, depth {p.bvh_depth}, built by {p.bvh_builder} "
                  f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER chooses)",
+                 *self._explain_instances(),
                  f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
                  f"(limit {self.limits.max_ssbo_bytes / (1 << 20):,.0f} MiB a buffer)"
                  + (f"; BVH and triangles split into {plan.chunks} buffers of up to "
@@ -670,6 +700,7 @@ class Renderer:
             self.gbuffer.swap_history()  # this frame's normal and depth go into the older texture
         moved = objects or not same_camera(before_camera, camera)
         uniforms = motion_uniforms(self.packed.to_gpu_camera(before_camera), self.camera, self.size, self.packed.bounds)
+        uniforms["u_prev_instance_rows"] = 3 * self.packed.num_triangles + self.packed.num_spheres
         return moved, uniforms
 
     def render(self, spp: int | None = None, seconds: float | None = None, progress=None,

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from .passes.camera import view_projection
+from .scene.instances import split_instances
 from .scene.model import Camera, Scene
 from .scene.pack import PackedScene
 
@@ -40,7 +41,10 @@ def same_camera(a: Camera | None, b: Camera | None) -> bool:
 
 
 def _corners(scene: Scene) -> list[np.ndarray]:
-    return [mesh.positions[mesh.indices] for mesh in scene.meshes]  # float64 (T_i, 3, 3) each
+    """Each world mesh's corners, float64 (T_i, 3, 3), in pack.py's order (flattened
+    instances after the scene's meshes)."""
+    meshes = list(scene.meshes) + (split_instances(scene)[0] if scene.instances else [])
+    return [mesh.positions[mesh.indices] for mesh in meshes]
 
 
 def objects_moved(previous: Scene, scene: Scene) -> bool:
@@ -54,17 +58,30 @@ def objects_moved(previous: Scene, scene: Scene) -> bool:
                                                    or not np.array_equal(old.positions[old.indices],
                                                                          new.positions[new.indices])):
             return True
+    if len(previous.instances) != len(scene.instances) or any(
+            not np.array_equal(o.transform, n.transform) for o, n in zip(previous.instances, scene.instances)):
+        return True
     return any(not np.array_equal(o.center, n.center) for o, n in zip(previous.spheres, scene.spheres))
 
 
 def previous_positions(packed: PackedScene, previous: Scene | None, scene: Scene) -> np.ndarray:
-    """The G-buffer's `prev_positions` rows, float32 (3T + S, 4): each packed triangle corner
-    where the previous frame saw it (GPU coordinates of this frame), then each sphere's
-    displacement back to the previous frame."""
-    T, S = packed.num_triangles, packed.num_spheres
-    rows = np.zeros((3 * T + S, 4), np.float32)
+    """The G-buffer's `prev_positions` rows, float32 (3T + S + 3K, 4): each packed triangle
+    corner where the previous frame saw it (GPU coordinates of this frame), then each sphere's
+    displacement back to the previous frame, then each instance record's object -> world
+    transform in the previous frame (three rows of a 3x4 matrix; instances are matched by
+    their place in Scene.instances)."""
+    T, S, K = packed.num_triangles, packed.num_spheres, packed.num_instances
+    rows = np.zeros((3 * T + S + 3 * K, 4), np.float32)
     if T:
         rows[:3 * T, :3] = packed.tri_pos[:T, :, :3].reshape(-1, 3)
+    if K:  # each instance record's transform (object -> GPU world) in the previous frame
+        records = packed.instances[packed.instance_table.record_base:].reshape(K, -1, 4)
+        rows[3 * T + S:] = records[:, 0:3].reshape(-1, 4)
+        if previous is not None and previous is not scene and len(previous.instances) == len(scene.instances):
+            rebase = np.eye(4)
+            rebase[:3, 3] = -packed.origin
+            before = np.array([(rebase @ previous.instances[i].transform)[:3] for i in packed.instance_table.order])
+            rows[3 * T + S:] = before.reshape(-1, 4)
     if previous is None or previous is scene:
         return rows
     now, before = _corners(scene), _corners(previous)
@@ -72,9 +89,10 @@ def previous_positions(packed: PackedScene, previous: Scene | None, scene: Scene
     for i, corners in enumerate(now):
         if i < len(before) and before[i].shape == corners.shape:
             deltas[i] = before[i] - corners  # float64: the motion, not two rounded positions
-    if T:
+    W = packed.num_world_triangles  # the instances' BLAS triangles move with their transforms
+    if W:
         delta = np.concatenate(deltas)[packed.tri_order]
-        rows[:3 * T, :3] = (packed.tri_pos[:T, :, :3].astype(np.float64) + delta).reshape(-1, 3)
+        rows[:3 * W, :3] = (packed.tri_pos[:W, :, :3].astype(np.float64) + delta).reshape(-1, 3)
     for i, sphere in enumerate(scene.spheres):
         if i < len(previous.spheres):
             rows[3 * T + i, :3] = previous.spheres[i].center - sphere.center

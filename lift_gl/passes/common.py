@@ -11,7 +11,7 @@ from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chun
 # Binding points declared in shaders/lift/scene_data.glsl.
 SCENE_BINDINGS = {
     "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
-    "materials": 5, "lights": 6, "spheres": 7, "images": 9,
+    "materials": 5, "lights": 6, "spheres": 7, "images": 9, "instances": 10,
 }
 # Arrays that may go into a uniform block on a CPU rasterizer (shaders/lift/scene_data.glsl):
 # name -> (the define that switches it over and holds its length, vec4 rows per GLSL element).
@@ -20,7 +20,9 @@ UNIFORM_ARRAYS = {
     "tri_normal": ("LIFT_UBO_TRI_NORMAL", 1), "tri_uv": ("LIFT_UBO_TRI_UV", 1),
     "tri_info": ("LIFT_UBO_TRI_INFO", 1), "materials": ("LIFT_UBO_MATERIALS", 4),
     "lights": ("LIFT_UBO_LIGHTS", 1), "spheres": ("LIFT_UBO_SPHERES", 1),
+    "instances": ("LIFT_UBO_INSTANCES", 1),
 }
+NO_INSTANCES = np.zeros((2, 4), np.float32)  # an empty TLAS, for shaders compiled with HAS_INSTANCES anyway
 STATS_BINDING = 8
 MOTION_BINDING = 16  # `motion`, declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
@@ -76,14 +78,17 @@ class SceneBuffers:
     """
 
     def __init__(self, ctx, packed: PackedScene, motion: bool | None = None, uniform_block_bytes: int = 0,
-                 max_buffer_bytes: int | None = None):
+                 max_buffer_bytes: int | None = None, instances: bool | None = None):
         self.ctx = ctx
         self.packed = packed
+        # `instances`: the shaders are compiled with HAS_INSTANCES (default: when the scene
+        # traces instances); only then is there an `instances` buffer.
+        self.instances = packed.instances is not None if instances is None else instances
         self.uniform_block_bytes = uniform_block_bytes
         self.max_buffer_bytes = max_buffer_bytes if max_buffer_bytes is not None else 1 << 62
         self.plan = plan_buffers(packed, self.max_buffer_bytes)
         self.in_uniform_block = self._uniform_arrays(packed, self.plan)
-        self.buffers = {name: ctx.buffer(self._bytes(name, getattr(packed, name)))
+        self.buffers = {name: ctx.buffer(self._bytes(name, _array(packed, name)))
                         for name in self._own_buffers(self.plan)}
         self.heap = [ctx.buffer(chunk.tobytes()) for chunk in heap_chunks(packed, self.plan)]
         self.motion = None
@@ -97,8 +102,8 @@ class SceneBuffers:
         if plan.split:
             return set()
         return {name for name in UNIFORM_ARRAYS
-                if 0 < getattr(packed, name).shape[0] and
-                glsl_length(name, getattr(packed, name)) * 16 * UNIFORM_ARRAYS[name][1] <= self.uniform_block_bytes}
+                if (name != "instances" or self.instances) and 0 < _array(packed, name).shape[0] and
+                glsl_length(name, _array(packed, name)) * 16 * UNIFORM_ARRAYS[name][1] <= self.uniform_block_bytes}
 
     def _bytes(self, name: str, array: np.ndarray) -> bytes:
         array = np.ascontiguousarray(array)
@@ -110,13 +115,14 @@ class SceneBuffers:
 
     def defines(self) -> dict:
         """The shader defines of the arrays in uniform blocks (their GLSL lengths)."""
-        return {UNIFORM_ARRAYS[name][0]: glsl_length(name, getattr(self.packed, name))
+        return {UNIFORM_ARRAYS[name][0]: glsl_length(name, _array(self.packed, name))
                 for name in sorted(self.in_uniform_block)}
 
-    @staticmethod
-    def _own_buffers(plan: BufferPlan) -> list[str]:
-        """The arrays that get a buffer of their own: all, unless the heap holds some."""
-        return [name for name in SCENE_BINDINGS if not (plan.split and name in HEAP_ARRAYS)]
+    def _own_buffers(self, plan: BufferPlan) -> list[str]:
+        """The arrays that get a buffer of their own: all, unless the heap holds some
+        (`instances` only for shaders compiled with HAS_INSTANCES)."""
+        return [name for name in SCENE_BINDINGS if not (plan.split and name in HEAP_ARRAYS)
+                and (name != "instances" or self.instances)]
 
     def upload(self, packed: PackedScene) -> list[str]:
         """Take an edited scene's arrays: rewrite the buffers whose contents changed (in place
@@ -128,8 +134,8 @@ class SceneBuffers:
         plan = plan_buffers(packed, self.max_buffer_bytes)
         old_uniform, self.in_uniform_block = self.in_uniform_block, self._uniform_arrays(packed, plan)
         changed = {name for name in SCENE_BINDINGS
-                   if not (getattr(packed, name).shape == getattr(self.packed, name).shape
-                           and np.array_equal(getattr(packed, name), getattr(self.packed, name)))}
+                   if not (_array(packed, name).shape == _array(self.packed, name).shape
+                           and np.array_equal(_array(packed, name), _array(self.packed, name)))}
         own = self._own_buffers(plan)
         for name in list(self.buffers):
             if name not in own:   # now in the heap
@@ -139,7 +145,7 @@ class SceneBuffers:
                     and (name in old_uniform) == (name in self.in_uniform_block):
                 continue
             written.append(name)
-            data = self._bytes(name, getattr(packed, name))
+            data = self._bytes(name, _array(packed, name))
             if name in self.buffers and len(data) == self.buffers[name].size:
                 self.buffers[name].write(data)
             else:
@@ -192,6 +198,9 @@ class SceneBuffers:
         centre = (p.bounds[0] + p.bounds[1]) / 2
         radius = float(np.linalg.norm(p.bounds[1] - p.bounds[0])) / 2
         return {"u_num_triangles": p.num_triangles, "u_num_spheres": p.num_spheres, **self.plan.uniforms(),
+                "u_world_triangles": p.num_triangles if p.world_triangles < 0 else p.world_triangles,
+                "u_num_instances": p.num_instances,
+                "u_instance_records": 0 if p.instance_table is None else p.instance_table.record_base,
                 "u_num_lights": p.num_lights, "u_env_radiance": tuple(float(x) for x in environment_radiance),
                 **p.uniforms,
 
@@ -210,6 +219,11 @@ class SceneBuffers:
         if self.motion is not None:
             self.motion.release()
         self.stats.release()
+
+
+def _array(packed: PackedScene, name: str) -> np.ndarray:
+    array = getattr(packed, name)
+    return NO_INSTANCES if array is None else array
 
 
 def _overlaps(plan: BufferPlan, name: str, chunk: int, nbytes: int) -> bool:

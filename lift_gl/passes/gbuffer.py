@@ -1,6 +1,7 @@
 """G-buffer pass: rasterizes the scene with the frame's jittered projection.
 
-inputs:  scene buffers, camera, jitter
+inputs:  scene buffers, camera, jitter; instances are drawn with one instanced draw per
+         run of records of one prototype (gbuffer.vert with LIFT_INSTANCE_DRAW)
 outputs: visibility (RGBA32UI: primitive id + 1 (0 = background), barycentrics as float
          bits, material id), normal_depth (RGBA32F: camera-facing shading normal, view
          depth), albedo (RGBA16F), depth buffer
@@ -33,11 +34,15 @@ class GBufferPass:
     outputs = ("visibility", "normal_depth", "albedo")
 
     def __init__(self, ctx: moderngl.Context, size, defines: dict, num_triangles: int, num_spheres: int,
-                 motion_vectors: bool = False):
+                 motion_vectors: bool = False, instance_draws=()):
+        """num_triangles: the world-space triangles (drawn as they are); instance_draws:
+        (first triangle, triangles, first record, records) of each instanced draw, with
+        HAS_INSTANCES (PackedScene.instance_draws)."""
         self.ctx = ctx
         self.size = size
         self.num_triangles = num_triangles
         self.num_spheres = num_spheres
+        self.instance_draws = list(instance_draws)
         self.motion_vectors = motion_vectors
         self.visibility = ctx.texture(size, 4, dtype="u4")
         self.normal_depth = ctx.texture(size, 4, dtype="f4")
@@ -55,6 +60,9 @@ class GBufferPass:
         self.fbo = self._framebuffer()
         self._spare_fbo = None  # the framebuffer for the other normal_depth texture (motion vectors)
         self.vao = ctx.vertex_array(self._program("gbuffer", defines), [])
+        self.instance_vao = None
+        if defines.get("HAS_INSTANCES"):
+            self.instance_vao = ctx.vertex_array(self._program("gbuffer", dict(defines, LIFT_INSTANCE_DRAW=True)), [])
         self.sphere_vao = None
         if num_spheres:
             self.sphere_vao = ctx.vertex_array(self._program("gbuffer_sphere", defines), [])
@@ -91,6 +99,13 @@ class GBufferPass:
         if self.num_triangles:
             set_uniforms(self.vao.program, uniforms)
             self.vao.render(moderngl.TRIANGLES, vertices=3 * self.num_triangles)
+        if self.instance_vao is not None and self.instance_draws:
+            program = self.instance_vao.program
+            set_uniforms(program, uniforms)
+            for first_tri, tris, first_record, records in self.instance_draws:
+                program["u_instance_first"].value = first_record
+                self.instance_vao.render(moderngl.TRIANGLES, vertices=3 * tris, first=3 * first_tri,
+                                         instances=records)
         if self.sphere_vao is not None:
             set_uniforms(self.sphere_vao.program, uniforms)
             self.sphere_vao.render(moderngl.TRIANGLES, vertices=36, instances=self.num_spheres)
@@ -101,8 +116,9 @@ class GBufferPass:
                     self.motion, self.prev_normal_depth, self._spare_fbo):
             if obj is not None:
                 obj.release()
-        if self.sphere_vao is not None:
-            self.sphere_vao.release()
+        for vao in (self.sphere_vao, self.instance_vao):
+            if vao is not None:
+                vao.release()
 
 
 GBUFFER_ENV_VAR = "LIFT_GL_GBUFFER"

@@ -5,8 +5,10 @@ not compiled (a diffuse-only scene compiles no conductor or glass code).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, fields
 
+from .instances import instance_material, split_instances
 from .model import Scene
 
 
@@ -27,10 +29,16 @@ class SceneFeatures:
     distant_lights: bool = False  # directional (delta) lights
     beckmann: bool = False  # rough conductors with a Beckmann distribution
     pixel_filter: bool = False  # a film filter wider than a box over the pixel (camera rays sample it)
+    instances: bool = False  # meshes placed by transforms: a second level of BVH (scene/instances.py)
 
     @classmethod
     def of(cls, scene: Scene) -> "SceneFeatures":
+        traced = []
+        if scene.instances:  # emissive and moving instances become world meshes (as pack.py does)
+            flat, traced = split_instances(scene)
+            scene = dataclasses.replace(scene, meshes=list(scene.meshes) + flat)
         used = [scene.materials[m.material] for m in scene.meshes if len(m.indices)]
+        used += [scene.materials[instance_material(scene, scene.instances[i])] for i in traced]
         used += [scene.materials[s.material] for s in scene.spheres]
         return cls(
             conductor=any(m.type == "conductor" for m in used),
@@ -48,6 +56,7 @@ class SceneFeatures:
             distant_lights=any((d.irradiance > 0).any() for d in scene.distant_lights),
             beckmann=any(m.type == "conductor" and m.alpha > 0 and m.distribution == "beckmann" for m in used),
             pixel_filter=scene.pixel_filter is not None,
+            instances=bool(traced),
         )
 
     @classmethod

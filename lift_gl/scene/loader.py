@@ -100,6 +100,13 @@ def scene_bounds(scene: Scene):
     for s in scene.spheres:
         lo.append(s.center - s.radius)
         hi.append(s.center + s.radius)
+    if scene.instances:
+        from .instances import instance_world_bounds  # late: instances imports the loaders' model
+
+        box = instance_world_bounds(scene, list(range(len(scene.instances))))
+        if box is not None:
+            lo.append(box[0])
+            hi.append(box[1])
     if not lo:
         return None
     return np.min(lo, axis=0).astype(np.float64), np.max(hi, axis=0).astype(np.float64)

@@ -211,6 +211,22 @@ class DistantLight:
 
 
 @dataclass
+class Instance:
+    """A mesh of Scene.prototypes placed in the world by a 4x4 affine `transform` (object to
+    world). The renderer builds the prototype's BVH once and traces every instance of it
+    through a top-level tree (lift_gl/scene/instances.py, docs/instancing.md)."""
+
+    mesh: int  # index into Scene.prototypes
+    transform: np.ndarray  # float64 (4, 4), object space to world space; last row 0 0 0 1
+    material: int | None = None  # None: the prototype's own material
+    name: str = ""
+    source: str = ""
+
+    def __post_init__(self):
+        self.transform = np.asarray(self.transform, dtype=np.float64).reshape(4, 4)
+
+
+@dataclass
 class Scene:
     camera: Camera
     materials: list[Material] = field(default_factory=list)
@@ -219,6 +235,10 @@ class Scene:
     environment: Environment | None = None
     textures: list[Texture] = field(default_factory=list)
     distant_lights: list[DistantLight] = field(default_factory=list)
+    # Meshes drawn only where `instances` place them (in their own object space), and the
+    # instances. Scenes without instances leave both empty and compile no instance code.
+    prototypes: list[Mesh] = field(default_factory=list)
+    instances: list[Instance] = field(default_factory=list)
     max_depth: int = 16  # path length limit the scene file asks for
     film_size: tuple[int, int] = (256, 256)  # width, height the scene file asks for
     pixel_filter: PixelFilter | None = None  # None: a box over each rendered pixel

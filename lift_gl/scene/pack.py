@@ -14,6 +14,7 @@ origin (1e5 away) keeps the precision it has at the origin. Cameras must be reba
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -21,6 +22,8 @@ import numpy as np
 from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached, resolve_builder
 from .images import pack_images
+from .instances import (InstanceTable, build_blas, instance_table, instance_world_bounds,
+                        split_instances)
 from .light_choice import light_uniforms
 from .model import Camera, Scene
 from .optics import internal_diffuse_reflectance
@@ -60,6 +63,29 @@ class PackedScene:
     # reordering): temporal reprojection matches triangles across frames with it.
     tri_order: np.ndarray | None = None  # int (T,)
     bvh_builder: str = "sah"  # which builder made the tree (accel/cache.py BUILDERS)
+    # Instances (scene/instances.py): the world geometry's triangles and nodes come first,
+    # each traced prototype's BLAS after them; `instances` holds the TLAS nodes and then one
+    # record per traced instance (None: no instances, nothing compiled for them).
+    world_triangles: int = -1  # triangles of the world BVH (-1: all of them)
+    instances: np.ndarray | None = None  # float32 (R, 4)
+    instance_table: InstanceTable | None = None
+    instance_blas: dict | None = None  # prototype index -> (Blas, root node, first triangle)
+    world_bounds: np.ndarray | None = None  # bounds of everything but the traced instances
+    emitter_power: float = 0.0  # sum of luminance x area of the emitters (light_choice.py)
+
+    @property
+    def num_instances(self) -> int:
+        return 0 if self.instance_table is None else len(self.instance_table.order)
+
+    @property
+    def num_world_triangles(self) -> int:
+        """Triangles in world space (the rest are the instances' BLAS triangles)."""
+        return self.num_triangles if self.world_triangles < 0 else self.world_triangles
+
+    @property
+    def instance_draws(self) -> list:
+        """(first triangle, triangles, first record, records) per G-buffer draw of instances."""
+        return [] if self.instance_table is None else self.instance_table.draws
 
     def to_gpu_camera(self, camera: Camera) -> Camera:
         """The camera in the rebased coordinates the GPU uses."""
@@ -96,15 +122,34 @@ def pack_materials(scene: Scene) -> np.ndarray:
     return out
 
 
-def scene_origin(scene: Scene) -> np.ndarray:
-    """The centre of the scene's bounds in float64 (zero for an empty scene)."""
+def scene_origin(scene: Scene, extra_bounds: np.ndarray | None = None) -> np.ndarray:
+    """The centre of the scene's bounds in float64 (zero for an empty scene); `extra_bounds`
+    (2, 3): more that the scene holds (its traced instances)."""
     lo = [m.positions.min(axis=0) for m in scene.meshes if len(m.positions)]
     hi = [m.positions.max(axis=0) for m in scene.meshes if len(m.positions)]
+    if extra_bounds is not None:
+        lo.append(extra_bounds[0])
+        hi.append(extra_bounds[1])
     lo += [s.center - s.radius for s in scene.spheres]
     hi += [s.center + s.radius for s in scene.spheres]
     if not lo:
         return np.zeros(3)
     return 0.5 * (np.min(lo, axis=0) + np.max(hi, axis=0))
+
+
+def mesh_corners(mesh, origin: np.ndarray):
+    """One mesh's triangle corners: positions (float64, minus origin), shading normals
+    (flat where the mesh has none) and texture coordinates, (T, 3, 3) / (T, 3, 3) / (T, 3, 2)."""
+    corners = mesh.positions[mesh.indices] - origin  # float64 until here
+    if mesh.normals is not None:
+        normals = mesh.normals[mesh.indices]
+    else:  # flat shading: the geometric normal at each corner
+        n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+        normals = np.repeat(n[:, None, :], 3, axis=1)
+    uvs = mesh.uvs[mesh.indices] if mesh.uvs is not None else np.zeros((len(mesh.indices), 3, 2), np.float32)
+    return corners, normals, uvs
 
 
 def _triangles(scene: Scene, origin: np.ndarray):
@@ -115,16 +160,10 @@ def _triangles(scene: Scene, origin: np.ndarray):
     for mesh in scene.meshes:
         vel.append(np.broadcast_to(mesh.velocity if mesh.velocity is not None else np.zeros(3),
                                    (len(mesh.indices), 3)))
-        corners = mesh.positions[mesh.indices] - origin  # float64 until here
+        corners, normals, tex = mesh_corners(mesh, origin)
         pos.append(corners)
-        if mesh.normals is not None:
-            nrm.append(mesh.normals[mesh.indices])
-        else:  # flat shading: the geometric normal at each corner
-            n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            length = np.linalg.norm(n, axis=1, keepdims=True)
-            n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-            nrm.append(np.repeat(n[:, None, :], 3, axis=1))
-        uvs.append(mesh.uvs[mesh.indices] if mesh.uvs is not None else np.zeros((len(mesh.indices), 3, 2), np.float32))
+        nrm.append(normals)
+        uvs.append(tex)
         mat.append(np.full(len(mesh.indices), mesh.material, np.uint32))
     return (np.concatenate(pos).astype(np.float32), np.concatenate(nrm).astype(np.float32),
             np.concatenate(uvs).astype(np.float32), np.concatenate(mat), np.concatenate(vel))
@@ -165,8 +204,16 @@ def still_motion(packed: PackedScene) -> np.ndarray:
 
 def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
-    `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto)."""
-    origin = scene_origin(scene) if origin is None else np.asarray(origin, dtype=np.float64)
+    `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
+    Instances: those that must be are flattened into world meshes (scene/instances.py), the
+    others traced through their prototypes' BLAS and a TLAS."""
+    instanced, traced = scene, []
+    if scene.instances:
+        flat, traced = split_instances(scene)
+        scene = dataclasses.replace(scene, meshes=list(scene.meshes) + flat, prototypes=[], instances=[])
+    if origin is None:
+        origin = scene_origin(scene, instance_world_bounds(instanced, traced) if traced else None)
+    origin = np.asarray(origin, dtype=np.float64)
     positions, normals, uvs, material_ids, tri_velocity = _triangles(scene, origin)
     has_motion = scene.has_motion
     tri_open, tri_move = _shutter_motion(scene, tri_velocity)
@@ -181,24 +228,47 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
            else build_bvh(positions))
     order = bvh.order
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
-    T, S = len(positions), len(scene.spheres)
+    T_world, S = len(positions), len(scene.spheres)
+    world_positions = positions
+    blas_of, blas_nodes = {}, []
+    if traced:  # the prototypes' BLAS after the world's triangles and nodes
+        positions, normals, uvs, material_ids = [positions], [normals], [uvs], [material_ids]
+        node_count, tri_count = bvh.num_nodes, T_world
+        for i in traced:
+            k = instanced.instances[i].mesh
+            if k in blas_of:
+                continue
+            blas = build_blas(instanced.prototypes[k], cache_dir=cache_dir)
+            blas_of[k] = (blas, node_count, tri_count)
+            blas_nodes.append(_offset_nodes(blas.nodes, node_count, tri_count))
+            positions.append(blas.positions)
+            normals.append(blas.normals)
+            uvs.append(blas.uvs)
+            material_ids.append(np.full(len(blas.positions), instanced.prototypes[k].material, np.uint32))
+            node_count += len(blas.nodes)
+            tri_count += len(blas.positions)
+        positions, normals, uvs, material_ids = (np.concatenate(a) for a in (positions, normals, uvs, material_ids))
+    T = len(positions)
     sphere_velocity = np.array([s.velocity if s.velocity is not None else np.zeros(3)
                                 for s in scene.spheres]).reshape(S, 3)
     sphere_open, sphere_move = _shutter_motion(scene, sphere_velocity)
     bvh_nodes, motion = bvh.nodes, None
     if has_motion:
-        bvh_nodes, close_boxes = _boxes_at_open_and_close(bvh, positions, tri_move[order].astype(np.float32))
+        bvh_nodes, close_boxes = _boxes_at_open_and_close(bvh, world_positions, tri_move[order].astype(np.float32))
         displacement = np.zeros((T + S, 4), np.float32)
-        displacement[:T, :3] = tri_move[order]
+        displacement[:T_world, :3] = tri_move[order]  # instanced triangles do not move
         displacement[T:, :3] = sphere_move
-        motion = np.concatenate([displacement, close_boxes])
+        motion = np.concatenate([displacement, close_boxes] + [b.reshape(-1, 4) for b in blas_nodes])
+    if blas_nodes:
+        bvh_nodes = np.concatenate([bvh_nodes] + blas_nodes)
 
     # Light selection proportional to emitted power (luminance x area); pi is common to all.
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
     light_prims, light_power, light_area = [], [], []
-    if T:
-        tri_area = 0.5 * np.linalg.norm(np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0]), axis=1)
-        tri_power = (emission[material_ids] @ LUMINANCE) * tri_area
+    if T_world:  # instanced triangles never emit: emissive instances are flattened
+        p = world_positions
+        tri_area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+        tri_power = (emission[material_ids[:T_world]] @ LUMINANCE) * tri_area
         emissive = np.nonzero(tri_power > 0)[0]
         light_prims += list(emissive)
         light_power += list(tri_power[emissive])
@@ -236,13 +306,15 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
 
     # Everything the scene holds at any time the shutter is open.
     swept = bvh_input.reshape(-1, 3)
-    lo = [swept.min(0)] if T else []
-    hi = [swept.max(0)] if T else []
+    lo = [swept.min(0)] if T_world else []
+    hi = [swept.max(0)] if T_world else []
     for i, s in enumerate(scene.spheres):
         for c in (s.center - origin + sphere_open[i], s.center - origin + sphere_open[i] + sphere_move[i]):
             lo.append(c - s.radius)
             hi.append(c + s.radius)
-    bounds = np.array([np.min(lo, axis=0), np.max(hi, axis=0)]) if lo else np.array([[-1.0] * 3, [1.0] * 3])
+    world_bounds = np.array([np.min(lo, axis=0), np.max(hi, axis=0)]) if lo else None
+    table = instance_table(instanced, traced, blas_of, origin) if traced else None
+    bounds = _bounds_with_instances(world_bounds, table)
 
     def nonempty(a, shape):
         return a if len(a) else np.zeros(shape, np.float32)
@@ -269,6 +341,40 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         images=images,
         uniforms=uniforms,
         origin=origin,
-        tri_order=np.asarray(order[:T]),
+        tri_order=np.asarray(order[:T_world]),
         bvh_builder=bvh_builder,
+        world_triangles=T_world if traced else -1,
+        instances=table.rows if table is not None else None,
+        instance_table=table,
+        instance_blas=blas_of or None,
+        world_bounds=world_bounds,
+        emitter_power=float(np.sum(light_power)),
     )
+
+
+def _offset_nodes(nodes: np.ndarray, node_base: int, tri_base: int) -> np.ndarray:
+    """A BLAS's nodes placed at node_base in the node array, its triangles at tri_base."""
+    out = nodes.copy()
+    first = out[:, 3].view(np.uint32)
+    leaf = out[:, 7].view(np.uint32) > 0
+    first += np.where(leaf, tri_base, node_base).astype(np.uint32)
+    return out
+
+
+def _bounds_with_instances(world_bounds, table) -> np.ndarray:
+    boxes = [b for b in (world_bounds, None if table is None else table.bounds) if b is not None]
+    if not boxes:
+        return np.array([[-1.0] * 3, [1.0] * 3])
+    return np.array([np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)])
+
+
+def repack_instances(packed: PackedScene, scene: Scene) -> PackedScene:
+    """`packed` with the instances of `scene` placed anew: only the TLAS and the instance
+    records are rebuilt (no BLAS, no world BVH), at the same GPU origin. The scene must
+    differ from the packed one in instance transforms only, and trace the same instances."""
+    flat, traced = split_instances(scene)
+    table = instance_table(scene, traced, packed.instance_blas, packed.origin)
+    bounds = _bounds_with_instances(packed.world_bounds, table)
+    uniforms = dict(packed.uniforms)
+    uniforms.update(light_uniforms(scene, packed.emitter_power, bounds))
+    return replace(packed, instances=table.rows, instance_table=table, bounds=bounds, uniforms=uniforms)

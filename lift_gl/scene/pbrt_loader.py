@@ -14,6 +14,9 @@ Conventions and assumptions:
   (scattering events) a path may have, as in pbrt (0: only light seen directly).
 - Front faces follow pbrt: the geometric normal, flipped by ReverseOrientation or a
   mirroring transform, and turned towards the shading normals N where a mesh has them.
+- ObjectBegin/ObjectEnd define an object's shapes once; each ObjectInstance places its
+  meshes as instances (Scene.instances: one BVH per mesh, docs/instancing.md) and copies
+  its spheres.
 - `PixelFilter` box, triangle and gaussian are kept (Scene.pixel_filter, radii in the film's
   pixels; renders importance-sample it); mitchell and sinc, whose negative lobes cannot be
   sampled as a density, warn and fall back to a box. Sampler, Accelerator and Film's
@@ -32,7 +35,7 @@ from ..errors import LiftError, SceneError
 from . import primitives as prim
 from .loader import internal_error, warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, DistantLight, Environment, Material, Mesh, PixelFilter, Scene
+from .model import Camera, DistantLight, Environment, Instance, Material, Mesh, PixelFilter, Scene
 from .optics import ior_from_f0
 from .texture_files import FLOAT_EXTENSIONS, TextureLibrary, read_environment_image
 
@@ -347,6 +350,10 @@ class _Builder:
         self.warned: set[str] = set()
         self.including: list[Path] = []  # the Include chain, to refuse cycles
         self.camera_statement: Statement | None = None
+        # ObjectBegin/End: the object being defined, and each object's prototype meshes
+        # (indices into Scene.prototypes) and spheres (placed by every instance)
+        self.defining: str | None = None
+        self.objects: dict[str, tuple[list[int], list]] = {}
 
     # dispatch
     def run(self, path: Path, included_at: Statement | None = None):
@@ -474,6 +481,41 @@ class _Builder:
 
     def do_TransformEnd(self, st):
         self._pop("Transform", st)
+
+    # instancing: an object's shapes are defined once (in the space of the transform current
+    # inside ObjectBegin) and placed by each ObjectInstance's transform (lift_gl/scene/instances.py)
+    def do_ObjectBegin(self, st):
+        name = self._positional(st, 1, str)[0]
+        if self.defining is not None:
+            raise SceneError(f"ObjectBegin '{name}' inside ObjectBegin '{self.defining}' (objects do not nest)",
+                             st.path, st.line)
+        self._push("Attribute")
+        self.defining = name
+        self.objects[name] = ([], [])
+
+    def do_ObjectEnd(self, st):
+        if self.defining is None:
+            raise SceneError("ObjectEnd without a matching ObjectBegin", st.path, st.line)
+        self._pop("Attribute", st)
+        self.defining = None
+
+    def do_ObjectInstance(self, st):
+        name = self._positional(st, 1, str)[0]
+        if self.defining is not None:
+            raise SceneError(f"ObjectInstance '{name}' inside ObjectBegin '{self.defining}' (instances do not nest)",
+                             st.path, st.line)
+        if name not in self.objects:
+            known = ", ".join(sorted(self.objects)) or "none defined"
+            raise SceneError(f"ObjectInstance of unknown object '{name}' (objects: {known})", st.path, st.line)
+        m = self.state.ctm
+        if not (np.isfinite(m).all() and abs(np.linalg.det(m[:3, :3])) > 1e-300):
+            raise SceneError(f"ObjectInstance '{name}': the current transform is singular or not finite "
+                             "(a zero Scale?)", st.path, st.line)
+        meshes, spheres = self.objects[name]
+        for k in meshes:
+            self.scene.instances.append(Instance(k, m.copy(), name=name, source=f"{st.path}:{st.line}"))
+        for sphere in spheres:
+            self.scene.spheres.append(prim.transform_sphere(sphere, m))
 
     def do_WorldBegin(self, st):
         self.coord_systems["world"] = np.eye(4)
@@ -710,8 +752,12 @@ class _Builder:
         elif kind in ("trianglemesh", "plymesh"):
             mesh = self._trianglemesh(st, ps) if kind == "trianglemesh" else self._plymesh(st, ps)
             mesh.material, mesh.source = self._material_index(), src
-            self.scene.meshes.append(prim.orient_to_normals(prim.transform_mesh(mesh, self.state.ctm,
-                                                                 flip=self.state.reverse)))
+            mesh = prim.orient_to_normals(prim.transform_mesh(mesh, self.state.ctm, flip=self.state.reverse))
+            if self.defining is not None:  # a prototype, in the object's space
+                self.scene.prototypes.append(mesh)
+                self.objects[self.defining][0].append(len(self.scene.prototypes) - 1)
+            else:
+                self.scene.meshes.append(mesh)
         else:
             warn_at(st.path, st.line, f"shape '{kind}' is not supported yet; ignored")
             return
@@ -761,7 +807,11 @@ class _Builder:
             warn_at(st.path, st.line, "ReverseOrientation on an emitting sphere is not "
                     "supported; it emits outwards")
         s = prim.sphere([0, 0, 0], radius, self._material_index(), src)
-        self.scene.spheres.append(prim.transform_sphere(s, self.state.ctm))
+        s = prim.transform_sphere(s, self.state.ctm)
+        if self.defining is not None:  # spheres are exact, not triangles: each instance gets a copy
+            self.objects[self.defining][1].append(s)
+        else:
+            self.scene.spheres.append(s)
 
     # files
     def do_Include(self, st):

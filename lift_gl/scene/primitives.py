@@ -178,6 +178,8 @@ def mirror_scene_x(scene) -> None:
     flip = np.diag([-1.0, 1.0, 1.0, 1.0])
     scene.meshes = [transform_mesh(m, flip) for m in scene.meshes]
     scene.spheres = [transform_sphere(x, flip) for x in scene.spheres]
+    for inst in scene.instances:  # prototypes stay in their object space
+        inst.transform = flip @ inst.transform
     c = scene.camera
     c.position, c.target, c.up = (flip[:3, :3] @ v for v in (c.position, c.target, c.up))
     if scene.environment is not None:

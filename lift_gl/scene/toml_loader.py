@@ -17,7 +17,8 @@ from ..errors import SceneError, read_utf8
 from . import primitives as prim
 from .loader import framing_camera, warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, DistantLight, Environment, Material, PixelFilter, Scene
+from .instances import check_transform
+from .model import Camera, DistantLight, Environment, Instance, Material, PixelFilter, Scene
 from .texture_files import TextureLibrary, read_environment_image
 
 # RGB complex indices of refraction (eta, k) at roughly 650/550/450 nm.
@@ -30,7 +31,7 @@ METALS = {
 }
 METALS["aluminum"] = METALS["aluminium"]
 
-TOP_KEYS = {"camera", "film", "integrator", "environment", "materials", "objects", "lights"}
+TOP_KEYS = {"camera", "film", "integrator", "environment", "materials", "objects", "lights", "instances"}
 CAMERA_KEYS = {"position", "target", "up", "fov", "aperture", "focus_distance", "shutter"}
 MATERIAL_KEYS = {
     "diffuse": {"type", "color", "emission", "texture"},
@@ -44,7 +45,8 @@ OBJECT_KEYS = {
     "box": {"center", "size"},
     "sphere": {"center", "radius"},
 }
-OBJECT_COMMON = {"type", "material", "name", "translate", "rotate", "scale", "motion"}
+OBJECT_COMMON = {"type", "material", "name", "translate", "rotate", "scale", "motion", "prototype"}
+INSTANCE_KEYS = {"mesh", "name", "material", "translate", "rotate", "scale", "transform"}
 MOTION_KEYS = {"translate"}
 
 
@@ -268,6 +270,12 @@ def load_toml(path: Path) -> Scene:
                          ctx.smap.line((), None, "objects"))
     for i, obj in enumerate(objects):
         _read_object(ctx, i, obj, scene)
+    instances = doc.get("instances", [])
+    if not isinstance(instances, list):
+        raise SceneError("'instances' must be an array of tables: write [[instances]]", path,
+                         ctx.smap.line((), None, "instances"))
+    for i, table in enumerate(instances):
+        _read_instance(ctx, i, table, scene)
     if "camera" in doc:
         scene.camera = _read_camera(ctx, doc["camera"])
     else:
@@ -463,6 +471,8 @@ def _read_object(ctx, i, data, scene):
     velocity = _read_motion(r)
 
     if kind == "sphere":
+        if r.has("prototype"):
+            r.error("prototype", "a sphere cannot be a prototype for [[instances]] (use a mesh)")
         if not prim.uniform_scale(m):
             r.error("scale", "a sphere needs a uniform 'scale' (use a mesh for ellipsoids)")
         s = prim.sphere(r.vec3("center", [0, 0, 0]), r.number("radius", 1.0, positive=True),
@@ -500,7 +510,61 @@ def _read_object(ctx, i, data, scene):
     mesh = prim.transform_mesh(mesh, m)
     mesh.velocity = velocity
     mesh.authored = copy.deepcopy(data)
-    scene.meshes.append(mesh)
+    if r.boolean("prototype", False):  # drawn only where [[instances]] place it
+        scene.prototypes.append(mesh)
+    else:
+        scene.meshes.append(mesh)
+
+
+def _read_instance(ctx, i, data, scene):
+    """An [[instances]] table: the mesh object `mesh` (by name; a `prototype = true` object,
+    or any mesh, box or quad object) placed again by `transform` (a 4x4 matrix, rows, object
+    to world) or translate / rotate / scale, applied after the object's own."""
+    r = ctx.reader(data, ("instances",), i, label=f"instance #{i + 1}")
+    r.check_keys(INSTANCE_KEYS)
+    name = r.string("mesh")
+    if name is None:
+        r.error(None, f"instance #{i + 1} needs 'mesh', the name of a mesh object")
+    index = _prototype_index(scene, name)
+    if index is None:
+        known = sorted({m.name for m in (*scene.prototypes, *scene.meshes)})
+        r.error("mesh", f"unknown mesh '{name}' in instance #{i + 1} (mesh objects: {', '.join(known) or 'none'})")
+    source = f"{ctx.path}:{r.line()}"
+    if r.has("transform"):
+        for key in ("translate", "rotate", "scale"):
+            if r.has(key):
+                r.error(key, f"instance #{i + 1} gives both 'transform' and '{key}'; use one")
+        v = r.data["transform"]
+        rows = v if isinstance(v, list) and len(v) == 4 else None
+        flat = [x for row in rows for x in row] if rows and all(isinstance(row, list) and len(row) == 4
+                                                                for row in rows) else v
+        if not (isinstance(flat, list) and len(flat) == 16
+                and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in flat)):
+            r.error("transform", f"'transform' in instance #{i + 1} must be a 4x4 matrix (4 rows of 4 "
+                    f"numbers, or 16 numbers row by row), not {_show(v)}")
+        m = np.asarray(flat, dtype=np.float64).reshape(4, 4)
+    else:
+        m = prim.trs_matrix(r.vec3("translate", [0, 0, 0]), r.vec3("rotate", [0, 0, 0]),
+                            r.vec3("scale", [1, 1, 1], scalar_ok=True))
+    try:
+        m = check_transform(m, f"instance #{i + 1}")
+    except SceneError as e:
+        r.error("transform" if r.has("transform") else "scale", e.message)
+    material = _material_index(r, scene) if r.has("material") else None
+    scene.instances.append(Instance(index, m, material, name=r.string("name", f"{name}#{i + 1}"), source=source))
+
+
+def _prototype_index(scene: Scene, name: str) -> int | None:
+    """Index in scene.prototypes of the mesh object `name`; an ordinary (drawn) mesh object
+    becomes a prototype too the first time an instance names it."""
+    for k, mesh in enumerate(scene.prototypes):
+        if mesh.name == name:
+            return k
+    for mesh in scene.meshes:
+        if mesh.name == name:
+            scene.prototypes.append(mesh)
+            return len(scene.prototypes) - 1
+    return None
 
 
 def build_object(table: dict, scene: Scene, path):

@@ -8,6 +8,8 @@ materials and geometry (tests/test_scene_writer.py checks it on every shipped sc
 - Other meshes (pbrt, mesh files) are written as OBJ files in a folder `NAME.meshes/`
   beside the scene, and referenced: positions, uvs and triangles read back bit-exact, shading
   normals renormalised (within 1e-5) by trimesh, which reads them.
+- Prototypes (meshes drawn only through instances) are written as objects with
+  `prototype = true`, and each instance as an [[instances]] table with its 4x4 `transform`.
 - Floats are written with Python's shortest round-trip repr, so every number reads back
   exactly.
 """
@@ -195,5 +197,26 @@ def save_toml(scene: Scene, path) -> Path:
             if sphere.velocity is not None:
                 table["motion"] = {"translate": _floats(sphere.velocity)}
         _table(lines, "[[objects]]", table)
+    drawn = {id(m) for m in scene.meshes}
+    for k, mesh in enumerate(scene.prototypes):
+        if id(mesh) in drawn:
+            continue  # a drawn object that instances name: written above
+        if mesh.authored is not None:
+            table = _authored_object(mesh, names[mesh.material], source_dir, out_dir)
+        else:
+            mesh_dir.mkdir(exist_ok=True)
+            mesh_file = mesh_dir / _mesh_file_name(len(scene.meshes) + k, mesh.name)
+            write_obj(mesh_file, mesh)
+            table = {"type": "mesh", "name": mesh.name, "material": names[mesh.material],
+                     "file": _relative(mesh_file, out_dir)}
+        table["prototype"] = True
+        _table(lines, "[[objects]]", table)
+    for inst in scene.instances:
+        table = {"mesh": scene.prototypes[inst.mesh].name, "transform": [_floats(row) for row in inst.transform]}
+        if inst.name:
+            table["name"] = inst.name
+        if inst.material is not None:
+            table["material"] = names[inst.material]
+        _table(lines, "[[instances]]", table)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path

@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 
 from ..errors import SceneError
+from .instances import check_instances
 from .mesh_io import clean_triangles
 from .model import MATERIAL_TYPES, Scene
 
@@ -91,7 +92,7 @@ def validate_scene(scene: Scene) -> Scene:
                 fail(f"{what}: {field} must be 3 finite values >= 0, got {v}", m.source)
 
     count = len(scene.materials)
-    for mesh in scene.meshes:
+    for mesh in (*scene.meshes, *scene.prototypes):
         where = mesh.source or mesh.name
         if not 0 <= mesh.material < count:
             fail(f"mesh '{mesh.name}' uses material #{mesh.material}, but there are {count}", mesh.source)
@@ -114,4 +115,5 @@ def validate_scene(scene: Scene) -> Scene:
             fail(f"sphere uses material #{s.material}, but there are {count}", s.source)
         if not _finite(s.center, MAX_COORDINATE) or not (_finite(s.radius, MAX_COORDINATE) and s.radius > 0):
             fail(f"sphere needs a finite centre and a finite radius > 0, got {s.center}, {s.radius}", s.source)
+    check_instances(scene)
     return scene

@@ -7,7 +7,13 @@
 struct Ray { vec3 origin; vec3 dir; float tmin; float tmax; };   // dir normalized
 // prim: triangle id (index into the reordered triangle arrays), or u_num_triangles + sphere
 // index; NO_HIT when nothing was hit. bary = (b1, b2): p = (1-b1-b2)*p0 + b1*p1 + b2*p2.
+// With HAS_INSTANCES, instance: the instance record whose BLAS holds triangle `prim`
+// (NO_INSTANCE: world geometry); prim then indexes the BLAS's object-space triangles.
+#ifdef HAS_INSTANCES
+struct Hit { float t; uint prim; vec2 bary; uint instance; };
+#else
 struct Hit { float t; uint prim; vec2 bary; };
+#endif
 const uint NO_HIT = 0xffffffffu;
 
 #ifdef HAS_MOTION
@@ -130,88 +136,67 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
     return tn <= tf;
 }
 
-// Closest hit among triangles (BVH, nearer child first) and, with HAS_SPHERES, spheres.
-// While-while traversal (Aila and Laine 2009): an inner loop descends through interior
-// nodes to the next leaf, whose triangles are then tested, so the lanes of a SIMD group
-// that are between leaves step together. The stack holds node ids only: a popped node is
-// not re-tested, its children are tested against the t found so far (entry distances on
-// the stack doubled its size for little culling; docs/gpu.md).
-bool trace_closest(Ray ray, out Hit hit) {
-    LIFT_COUNT_RAY();
-    hit.t = ray.tmax;
-    hit.prim = NO_HIT;
-    hit.bary = vec2(0.0);
-    float t = ray.tmax;
-#ifdef HAS_SPHERES
-    for (uint s = 0u; s < u_num_spheres; ++s) {
-        if (intersect_sphere(ray, s, t)) hit.prim = u_num_triangles + s;
-    }
-#endif
-    if (u_num_triangles > 0u) {
-        vec3 inv = lift_bvh_inv_dir(ray.dir);
-        LIFT_BVH_STACK_DECLARE
-        int sp = 0;
-        uint node = 0u;
-        float troot;
-        bool live = lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot);
-        while (live) {
-            uint first = floatBitsToUint(bvh_node_row(2u * node).w);
-            uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
-            while (count == 0u) {   // interior: go to the nearer child hit, postpone the other
-                float ta, tb;
-                bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
-                bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
-                if (ha && hb && sp < LIFT_BVH_STACK) {   // the bound holds by construction
-                    bool a_first = ta <= tb;
-                    LIFT_BVH_STACK_AT(sp) = a_first ? first + 1u : first;
-                    ++sp;
-                    node = a_first ? first : first + 1u;
-                } else if (ha || hb) {
-                    node = ha ? first : first + 1u;
-                } else if (sp > 0) {
-                    node = LIFT_BVH_STACK_AT(--sp);
-                } else {
-                    live = false;
-                    break;
-                }
-                first = floatBitsToUint(bvh_node_row(2u * node).w);
-                count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+// Closest triangle hit in the tree under node `root`: the world BVH (root 0), or with
+// HAS_INSTANCES an instance's BLAS, the ray then in that instance's object space; updates t,
+// prim and bary when it finds a hit nearer than t. While-while traversal (Aila and Laine
+// 2009): an inner loop descends through interior nodes to the next leaf, whose triangles are
+// then tested, so the lanes of a SIMD group that are between leaves step together. The stack
+// holds node ids only: a popped node is not re-tested, its children are tested against the t
+// found so far (entry distances on the stack doubled its size for little culling; docs/gpu.md).
+bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
+    bool found = false;
+    vec3 inv = lift_bvh_inv_dir(ray.dir);
+    LIFT_BVH_STACK_DECLARE
+    int sp = 0;
+    uint node = root;
+    float troot;
+    bool live = lift_bvh_box(root, ray.origin, inv, ray.tmin, t, troot);
+    while (live) {
+        uint first = floatBitsToUint(bvh_node_row(2u * node).w);
+        uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
+        while (count == 0u) {   // interior: go to the nearer child hit, postpone the other
+            float ta, tb;
+            bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
+            bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
+            if (ha && hb && sp < LIFT_BVH_STACK) {   // the bound holds by construction
+                bool a_first = ta <= tb;
+                LIFT_BVH_STACK_AT(sp) = a_first ? first + 1u : first;
+                ++sp;
+                node = a_first ? first : first + 1u;
+            } else if (ha || hb) {
+                node = ha ? first : first + 1u;
+            } else if (sp > 0) {
+                node = LIFT_BVH_STACK_AT(--sp);
+            } else {
+                live = false;
+                break;
             }
-            for (uint i = first; i < first + count; ++i) {   // a leaf (count 0 when none was left)
-                vec2 bary;
-                if (intersect_triangle(ray, i, t, bary)) {
-                    hit.prim = i;
-                    hit.bary = bary;
-                }
-            }
-            live = live && sp > 0;
-            if (live) node = LIFT_BVH_STACK_AT(--sp);
+            first = floatBitsToUint(bvh_node_row(2u * node).w);
+            count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
         }
+        for (uint i = first; i < first + count; ++i) {   // a leaf (count 0 when none was left)
+            vec2 bary;
+            if (intersect_triangle(ray, i, t, bary)) {
+                prim = i;
+                bary_out = bary;
+                found = true;
+            }
+        }
+        live = live && sp > 0;
+        if (live) node = LIFT_BVH_STACK_AT(--sp);
     }
-    if (hit.prim != NO_HIT) {
-        hit.t = t;
-        if (hit.prim >= u_num_triangles) hit.bary = vec2(0.0);
-    }
-    return hit.prim != NO_HIT;
+    return found;
 }
 
-// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
-// The same while-while traversal as trace_closest.
-bool trace_occluded(Ray ray) {
-    LIFT_COUNT_RAY();
-    float t = ray.tmax;
-#ifdef HAS_SPHERES
-    for (uint s = 0u; s < u_num_spheres; ++s) {
-        if (intersect_sphere(ray, s, t)) return true;
-    }
-#endif
-    if (u_num_triangles == 0u) return false;
+// Whether any triangle of the tree under `root` lies in (ray.tmin, t): stops at the first.
+// The same while-while traversal as lift_bvh_closest.
+bool lift_bvh_any(uint root, Ray ray, float t) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
     LIFT_BVH_STACK_DECLARE
     int sp = 0;
     float troot;
-    if (!lift_bvh_box(0u, ray.origin, inv, ray.tmin, t, troot)) return false;
-    uint node = 0u;
+    if (!lift_bvh_box(root, ray.origin, inv, ray.tmin, t, troot)) return false;
+    uint node = root;
     while (true) {
         uint first = floatBitsToUint(bvh_node_row(2u * node).w);
         uint count = floatBitsToUint(bvh_node_row(2u * node + 1u).w);
@@ -241,6 +226,123 @@ bool trace_occluded(Ray ray) {
         node = LIFT_BVH_STACK_AT(--sp);
     }
     return false;
+}
+
+#ifdef HAS_INSTANCES
+// ---- Instances: the TLAS over their world boxes, then each one's BLAS -------------------
+// The ray goes into the instance's object space unnormalised: o' + t d' is the object-space
+// image of o + t d, so t, tmin and the closest t so far keep their meaning in every BLAS.
+
+bool lift_tlas_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
+    vec3 t0 = (instances[2u * n].xyz - org) * inv;
+    vec3 t1 = (instances[2u * n + 1u].xyz - org) * inv;
+    vec3 lo = min(t0, t1);
+    vec3 hi = max(t0, t1);
+    tn = max(max(lo.x, lo.y), max(lo.z, tmin));
+    float tf = min(min(hi.x, hi.y), min(hi.z, tmax));
+    return tn <= tf;
+}
+
+Ray instance_ray(uint k, Ray ray) {
+    return Ray(instance_point_to_object(k, ray.origin), instance_dir_to_object(k, ray.dir), ray.tmin, ray.tmax);
+}
+
+// The TLAS's nodes, nearer first; `shadow`: stop at the first hit (shadow rays).
+bool lift_trace_instances(Ray ray, inout float t, inout Hit hit, bool shadow) {
+    if (u_num_instances == 0u) return false;
+    vec3 inv = lift_bvh_inv_dir(ray.dir);
+    uint stack_node[LIFT_BVH_STACK];
+    float stack_t[LIFT_BVH_STACK];
+    int sp = 0;
+    uint node = 0u;
+    float troot;
+    bool found = false;
+    bool live = lift_tlas_box(0u, ray.origin, inv, ray.tmin, t, troot);
+    while (live) {
+        uint first = floatBitsToUint(instances[2u * node].w);
+        uint count = floatBitsToUint(instances[2u * node + 1u].w);
+        if (count > 0u) {
+            for (uint k = first; k < first + count; ++k) {
+                Ray local = instance_ray(k, ray);
+                uint root = instance_info(k).x;
+                if (shadow) {
+                    if (lift_bvh_any(root, local, t)) return true;
+                } else if (lift_bvh_closest(root, local, t, hit.prim, hit.bary)) {
+                    hit.instance = k;
+                    found = true;
+                }
+            }
+        } else {
+            float ta, tb;
+            bool ha = lift_tlas_box(first, ray.origin, inv, ray.tmin, t, ta);
+            bool hb = lift_tlas_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
+            if (ha && hb && sp < LIFT_BVH_STACK) {
+                bool a_first = ta <= tb;
+                stack_node[sp] = a_first ? first + 1u : first;
+                stack_t[sp] = a_first ? tb : ta;
+                ++sp;
+                node = a_first ? first : first + 1u;
+                continue;
+            }
+            if (ha || hb) {
+                node = ha ? first : first + 1u;
+                continue;
+            }
+        }
+        live = false;
+        while (sp > 0) {
+            --sp;
+            if (stack_t[sp] <= t) { node = stack_node[sp]; live = true; break; }
+        }
+    }
+    return found;
+}
+#endif
+
+// Closest hit among triangles (world BVH, then with HAS_INSTANCES the instances) and, with
+// HAS_SPHERES, spheres.
+bool trace_closest(Ray ray, out Hit hit) {
+    LIFT_COUNT_RAY();
+    hit.t = ray.tmax;
+    hit.prim = NO_HIT;
+    hit.bary = vec2(0.0);
+    float t = ray.tmax;
+#ifdef HAS_SPHERES
+    for (uint s = 0u; s < u_num_spheres; ++s) {
+        if (intersect_sphere(ray, s, t)) hit.prim = u_num_triangles + s;
+    }
+#endif
+#ifdef HAS_INSTANCES
+    hit.instance = NO_INSTANCE;
+    if (u_world_triangles > 0u) lift_bvh_closest(0u, ray, t, hit.prim, hit.bary);
+    lift_trace_instances(ray, t, hit, false);
+#else
+    if (u_num_triangles > 0u) lift_bvh_closest(0u, ray, t, hit.prim, hit.bary);
+#endif
+    if (hit.prim != NO_HIT) {
+        hit.t = t;
+        if (hit.prim >= u_num_triangles) hit.bary = vec2(0.0);
+    }
+    return hit.prim != NO_HIT;
+}
+
+// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
+bool trace_occluded(Ray ray) {
+    LIFT_COUNT_RAY();
+    float t = ray.tmax;
+#ifdef HAS_SPHERES
+    for (uint s = 0u; s < u_num_spheres; ++s) {
+        if (intersect_sphere(ray, s, t)) return true;
+    }
+#endif
+#ifdef HAS_INSTANCES
+    if (u_world_triangles > 0u && lift_bvh_any(0u, ray, t)) return true;
+    Hit unused;
+    return lift_trace_instances(ray, t, unused, true);
+#else
+    if (u_num_triangles == 0u) return false;
+    return lift_bvh_any(0u, ray, t);
+#endif
 }
 
 #endif

@@ -15,6 +15,17 @@ Hit gbuffer_hit(ivec2 pixel, Ray ray) {
     uint prim = v.x - 1u;
     float t = ray.tmax;
     vec2 bary;
+#ifdef HAS_INSTANCES
+    hit.instance = visibility_instance(v);
+    if (hit.instance != NO_INSTANCE) {  // the instance's triangle, in its object space
+        if (prim < u_num_triangles && intersect_triangle(instance_ray(hit.instance, ray), prim, t, bary)) {
+            hit.prim = prim; hit.t = t; hit.bary = bary;
+            return hit;
+        }
+        trace_closest(ray, hit);
+        return hit;
+    }
+#endif
     if (prim < u_num_triangles && intersect_triangle(ray, prim, t, bary)) {
         hit.prim = prim; hit.t = t; hit.bary = bary;
         return hit;

@@ -181,6 +181,54 @@ layout(std140, binding = 7) uniform Spheres { vec4 spheres[LIFT_UBO_SPHERES]; };
 layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 #endif
 
+#ifdef HAS_INSTANCES
+// Instances (lift_gl/scene/instances.py): meshes placed by transforms. Rows 0 ..
+// u_instance_records - 1 hold the TLAS, the tree over the instances' world boxes, two rows a
+// node as bvh_nodes (a leaf holds instance records first .. first + count - 1); then
+// INSTANCE_ROWS rows per instance record: rows 0-2 the object -> world transform and rows 3-5
+// the world -> object transform (rows of 3x4 matrices), row 6 uint bits (root node of the
+// instance's BLAS in bvh_nodes, material or NO_MATERIAL for the mesh's own, prototype,
+// 1 if the transform mirrors (negative determinant), else 0).
+// Each BLAS's nodes and object-space triangles follow the world geometry's in bvh_nodes and
+// the triangle arrays; the world BVH (node 0) holds triangles 0 .. u_world_triangles - 1.
+#ifdef LIFT_UBO_INSTANCES
+layout(std140, binding = 10) uniform Instances { vec4 instances[LIFT_UBO_INSTANCES]; };
+#else
+layout(std430, binding = 10) readonly buffer Instances { vec4 instances[]; };
+#endif
+#define INSTANCE_ROWS 7u
+#define NO_INSTANCE 0xffffffffu
+#define NO_MATERIAL 0xffffffffu
+uniform uint u_world_triangles;
+uniform uint u_num_instances;
+uniform uint u_instance_records;   // row of the first instance record
+
+vec4 instance_row(uint k, uint r) { return instances[u_instance_records + INSTANCE_ROWS * k + r]; }
+// Object -> world of a point, and of a direction.
+vec3 instance_point_to_world(uint k, vec3 p) {
+    vec4 p1 = vec4(p, 1.0);
+    return vec3(dot(instance_row(k, 0u), p1), dot(instance_row(k, 1u), p1), dot(instance_row(k, 2u), p1));
+}
+vec3 instance_point_to_object(uint k, vec3 p) {
+    vec4 p1 = vec4(p, 1.0);
+    return vec3(dot(instance_row(k, 3u), p1), dot(instance_row(k, 4u), p1), dot(instance_row(k, 5u), p1));
+}
+vec3 instance_dir_to_object(uint k, vec3 d) {
+    return vec3(dot(instance_row(k, 3u).xyz, d), dot(instance_row(k, 4u).xyz, d), dot(instance_row(k, 5u).xyz, d));
+}
+// A normal to world space: the inverse transpose of object -> world, i.e. the transpose of
+// world -> object (not normalised).
+vec3 instance_normal_to_world(uint k, vec3 n) {
+    return n.x * instance_row(k, 3u).xyz + n.y * instance_row(k, 4u).xyz + n.z * instance_row(k, 5u).xyz;
+}
+uvec4 instance_info(uint k) { return floatBitsToUint(instance_row(k, 6u)); }
+// The material of instanced triangle `tri` in instance k: the instance's, else the mesh's.
+uint instance_material(uint k, uint tri) {
+    uint m = instance_info(k).y;
+    return m != NO_MATERIAL ? m : tri_info_at(tri).x;
+}
+#endif
+
 #ifdef HAS_MOTION
 // Motion blur. The arrays above hold every primitive where it is when the shutter opens,
 // and bvh_nodes the node boxes at that moment. `motion` holds, first, one vec4 per
@@ -200,6 +248,15 @@ layout(std430, binding = 8) buffer Stats { uint stats[]; };
 // Textures and the environment map as 32-bit words (lift_gl/scene/images.py has the layout;
 // lift/textures.glsl and lift/lights.glsl read it).
 layout(std430, binding = 9) readonly buffer Images { uint images[]; };
+#endif
+
+// The G-buffer visibility texel's material, and its instance record (NO_INSTANCE: world
+// geometry): with instances w holds the material in 16 bits and the instance + 1 above.
+#ifdef HAS_INSTANCES
+uint visibility_material(uvec4 v) { return v.w & 0xffffu; }
+uint visibility_instance(uvec4 v) { return (v.w >> 16u) - 1u; }
+#else
+uint visibility_material(uvec4 v) { return v.w; }
 #endif
 
 uniform uint u_num_triangles;

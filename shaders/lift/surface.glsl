@@ -13,6 +13,9 @@ struct Surface {
     vec2 uv;
     uint material;
     uint prim;
+#ifdef HAS_INSTANCES
+    uint instance;           // the hit's instance (NO_INSTANCE: world geometry)
+#endif
     float light_select_pdf;  // probability that light sampling picks this primitive (0: not a light)
     float area;              // primitive area, for light pdfs
 };
@@ -20,18 +23,37 @@ struct Surface {
 Surface surface_at(Ray ray, Hit hit) {
     Surface s;
     s.prim = hit.prim;
+#ifdef HAS_INSTANCES
+    s.instance = NO_INSTANCE;
+#endif
     if (hit.prim < u_num_triangles) {
         uint i = 3u * hit.prim;
         vec3 moved = prim_displacement(hit.prim);
         vec3 p0 = tri_pos_row(i).xyz + moved, p1 = tri_pos_row(i + 1u).xyz + moved, p2 = tri_pos_row(i + 2u).xyz + moved;
+        vec3 n0 = tri_normal_row(i).xyz, n1 = tri_normal_row(i + 1u).xyz, n2 = tri_normal_row(i + 2u).xyz;
+#ifdef HAS_INSTANCES
+        s.instance = hit.instance;
+        if (hit.instance != NO_INSTANCE) {  // object space to world: corners, and normals by the inverse transpose
+            p0 = instance_point_to_world(hit.instance, p0);
+            p1 = instance_point_to_world(hit.instance, p1);
+            p2 = instance_point_to_world(hit.instance, p2);
+            n0 = instance_normal_to_world(hit.instance, n0);
+            n1 = instance_normal_to_world(hit.instance, n1);
+            n2 = instance_normal_to_world(hit.instance, n2);
+        }
+#endif
         float b0 = 1.0 - hit.bary.x - hit.bary.y;
         // The barycentric point is more accurate than origin + t * dir far from the camera.
         s.p = b0 * p0 + hit.bary.x * p1 + hit.bary.y * p2;
         vec3 n = cross(p1 - p0, p2 - p0);
+#ifdef HAS_INSTANCES
+        // A mirroring transform turns the winding around: keep the front where the author's was.
+        if (hit.instance != NO_INSTANCE && instance_info(hit.instance).w != 0u) n = -n;
+#endif
         float len = length(n);
         s.ng = len > 0.0 ? n / len : -ray.dir;
         s.area = 0.5 * len;
-        vec3 ns = b0 * tri_normal_row(i).xyz + hit.bary.x * tri_normal_row(i + 1u).xyz + hit.bary.y * tri_normal_row(i + 2u).xyz;
+        vec3 ns = b0 * n0 + hit.bary.x * n1 + hit.bary.y * n2;
         float ns_len = length(ns);
         s.ns = ns_len > 0.0 ? ns / ns_len : s.ng;
         if (dot(s.ns, s.ng) < 0.0) s.ns = -s.ns;  // authored normals may disagree with the winding
@@ -39,6 +61,9 @@ Surface surface_at(Ray ray, Hit hit) {
         uvec2 info = tri_info_at(hit.prim);
         s.material = info.x;
         s.light_select_pdf = uintBitsToFloat(info.y);
+#ifdef HAS_INSTANCES
+        if (hit.instance != NO_INSTANCE) s.material = instance_material(hit.instance, hit.prim);
+#endif
     }
 #ifdef HAS_SPHERES
     else {
@@ -78,7 +103,15 @@ vec3 offset_ray_origin(vec3 p, vec3 n) {
 float surface_coordinate_scale(Surface s) {
     if (s.prim < u_num_triangles) {
         uint i = 3u * s.prim;
-        vec3 m = max(max(abs(tri_pos_row(i).xyz), abs(tri_pos_row(i + 1u).xyz)), abs(tri_pos_row(i + 2u).xyz));
+        vec3 p0 = tri_pos_row(i).xyz, p1 = tri_pos_row(i + 1u).xyz, p2 = tri_pos_row(i + 2u).xyz;
+#ifdef HAS_INSTANCES
+        if (s.instance != NO_INSTANCE) {  // the world corners s.p was interpolated from
+            p0 = instance_point_to_world(s.instance, p0);
+            p1 = instance_point_to_world(s.instance, p1);
+            p2 = instance_point_to_world(s.instance, p2);
+        }
+#endif
+        vec3 m = max(max(abs(p0), abs(p1)), abs(p2));
         return max(m.x, max(m.y, m.z));
     }
 #ifdef HAS_SPHERES

@@ -1,4 +1,5 @@
-// G-buffer, triangles: visibility (primitive id + 1, barycentrics, material), shading
+// G-buffer, triangles: visibility (primitive id + 1, barycentrics, material; with instances
+// the instance + 1 in w's high 16 bits), shading
 // normal facing the camera with view depth, and albedo (the denoiser's guide).
 #include "lift/scene_data.glsl"
 #include "lift/bsdf.glsl"
@@ -10,6 +11,9 @@ flat in uint v_prim;
 in vec2 v_bary;
 in vec3 v_normal;
 in vec3 v_world;
+#ifdef LIFT_INSTANCE_DRAW
+flat in uint v_instance;
+#endif
 layout(location = 0) out uvec4 o_visibility;
 layout(location = 1) out vec4 o_normal_depth;
 layout(location = 2) out vec4 o_albedo;
@@ -20,7 +24,14 @@ layout(location = 3) out vec4 o_motion;
 #endif
 void main() {
     uint material = tri_info_at(v_prim).x;
-    o_visibility = uvec4(v_prim + 1u, floatBitsToUint(v_bary.x), floatBitsToUint(v_bary.y), material);
+#ifdef LIFT_INSTANCE_DRAW
+    // w: the material in the low 16 bits, the instance record + 1 above (visibility_instance)
+    material = instance_material(v_instance, v_prim);
+    uint tag = material | ((v_instance + 1u) << 16u);
+#else
+    uint tag = material;
+#endif
+    o_visibility = uvec4(v_prim + 1u, floatBitsToUint(v_bary.x), floatBitsToUint(v_bary.y), tag);
     vec3 n = length(v_normal) > 0.0 ? normalize(v_normal) : vec3(0.0, 0.0, 1.0);
     if (dot(n, u_cam_pos - v_world) < 0.0) n = -n;
     float view_depth = dot(v_world - u_cam_pos, u_cam_forward);

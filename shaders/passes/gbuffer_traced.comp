@@ -33,7 +33,11 @@ void main() {
     if (dot(n, ray.origin - s.p) < 0.0) n = -n;
     float view_depth = dot(s.p - u_cam_pos, u_cam_forward);
     vec2 bary = hit.prim < u_num_triangles ? hit.bary : vec2(0.0);
-    imageStore(u_visibility_out, pixel, uvec4(hit.prim + 1u, floatBitsToUint(bary.x), floatBitsToUint(bary.y), s.material));
+    uint tag = s.material;  // as the raster writes w (lift/scene_data.glsl: visibility_instance)
+#ifdef HAS_INSTANCES
+    if (hit.instance != NO_INSTANCE) tag |= (hit.instance + 1u) << 16u;
+#endif
+    imageStore(u_visibility_out, pixel, uvec4(hit.prim + 1u, floatBitsToUint(bary.x), floatBitsToUint(bary.y), tag));
     imageStore(u_normal_depth_out, pixel, vec4(n, view_depth));
     imageStore(u_albedo_out, pixel, vec4(bsdf_albedo(material_at(s.material, s.uv)), 1.0));
 }

@@ -3,7 +3,8 @@
 //
 // prev_positions: rows 0 .. 3T-1 hold each triangle corner (BVH order, as tri_pos) where the
 // previous frame saw it, in this frame's GPU coordinates; row 3T + i holds sphere i's
-// displacement from this frame back to the previous one (lift_gl/temporal.py). A still
+// displacement from this frame back to the previous one, then from row 3T + S three rows per
+// instance record: its object -> world transform in the previous frame (lift_gl/temporal.py). A still
 // object's rows equal its current position (or zero displacement).
 #ifndef LIFT_MOTION_VECTORS_GLSL
 #define LIFT_MOTION_VECTORS_GLSL
