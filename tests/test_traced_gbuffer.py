@@ -32,7 +32,7 @@ def _render(monkeypatch, mode, scene, **kw):
         r.release()
 
 
-@pytest.mark.parametrize("scene_name", ["cornell.toml", "showcase.toml"])  # triangles; spheres and textures
+@pytest.mark.parametrize("scene_name", ["cornell.toml", "showcase.toml", "instances.toml"])  # triangles; spheres and textures; instances
 def test_traced_gbuffer_matches_the_raster(monkeypatch, scene_name):
     scene = load_scene(REPO / "scenes" / scene_name)
     raster = _render(monkeypatch, "raster", scene)
