@@ -191,7 +191,7 @@ class Renderer:
         if not motion_vectors and traced_gbuffer_wanted(self.ctx):
             return TracedGBufferPass(self.ctx, self.size, self.defines)
         return GBufferPass(self.ctx, self.size, self.defines, self.packed.num_triangles, self.packed.num_spheres,
-                           motion_vectors=motion_vectors)
+                           motion_vectors=motion_vectors, raster_rows=self.packed.raster_rows)
 
     def _create_denoise_pass(self) -> DenoisePass:
         if self.denoiser == "atrous":
@@ -330,6 +330,8 @@ class Renderer:
         self.packed = packed
         self.camera_uniforms = camera_uniforms(self.camera, self.size)  # the origin may have moved
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
+        if isinstance(self.gbuffer, GBufferPass):  # a rebuilt BVH may store other triangle copies
+            self.gbuffer.set_triangles(packed.num_triangles, packed.raster_rows)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
         features = self._fixed_features or SceneFeatures.of(scene)
@@ -439,9 +441,16 @@ class Renderer:
                             getattr(self, "denoise_pass", None), self.tonemap, getattr(self, "tonemap_noisy", None))
                 if p is not None]
 
+    def _triangle_count(self) -> str:
+        p = self.packed
+        if p.raster_rows is None:
+            return f"{p.num_triangles}"
+        return (f"{p.num_source_triangles} ({p.num_triangles} stored: the BVH split large ones into "
+                f"several references, accel/presplit.py)")
+
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
-                 f"scene: {self.packed.num_triangles} triangles, {self.packed.num_spheres} spheres, "
+                 f"scene: {self._triangle_count()} triangles, {self.packed.num_spheres} spheres, "
                  f"{self.packed.num_lights} emitters, BVH depth {self.packed.bvh_depth}",
                  f"integrator: {self.plugin.name} ({self.plugin.folder}), primary hit from {self.plugin.primary}",
                  f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}"]

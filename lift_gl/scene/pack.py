@@ -1,6 +1,10 @@
 """Flatten a Scene into the arrays that shaders/lift/scene_data.glsl declares.
 
-Triangles of all meshes are concatenated and reordered into BVH leaf order.
+Triangles of all meshes are concatenated and reordered into BVH leaf order. Where the BVH
+split large triangles (accel/presplit.py) a triangle is stored once per leaf that holds it:
+every copy carries the same corners, normals, uvs, material and light-selection pdf, only the
+first is in the light table and rasterized (`raster_rows`), and `tri_order` maps each row back
+to its triangle.
 Moving objects (motion blur) are stored where they are when the shutter opens, plus their
 displacement until it closes (`motion`). One BVH serves the whole shutter interval: its
 topology is built over the boxes the triangles sweep, and each node keeps two boxes, at
@@ -60,6 +64,10 @@ class PackedScene:
     # reordering): temporal reprojection matches triangles across frames with it.
     tri_order: np.ndarray | None = None  # int (T,)
     bvh_builder: str = "sah"  # which builder made the tree (accel/cache.py BUILDERS)
+    # The rows the raster G-buffer draws, one per triangle (its first copy), when the BVH
+    # repeats triangles (accel/presplit.py); None: every row, each triangle is stored once.
+    raster_rows: np.ndarray | None = None  # uint32 (triangles,)
+    num_source_triangles: int | None = None  # triangles before the BVH's repeats (None: num_triangles)
 
     def to_gpu_camera(self, camera: Camera) -> Camera:
         """The camera in the rebased coordinates the GPU uses."""
@@ -163,9 +171,11 @@ def still_motion(packed: PackedScene) -> np.ndarray:
     return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
 
 
-def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None) -> PackedScene:
+def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
+               bvh_splits=None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
-    `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto)."""
+    `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
+    `bvh_splits`: see accel/presplit.py resolve_splits (None: $LIFT_GL_BVH_SPLITS, else auto)."""
     origin = scene_origin(scene) if origin is None else np.asarray(origin, dtype=np.float64)
     positions, normals, uvs, material_ids, tri_velocity = _triangles(scene, origin)
     has_motion = scene.has_motion
@@ -177,11 +187,18 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         # Corners at shutter open and at close: the BVH bounds the box each triangle sweeps.
         bvh_input = np.concatenate([positions, positions + tri_move[:, None, :].astype(np.float32)], axis=1)
     bvh_builder = resolve_builder(bvh_builder, len(bvh_input))
-    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder) if len(positions)
-           else build_bvh(positions))
+    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder, splits=bvh_splits)
+           if len(positions) else build_bvh(positions))
     order = bvh.order
+    n_source = len(positions)
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
     T, S = len(positions), len(scene.spheres)
+    # each triangle's first row: the one copy that is a light and is rasterized
+    raster_rows = np.unique(order, return_index=True)[1].astype(np.uint32) if T > n_source else None
+    first_copy = np.ones(T, bool)
+    if raster_rows is not None:
+        first_copy[:] = False
+        first_copy[raster_rows] = True
     sphere_velocity = np.array([s.velocity if s.velocity is not None else np.zeros(3)
                                 for s in scene.spheres]).reshape(S, 3)
     sphere_open, sphere_move = _shutter_motion(scene, sphere_velocity)
@@ -199,7 +216,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     if T:
         tri_area = 0.5 * np.linalg.norm(np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0]), axis=1)
         tri_power = (emission[material_ids] @ LUMINANCE) * tri_area
-        emissive = np.nonzero(tri_power > 0)[0]
+        emissive = np.nonzero((tri_power > 0) & first_copy)[0]
         light_prims += list(emissive)
         light_power += list(tri_power[emissive])
         light_area += list(tri_area[emissive])
@@ -222,6 +239,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     lights[: len(light_prims), 3] = light_area
     prim_select_pdf = np.zeros(T + S, np.float32)
     prim_select_pdf[np.asarray(light_prims, dtype=np.int64)] = select_pdf
+    if raster_rows is not None:  # every copy of an emissive triangle: its light's pdf (MIS)
+        prim_select_pdf[:T] = prim_select_pdf[raster_rows[order]]
 
     tri_info = np.zeros((max(T, 1), 2), np.uint32)
     tri_info[:T, 0] = material_ids
@@ -271,4 +290,6 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         origin=origin,
         tri_order=np.asarray(order[:T]),
         bvh_builder=bvh_builder,
+        raster_rows=raster_rows,
+        num_source_triangles=n_source,
     )
