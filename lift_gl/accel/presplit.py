@@ -78,8 +78,8 @@ AUTO = SplitSettings(auto=True)
 
 def resolve_splits(splits) -> SplitSettings:
     """SplitSettings from None ($LIFT_GL_BVH_SPLITS, else auto), a SplitSettings, a bool, or a
-    string: 'auto' (the default), 'off'/'0', or a budget fraction ('0.3': always split
-    triangles over 1% of the scene, with that many extra references)."""
+    string: 'auto' (the default), 'off'/'0', or a budget fraction ('0.3': split triangles
+    over 1% of the scene, with that many extra references, whatever the scene's size)."""
     if isinstance(splits, SplitSettings):
         return splits
     if isinstance(splits, bool):
@@ -99,7 +99,7 @@ def resolve_splits(splits) -> SplitSettings:
     if not (0.0 <= budget <= 8.0):
         raise ValueError(f"bad BVH split setting {splits!r} (from {source}): use auto, off or a budget "
                          "fraction of extra references between 0 and 8 (e.g. 0.3)")
-    return SplitSettings(budget=budget) if budget > 0 else OFF
+    return SplitSettings(budget=budget, min_triangles=0) if budget > 0 else OFF
 
 
 def _half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -140,8 +140,8 @@ def _split_counts(tris: np.ndarray, lo: np.ndarray, hi: np.ndarray, settings: Sp
 
 def _split_planes(lo: np.ndarray, hi: np.ndarray, s_lo: np.ndarray, s_scale: np.ndarray):
     """(axis, plane) of each box: the coarsest dyadic grid plane strictly inside it (grid over
-    the scene bounds); on ties the longest axis. Boxes too thin to contain a grid plane get
-    their longest axis's midpoint."""
+    the scene bounds); on ties the longest axis. Boxes without such a plane well inside them
+    get their longest axis's midpoint."""
     a = np.floor((lo - s_lo) * s_scale).astype(np.int64)
     b = np.ceil((hi - s_lo) * s_scale).astype(np.int64) - 1
     np.clip(a, 0, (1 << _GRID_BITS) - 1, out=a)
@@ -149,17 +149,23 @@ def _split_planes(lo: np.ndarray, hi: np.ndarray, s_lo: np.ndarray, s_scale: np.
     diff = a ^ b
     # the highest differing bit of a and b: the plane (b with the bits below it cleared)
     # lies in (a, b], i.e. strictly inside the box
-    level = np.where(diff > 0, np.floor(np.log2(np.maximum(diff, 1))).astype(np.int64), -1)
     extent = hi - lo
+    # axes that are thin next to the box's longest (a flat triangle's normal axis, or a piece
+    # cut to a sliver of ulps at an earlier plane) are not worth a split
+    worth = (b > a) & (extent > 1e-3 * extent.max(axis=1, keepdims=True))
+    level = np.where(worth & (diff > 0), np.floor(np.log2(np.maximum(diff, 1))).astype(np.int64), -1)
     score = level * 4.0 + extent / np.maximum(extent.max(axis=1, keepdims=True), 1e-300)  # level first
     axis = np.argmax(score, axis=1)
     rows = np.arange(lo.shape[0])
     lv = level[rows, axis]
     cell = (b[rows, axis] >> np.maximum(lv, 0)) << np.maximum(lv, 0)
     plane = s_lo[axis] + cell / s_scale[axis]
-    mid = 0.5 * (lo[rows, axis] + hi[rows, axis])
-    inside = (lv >= 0) & (plane > lo[rows, axis]) & (plane < hi[rows, axis])
-    return axis, np.where(inside, plane, mid)
+    # not within a sliver of the box's faces (a plane met before, rounded into the box)
+    margin = 1e-3 * extent[rows, axis]
+    inside = (lv >= 0) & (plane > lo[rows, axis] + margin) & (plane < hi[rows, axis] - margin)
+    longest = np.argmax(extent, axis=1)
+    return (np.where(inside, axis, longest),
+            np.where(inside, plane, 0.5 * (lo[rows, longest] + hi[rows, longest])))
 
 
 def _clip_sides(tri: np.ndarray, axis: np.ndarray, plane: np.ndarray):
@@ -215,12 +221,16 @@ def presplit(tris: np.ndarray, settings: SplitSettings):
         l_hi = np.minimum(np.nextafter(l_hi.astype(np.float32), np.float32(np.inf)), a_hi)
         r_lo = np.maximum(np.nextafter(r_lo.astype(np.float32), np.float32(-np.inf)), a_lo)
         r_hi = np.minimum(np.nextafter(r_hi.astype(np.float32), np.float32(np.inf)), a_hi)
-        l_ok = (l_lo <= l_hi).all(axis=1)
-        r_ok = (r_lo <= r_hi).all(axis=1)
-        # a side that holds nothing: the other side keeps the box and every split left
-        one = ~(l_ok & r_ok)
-        keep_lo = np.where(l_ok[:, None], l_lo, np.where(r_ok[:, None], r_lo, a_lo))
-        keep_hi = np.where(l_ok[:, None], l_hi, np.where(r_ok[:, None], r_hi, a_hi))
+        # No split where a side is empty (the other one then bounds the whole piece) or as big
+        # as the parent (the plane missed the piece: the parent bounds both sides): one
+        # reference goes on, with that box and the splits left.
+        l_empty = (l_lo > l_hi).any(axis=1)
+        r_empty = (r_lo > r_hi).any(axis=1)
+        l_whole = ~l_empty & (l_lo <= a_lo).all(axis=1) & (l_hi >= a_hi).all(axis=1)
+        r_whole = ~r_empty & (r_lo <= a_lo).all(axis=1) & (r_hi >= a_hi).all(axis=1)
+        one = l_empty | r_empty | l_whole | r_whole
+        keep_lo = np.where((r_empty & ~l_empty)[:, None], l_lo, np.where((l_empty & ~r_empty)[:, None], r_lo, a_lo))
+        keep_hi = np.where((r_empty & ~l_empty)[:, None], l_hi, np.where((l_empty & ~r_empty)[:, None], r_hi, a_hi))
         a_l = np.where(one, 0, a_n - 1)
         al, ar = _half_area(l_lo, l_hi), _half_area(r_lo, r_hi)
         share = np.divide(al, al + ar, out=np.full_like(al, 0.5), where=(al + ar) > 0)

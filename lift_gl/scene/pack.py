@@ -217,6 +217,9 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         tri_area = 0.5 * np.linalg.norm(np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0]), axis=1)
         tri_power = (emission[material_ids] @ LUMINANCE) * tri_area
         emissive = np.nonzero((tri_power > 0) & first_copy)[0]
+        # in the order of the input triangles, not the tree's: a light's index (the random
+        # number that picks it) does not depend on how the BVH was built
+        emissive = emissive[np.argsort(order[emissive], kind="stable")]
         light_prims += list(emissive)
         light_power += list(tri_power[emissive])
         light_area += list(tri_area[emissive])
