@@ -14,15 +14,19 @@ from lift_gl.accel import presplit as ps
 from lift_gl.accel.bvh import build_bvh, check_invariants, intersect_numpy, sah_cost
 from test_bvh import MISMATCH_BOUND, disagreements, random_rays, soup, trimesh_closest
 
-FORCED = ps.SplitSettings(budget=1.0, min_triangles=0)
+FORCED = ps.SplitSettings(budget=1.0, max_extent=np.inf, min_triangles=0)
 
 
-def slivers(n_small: int = 3000, n_long: int = 150, seed: int = 5) -> np.ndarray:
-    """Small random triangles in the unit cube and long thin ones across it (beams, blades)."""
+def slivers(n_small: int = 3000, n_long: int = 150, seed: int = 5, length: float | None = None) -> np.ndarray:
+    """Small random triangles in the unit cube and long thin ones (beams, blades) between
+    random points, or of `length` from random points."""
     rng = np.random.default_rng(seed)
-    small = soup(n_small, seed=seed, size=0.02, degenerate=False)
+    small = soup(n_small, seed=seed, size=0.004, degenerate=False)
     a = rng.random((n_long, 3))
     b = rng.random((n_long, 3))
+    if length is not None:
+        d = rng.standard_normal((n_long, 3))
+        b = a + length * d / np.linalg.norm(d, axis=1, keepdims=True)
     side = 0.01 * rng.standard_normal((n_long, 3))
     long_ = np.stack([a, b, a + side + 0.1 * (b - a)], axis=1)
     return np.concatenate([small, long_.astype(np.float32)])
@@ -86,7 +90,7 @@ def test_auto_keeps_scenes_without_large_triangles_and_splits_slivers():
     b = cache_mod.build_with(small, "sah", ps.AUTO)
     assert b.order.size == len(small)
     np.testing.assert_array_equal(b.nodes.view(np.uint32), build_bvh(small).nodes.view(np.uint32))
-    tris = slivers()
+    tris = slivers(length=0.4)   # 15-25% of the scene's diagonal
     auto = cache_mod.build_with(tris, "sah", ps.AUTO)
     assert auto.order.size > len(tris)
     assert sah_cost(auto) <= (1 - ps.AUTO_MIN_GAIN) * sah_cost(build_bvh(tris))
@@ -113,7 +117,7 @@ def test_resolve_splits(monkeypatch):
     monkeypatch.setenv(ps.ENV_VAR, "off")
     assert ps.resolve_splits(None) == ps.OFF
     monkeypatch.setenv(ps.ENV_VAR, "0.5")
-    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, min_triangles=0)
+    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0)
     monkeypatch.setenv(ps.ENV_VAR, "lots")
     with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
         ps.resolve_splits(None)

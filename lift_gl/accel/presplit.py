@@ -13,7 +13,8 @@ each leaf row to its triangle, with repeats). Closest-hit and any-hit traversals
 change: the same triangle found twice gives the same t, and the later copy never wins.
 
 How, vectorised over all references at once:
-  1. candidates are triangles whose box diagonal exceeds `min_extent` of the scene's; a
+  1. candidates are triangles whose box diagonal lies between `min_extent` and `max_extent`
+     of the scene's (the largest stay whole: see AUTO_CANDIDATES); a
      budget of `budget` x T extra references is shared among them in proportion to the cube
      root of the area their box wastes (box half-area minus triangle area);
   2. each round splits every reference that has splits left at the coarsest plane of a
@@ -43,11 +44,11 @@ class SplitSettings:
     min_extent, max_extent: only triangles whose box diagonal lies in this range, as fractions
     of the scene's, are split.
     min_triangles: scenes with fewer triangles are not split (tiny trees, nothing to gain).
-    auto: instead of splitting so, build the tree without splits and with each of
-    AUTO_CANDIDATES, and keep the one of least SAH cost (accel/cache.py build_with)."""
-    budget: float = 0.1
+    auto: build the tree without splits and with each of AUTO_CANDIDATES, and keep the one
+    of least SAH cost (accel/cache.py build_with)."""
+    budget: float = 0.3
     min_extent: float = 0.01
-    max_extent: float = float("inf")
+    max_extent: float = 0.3
     min_triangles: int = 1000
     auto: bool = False
 
@@ -64,22 +65,22 @@ class SplitSettings:
 
 
 OFF = SplitSettings(budget=0.0)
-# The greedy top-down SAH build does not always gain from split references: in Lift's
-# dining room, splitting its walls (flat triangles the size of the room) makes the top of the
-# tree worse, SAH cost 49 -> 54, while splitting only its long slivers (1-10% of the scene)
-# gives 43.5; in the classroom splitting its two floor-sized triangles is what pays (16.3 ->
-# 12.7). So `auto` tries both and keeps the cheaper tree, or none if neither gains
-# AUTO_MIN_GAIN (docs/bvh.md has the measurements).
-AUTO_CANDIDATES = (SplitSettings(budget=0.1, min_extent=0.01, max_extent=0.1),
-                   SplitSettings(budget=0.1, min_extent=0.01))
+# Triangles larger than max_extent are left whole: the greedy top-down SAH build does worse
+# with the pieces of walls the size of the room than with the walls whole (it peels them off
+# near the root): in Lift's dining room splitting every triangle over 1% of the scene raises
+# the SAH cost from 49.0 to 59.6, splitting those between 1% and 30% lowers it to 39.1;
+# classroom 16.3 -> 17.4 and 14.5 (docs/bvh.md has the measurements). A scene whose SAH cost
+# the splits do not lower by AUTO_MIN_GAIN keeps the tree without them.
+AUTO_CANDIDATES = (SplitSettings(),)
 AUTO_MIN_GAIN = 0.03
 AUTO = SplitSettings(auto=True)
 
 
 def resolve_splits(splits) -> SplitSettings:
     """SplitSettings from None ($LIFT_GL_BVH_SPLITS, else auto), a SplitSettings, a bool, or a
-    string: 'auto' (the default), 'off'/'0', or a budget fraction ('0.3': split triangles
-    over 1% of the scene, with that many extra references, whatever the scene's size)."""
+    string: 'auto' (the default), 'off'/'0', or a budget fraction ('0.3': split every triangle
+    over 1% of the scene, however large and whatever the scene's size, with that many extra
+    references, and keep the result: for tests and experiments)."""
     if isinstance(splits, SplitSettings):
         return splits
     if isinstance(splits, bool):
@@ -99,7 +100,7 @@ def resolve_splits(splits) -> SplitSettings:
     if not (0.0 <= budget <= 8.0):
         raise ValueError(f"bad BVH split setting {splits!r} (from {source}): use auto, off or a budget "
                          "fraction of extra references between 0 and 8 (e.g. 0.3)")
-    return SplitSettings(budget=budget, min_triangles=0) if budget > 0 else OFF
+    return SplitSettings(budget=budget, max_extent=float("inf"), min_triangles=0) if budget > 0 else OFF
 
 
 def _half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
