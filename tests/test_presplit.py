@@ -14,7 +14,7 @@ from lift_gl.accel import presplit as ps
 from lift_gl.accel.bvh import build_bvh, check_invariants, intersect_numpy, sah_cost
 from test_bvh import MISMATCH_BOUND, disagreements, random_rays, soup, trimesh_closest
 
-FORCED = ps.SplitSettings(budget=1.0, max_extent=np.inf, min_triangles=0)
+FORCED = ps.SplitSettings(budget=1.0, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
 
 
 def slivers(n_small: int = 3000, n_long: int = 150, seed: int = 5, length: float | None = None) -> np.ndarray:
@@ -100,7 +100,7 @@ def test_auto_keeps_scenes_without_large_triangles_and_splits_slivers():
 
 
 def test_cache_keys_on_split_settings(tmp_path):
-    tris = slivers()
+    tris = slivers(length=0.4)
     auto = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="sah", splits="auto")
     off = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="sah", splits="off")
     assert len(list(tmp_path.glob("*.npz"))) == 2 and off.order.size == len(tris) < auto.order.size
@@ -117,7 +117,7 @@ def test_resolve_splits(monkeypatch):
     monkeypatch.setenv(ps.ENV_VAR, "off")
     assert ps.resolve_splits(None) == ps.OFF
     monkeypatch.setenv(ps.ENV_VAR, "0.5")
-    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0)
+    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
     monkeypatch.setenv(ps.ENV_VAR, "lots")
     with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
         ps.resolve_splits(None)

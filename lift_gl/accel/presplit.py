@@ -42,14 +42,20 @@ _GRID_BITS = 30
 class SplitSettings:
     """budget: extra references allowed, as a fraction of the triangle count (0: off).
     min_extent, max_extent: only triangles whose box diagonal lies in this range, as fractions
-    of the scene's, are split.
+    of the scene's, and exceeds min_over_median times the median triangle's, are split (a mesh
+    of even triangles, like a scanned statue, has none: splitting its larger ones did not
+    lower its SAH cost).
     min_triangles: scenes with fewer triangles are not split (tiny trees, nothing to gain).
+    min_splits: nor are scenes whose candidates would take fewer splits than this fraction of
+    the triangle count (a few outliers: the split build would cost more than it could gain).
     auto: build the tree without splits and with each of AUTO_CANDIDATES, and keep the one
     of least SAH cost (accel/cache.py build_with)."""
     budget: float = 0.3
     min_extent: float = 0.01
     max_extent: float = 0.3
     min_triangles: int = 1000
+    min_over_median: float = 8.0
+    min_splits: float = 0.01
     auto: bool = False
 
     @property
@@ -61,7 +67,7 @@ class SplitSettings:
         if self.auto:
             return "presplit:auto:" + ";".join(c.key() for c in AUTO_CANDIDATES) + f";min_gain={AUTO_MIN_GAIN:g}"
         return (f"presplit:budget={self.budget:g},extent={self.min_extent:g}..{self.max_extent:g},"
-                f"min_tris={self.min_triangles}")
+                f"over_median={self.min_over_median:g},min_tris={self.min_triangles},min_splits={self.min_splits:g}")
 
 
 OFF = SplitSettings(budget=0.0)
@@ -100,7 +106,8 @@ def resolve_splits(splits) -> SplitSettings:
     if not (0.0 <= budget <= 8.0):
         raise ValueError(f"bad BVH split setting {splits!r} (from {source}): use auto, off or a budget "
                          "fraction of extra references between 0 and 8 (e.g. 0.3)")
-    return SplitSettings(budget=budget, max_extent=float("inf"), min_triangles=0) if budget > 0 else OFF
+    return SplitSettings(budget=budget, max_extent=float("inf"), min_triangles=0, min_over_median=0.0, min_splits=0.0) \
+        if budget > 0 else OFF
 
 
 def _half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -116,7 +123,8 @@ def _split_counts(tris: np.ndarray, lo: np.ndarray, hi: np.ndarray, settings: Sp
         return counts
     scene_diag = float(np.linalg.norm(hi.max(0).astype(np.float64) - lo.min(0)))
     diag = np.linalg.norm(hi.astype(np.float64) - lo, axis=1)
-    cand = np.flatnonzero((diag > settings.min_extent * scene_diag) & (diag <= settings.max_extent * scene_diag))
+    least = max(settings.min_extent * scene_diag, settings.min_over_median * float(np.median(diag)))
+    cand = np.flatnonzero((diag > least) & (diag <= settings.max_extent * scene_diag))
     budget = int(settings.budget * n)
     if cand.size == 0 or budget <= 0:
         return counts
@@ -136,6 +144,8 @@ def _split_counts(tris: np.ndarray, lo: np.ndarray, hi: np.ndarray, settings: Sp
         mid = 0.5 * (lo_d + hi_d)
         lo_d, hi_d = (mid, hi_d) if total(mid) <= budget else (lo_d, mid)
     counts[cand] = np.minimum(np.floor(lo_d * prio), MAX_SPLITS_PER_TRIANGLE).astype(np.int64)
+    if counts.sum() < settings.min_splits * n:
+        counts[:] = 0
     return counts
 
 
