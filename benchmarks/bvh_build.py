@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from lift_gl.accel.bvh import TRAVERSAL_COST, BVH, build_bvh  # noqa: E402
+from lift_gl.accel.bvh import BVH, build_bvh, sah_cost  # noqa: E402,F401 (sah_cost: other benchmarks import it from here)
 
 DRAGON = Path(__file__).resolve().parent.parent.parent / "shared" / "assets" / "meshes" / "dragon_100k.ply"
 
@@ -36,14 +36,6 @@ def load_mesh(path: Path) -> np.ndarray:
 
     mesh = trimesh.load(path, force="mesh", process=False)
     return np.asarray(mesh.vertices, np.float32)[np.asarray(mesh.faces)]
-
-
-def sah_cost(bvh: BVH) -> float:
-    e = np.maximum(bvh.bmax.astype(np.float64) - bvh.bmin, 0)
-    area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
-    count = bvh.count.astype(np.float64)
-    per_node = np.where(count > 0, count, 2 * TRAVERSAL_COST)  # interior: test both children
-    return float((area * per_node).sum() / max(area[0], 1e-300))
 
 
 def bench(name: str, tris: np.ndarray, repeat: int) -> dict:

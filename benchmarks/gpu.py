@@ -2,6 +2,7 @@
 
     python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
+                                     [--bvh-splits off,auto [--split-rounds 2]]
     python benchmarks/gpu.py table FILE.json... [--md FILE.md]
 
 `measure`, for each scene, integrator and size: lift-gl bench's numbers
@@ -24,6 +25,8 @@ between two ctx.finish() calls times each dispatch instead.
 measure two versions of the renderer, alternately, on the same machine:
     LIFT_GL_TREE=../base python benchmarks/gpu.py measure ... --label base --out base.json
 `table` prints the results of one or more such files side by side (ratios to the first).
+`--bvh-splits off,auto` measures every case with the BVH built under each $LIFT_GL_BVH_SPLITS
+value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md).
 """
 from __future__ import annotations
 
@@ -200,6 +203,63 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     return out
 
 
+def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
+    """ray_throughput for several renderers (one scene under several BVHs), dispatch by
+    dispatch in turn (A B, B A, ...), so that a busy machine slows each alike: per renderer and
+    kind the median and best dispatch time. On a CPU rasterizer a dispatch is timed by the
+    process's CPU time (llvmpipe's threads included): on shared cores its wall time is bimodal,
+    as other jobs take the rasterizer's threads, and Mrays/s then means per CPU-second."""
+    from lift_gl.gl.context import is_software
+    from lift_gl.passes.camera import camera_uniforms
+    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.shaders import assemble, compile_compute
+
+    w, h = size
+    setups = []
+    for r in renderers:
+        defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
+        program = compile_compute(r.ctx, assemble(RAY_SHADER, defines, main_name="<gpu.py ray kinds>"))
+        extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
+        uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
+        setups.append((r, program, r.ctx.buffer(reserve=32 * w * h), uniforms))
+    ctx = renderers[0].ctx
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    out = [{} for _ in renderers]
+    for kind_index, kind in enumerate(RAY_KINDS):
+        times = [[] for _ in renderers]
+        for rep in range(repeat + 1):
+            turn = range(len(setups)) if rep % 2 == 0 else range(len(setups) - 1, -1, -1)
+            for i in turn:
+                r, program, hits, uniforms = setups[i]
+                bind_as_storage(r)
+                hits.bind_to_storage_buffer(10)
+                # every renderer's rep-th dispatch of a kind casts the same rays (same seed)
+                set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
+                ctx.finish()
+                start, start_cpu = time.perf_counter_ns(), time.process_time_ns()
+                with query:
+                    program.run(*groups(w, h))
+                ctx.finish()
+                if rep:  # rep 0 warms up
+                    # on a CPU rasterizer: the CPU time of all of this process's threads (the
+                    # rasterizer's work however the shared cores were scheduled)
+                    times[i].append((time.process_time_ns() - start_cpu if cpu else query.elapsed) / 1e6)
+        for i, (r, program, hits, uniforms) in enumerate(setups):
+            rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
+            hit = rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF
+            rays = w * h if kind == "primary" else int(hit.sum())
+            med, best = float(np.median(times[i])), float(np.min(times[i]))
+            ms = med
+            out[i][kind] = {"rays": rays, "hits": int(hit.sum()) if kind == "primary" else int((rows[hit, 1, 3] > 0.5).sum()),
+                            "ms": ms, "median_ms": med, "best_ms": best, "all_ms": times[i],
+                            "mrays_per_s": rays / max(ms, 1e-9) / 1e3}
+    for _, program, hits, _ in setups:
+        program.release()
+        hits.release()
+    return out
+
+
 def ab_table(record: dict) -> str:
     """Markdown of an `ab` record: speed-up of each version over the first, by ray kind, and
     the first version's Mrays/s."""
@@ -350,52 +410,111 @@ def measure(args) -> int:
           flush=True)
     from lift_gl.errors import LiftError
 
-    results = []
-    record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
-              "results": results}
+    # --bvh-splits A,B: the same cases with the BVH built under each setting (accel/presplit.py),
+    # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
+    # per setting and round, merged by best_of like repeated runs.
+    splits = [v.strip() for v in (args.bvh_splits or "").split(",") if v.strip()] or [None]
+    rounds = args.split_rounds if splits[0] is not None else 1
+    runs = {(v, k): {"label": args.label + (f"splits={v}" if v is not None else ""), "machine": machine,
+                     "gl": describe(ctx), "max_depth": args.max_depth, "bvh_splits": v, "round": k, "results": []}
+            for v in splits for k in range(rounds)}
+
+    def out_path(v):
+        if v is None or args.out is None:
+            return args.out
+        return args.out.with_name(f"{args.out.stem}.splits-{v}{args.out.suffix}")
 
     def save():  # after every case: a run cut short by a time limit keeps what it measured
-        if args.out:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            args.out.write_text(json.dumps(record, indent=1))
+        for v in splits:
+            if out_path(v) is not None:
+                out_path(v).parent.mkdir(parents=True, exist_ok=True)
+                recs = [runs[v, k] for k in range(rounds)]
+                out_path(v).write_text(json.dumps(recs[0] if len(recs) == 1 else best_of(recs), indent=1))
 
+    def orders():
+        for k in range(rounds):
+            yield from ((v, k) for v in (splits if k % 2 == 0 else splits[::-1]))
+
+    previous_splits = os.environ.get("LIFT_GL_BVH_SPLITS")
     for path in args.scenes:
         start = time.perf_counter()
         scene = load_scene(path)
         load_s = time.perf_counter() - start
         name = scene_name(path)
         for size in sizes:
-            if args.rays:
-                start = time.perf_counter()
-                r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
-                setup_s = time.perf_counter() - start
-                rays = ray_throughput(r, size, args.ray_repeat)
-                results.append({"kind": "rays", "scene_name": name, "scene": portable(path), "size": list(size),
-                                "triangles": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
-                                "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
-                r.release()
+            if args.rays and splits[0] is not None:
+                # one renderer per setting, their dispatches interleaved (ray_throughput_interleaved)
+                renderers, setup = [], []
+                for v in splits:
+                    _set_splits(v, previous_splits)
+                    start = time.perf_counter()
+                    renderers.append(Renderer(scene, size=size, integrator="pt", backend=args.backend))
+                    setup.append(time.perf_counter() - start)
+                for v, r, setup_s, rays in zip(splits, renderers, setup,
+                                               ray_throughput_interleaved(renderers, size, args.ray_repeat)):
+                    runs[v, 0]["results"].append({
+                        "kind": "rays", "scene_name": name, "scene": portable(path), "size": list(size),
+                        "triangles": r.packed.num_source_triangles or r.packed.num_triangles,
+                        "triangle_rows": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
+                        "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays,
+                        "ray_times": "median of interleaved dispatches: GPU timer query, or on a CPU "
+                                     "rasterizer the process's CPU time (all threads)"})
+                    print(f"{name} {size[0]}x{size[1]} rays [splits={v}, {args.ray_repeat} interleaved]: " + ", ".join(
+                        f"{k_} {x['mrays_per_s']:.2f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()), flush=True)
+                for r in renderers:
+                    r.release()
                 save()
-                print(f"{name} {size[0]}x{size[1]} rays: " + ", ".join(
-                    f"{k} {v['mrays_per_s']:.1f} Mrays/s ({v['ms']:.3f} ms)" for k, v in rays.items()), flush=True)
-            for integrator in integrators:
-                try:
-                    case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames,
-                                      args.repeat, args.backend)
-                except LiftError as exc:  # e.g. bdpt refuses an environment map
-                    print(f"{name} {size[0]}x{size[1]} {integrator}: not run: {str(exc).splitlines()[0]}", flush=True)
-                    results.append({"kind": "skipped", "scene_name": name, "size": list(size),
-                                    "integrator": integrator, "reason": str(exc)})
+            elif args.rays:
+                for v, k in orders():
+                    _set_splits(v, previous_splits)
+                    start = time.perf_counter()
+                    r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+                    setup_s = time.perf_counter() - start
+                    rays = ray_throughput(r, size, args.ray_repeat)
+                    runs[v, k]["results"].append({
+                        "kind": "rays", "scene_name": name, "scene": portable(path), "size": list(size),
+                        "triangles": r.packed.num_source_triangles or r.packed.num_triangles,
+                        "triangle_rows": r.packed.num_triangles, "bvh_nodes": int(r.packed.bvh_nodes.shape[0]),
+                        "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
+                    r.release()
                     save()
-                    continue
-                case.update(kind="frame", scene_name=name, scene=portable(path), integrator=integrator,
-                            triangles=scene.triangle_count, load_seconds=load_s)
-                results.append(case)
-                save()
-                print(f"{name} {size[0]}x{size[1]} {integrator}: {case['frame_ms']:.2f} ms/frame; passes (query) "
-                      + ", ".join(f"{k} {v:.3f}" for k, v in case["pass_ms_query"].items()), flush=True)
+                    tag = f" [splits={v}]" if v is not None else ""
+                    print(f"{name} {size[0]}x{size[1]} rays{tag}: " + ", ".join(
+                        f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()), flush=True)
+            for integrator in integrators:
+                for v, k in orders():
+                    _set_splits(v, previous_splits)
+                    tag = f" [splits={v}]" if v is not None else ""
+                    try:
+                        case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames,
+                                          args.repeat, args.backend)
+                    except LiftError as exc:  # e.g. bdpt refuses an environment map
+                        print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: not run: {str(exc).splitlines()[0]}",
+                              flush=True)
+                        runs[v, k]["results"].append({"kind": "skipped", "scene_name": name, "size": list(size),
+                                                      "integrator": integrator, "reason": str(exc)})
+                        save()
+                        continue
+                    case.update(kind="frame", scene_name=name, scene=portable(path), integrator=integrator,
+                                triangles=scene.triangle_count, load_seconds=load_s)
+                    runs[v, k]["results"].append(case)
+                    save()
+                    print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame; passes "
+                          "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items()), flush=True)
+    _set_splits(None, previous_splits)
     save()
-    print(render_tables([record]))
+    records = [runs[v, 0] if rounds == 1 else best_of([runs[v, k] for k in range(rounds)]) for v in splits]
+    print(render_tables(records))
     return 0
+
+
+def _set_splits(value, previous) -> None:
+    """$LIFT_GL_BVH_SPLITS for the next renderer (value None: as it was when the run began)."""
+    value = previous if value is None else value
+    if value is None:
+        os.environ.pop("LIFT_GL_BVH_SPLITS", None)
+    else:
+        os.environ["LIFT_GL_BVH_SPLITS"] = value
 
 
 def _mrays(value: float) -> str:
@@ -443,7 +562,8 @@ def render_tables(records: list[dict]) -> str:
         lines.append("| " + " | ".join(cells) + " |")
     rays = [{(r["scene_name"], tuple(r["size"])): r for r in rec["results"] if r["kind"] == "rays"} for rec in records]
     if rays[0]:
-        lines += ["", "Mrays/s by ray kind (ray-casting shader over lift/bvh.glsl, best of the dispatches):", ""]
+        how = next((r["ray_times"] for r in rays[0].values() if r.get("ray_times")), "best of the dispatches")
+        lines += ["", f"Mrays/s by ray kind (ray-casting shader over lift/bvh.glsl, {how}):", ""]
         head = ["scene", "size", "triangles"]
         for label in labels:
             head += [f"{label} {k}" for k in RAY_KINDS]
@@ -518,6 +638,9 @@ def main(argv=None) -> int:
     m.add_argument("--backend", default="auto")
     m.add_argument("--label", default="")
     m.add_argument("--out", type=Path)
+    m.add_argument("--bvh-splits", help="comma-separated $LIFT_GL_BVH_SPLITS values (off,auto): every case "
+                   "measured under each, interleaved; --out FILE.json becomes FILE.splits-VALUE.json per value")
+    m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
     v.add_argument("scenes", nargs="+")

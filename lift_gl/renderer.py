@@ -197,7 +197,7 @@ class Renderer:
             return TracedGBufferPass(self.ctx, self.size, self.defines)
         p = self.packed
         return GBufferPass(self.ctx, self.size, self.defines, p.num_world_triangles, p.num_spheres,
-                           motion_vectors=motion_vectors, instance_draws=p.instance_draws)
+                           motion_vectors=motion_vectors, instance_draws=p.instance_draws, raster_rows=p.raster_rows)
 
     def _create_denoise_pass(self) -> DenoisePass:
         if self.denoiser == "atrous":
@@ -342,8 +342,8 @@ class Renderer:
         fixed = self._fixed_features
         self.buffers.instances = fixed.instances if fixed else packed.instances is not None  # HAS_INSTANCES
         self.uploaded = self.buffers.upload(packed)  # names of the buffers rewritten
-        if self.gbuffer is not None:
-            self.gbuffer.num_triangles = packed.num_world_triangles
+        if isinstance(self.gbuffer, GBufferPass):  # a rebuilt BVH may store other triangle copies
+            self.gbuffer.set_triangles(packed.num_world_triangles, packed.raster_rows)
             self.gbuffer.instance_draws = list(packed.instance_draws)
         env = scene.environment.radiance if scene.environment is not None else (0.0, 0.0, 0.0)
         self.scene_uniforms = self.buffers.uniforms(env)
@@ -454,9 +454,16 @@ class Renderer:
                             getattr(self, "denoise_pass", None), self.tonemap, getattr(self, "tonemap_noisy", None))
                 if p is not None]
 
+    def _triangle_count(self) -> str:
+        p = self.packed
+        if p.raster_rows is None:
+            return f"{p.num_triangles}"
+        return (f"{p.num_source_triangles} ({p.num_triangles} stored: the BVH split large ones into "
+                f"several references, accel/presplit.py)")
+
     def explain(self) -> str:
         lines = [f"device: {describe(self.ctx)}",
-                 f"scene: {self.packed.num_triangles} triangles, {self.packed.num_spheres} spheres, "
+                 f"scene: {self._triangle_count()} triangles, {self.packed.num_spheres} spheres, "
                  f"{self.packed.num_lights} emitters, BVH depth {self.packed.bvh_depth}",
                  f"integrator: {self.plugin.name} ({self.plugin.folder}), primary hit from {self.plugin.primary}",
                  f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}"]

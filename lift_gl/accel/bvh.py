@@ -249,6 +249,16 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     return BVH(nodes=nodes[:n_nodes].copy(), order=order.astype(np.uint32), depth=level)
 
 
+def sah_cost(bvh: BVH) -> float:
+    """The expected number of box and triangle tests of a random ray that hits the root box
+    (leaves: their references, so a triangle split into several counts in each)."""
+    e = np.maximum(bvh.bmax.astype(np.float64) - bvh.bmin, 0)
+    area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+    count = bvh.count.astype(np.float64)
+    per_node = np.where(count > 0, count, 2 * TRAVERSAL_COST)  # interior: test both children
+    return float((area * per_node).sum() / max(area[0], 1e-300))
+
+
 def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray | None,
                 tri_boxes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The node boxes of the same tree over other positions of its triangles: float32 (T, K, 3)
@@ -371,8 +381,10 @@ def intersect_numpy(bvh: BVH, tri_positions_reordered: np.ndarray, origins: np.n
 
 def check_invariants(bvh: BVH, tri_positions_reordered: np.ndarray) -> None:
     """Raise AssertionError if the tree breaks a layout rule (used by tests and debugging):
-    every triangle in exactly one leaf, every node reached once, children inside parents,
-    leaf boxes contain their triangles, depth within bounds."""
+    every row in exactly one leaf and every triangle in at least one (`order` repeats those
+    split by accel/presplit.py), every node reached once, children inside parents, leaf boxes
+    contain their triangles (only where a triangle has one row: a split one's leaf bounds its
+    part), depth within bounds."""
     tris = np.asarray(tri_positions_reordered, np.float32)
     n_tris = tris.shape[0]
     nodes = bvh.nodes
@@ -381,7 +393,9 @@ def check_invariants(bvh: BVH, tri_positions_reordered: np.ndarray) -> None:
     if n_tris == 0:
         assert nodes.shape[0] == 1 and (nodes[0, 0:3] > nodes[0, 4:7]).all()
         return
-    assert np.array_equal(np.sort(bvh.order), np.arange(n_tris, dtype=np.uint32))
+    n_source = int(bvh.order.max()) + 1
+    assert np.array_equal(np.unique(bvh.order), np.arange(n_source, dtype=np.uint32))
+    single = (np.bincount(bvh.order, minlength=n_source) == 1)[bvh.order]  # rows of unsplit triangles
     first = bvh.first.astype(np.int64)
     count = bvh.count.astype(np.int64)
     n = nodes.shape[0]
@@ -407,7 +421,7 @@ def check_invariants(bvh: BVH, tri_positions_reordered: np.ndarray) -> None:
     tri_idx = np.repeat(first[leaves], count[leaves]) + np.arange(count[leaves].sum()) \
         - np.repeat(np.cumsum(count[leaves]) - count[leaves], count[leaves])
     t = tris[tri_idx]
-    fin = np.isfinite(t).all(axis=(1, 2))
+    fin = np.isfinite(t).all(axis=(1, 2)) & single[tri_idx]
     assert (t[fin].min(axis=1) >= nodes[owner[fin], 0:3]).all()
     assert (t[fin].max(axis=1) <= nodes[owner[fin], 4:7]).all()
     # depth: walk the levels (children of the frontier form the next frontier)

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import BVH, LAYOUT_VERSION, build_bvh
+from .bvh import BVH, LAYOUT_VERSION, build_bvh, sah_cost
+from .presplit import AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SplitSettings, presplit, resolve_splits
 
 ENV_VAR = "LIFT_GL_CACHE_DIR"
 BUILDER_ENV_VAR = "LIFT_GL_BVH_BUILDER"
@@ -43,13 +44,47 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
     return name
 
 
-def build_with(tri_positions: np.ndarray, builder: str) -> BVH:
-    """Build with a concrete builder name (not auto)."""
+def _build_plain(tri_positions: np.ndarray, builder: str) -> BVH:
     if builder == "sah":
         return build_bvh(tri_positions)
     from .lbvh import build_lbvh  # pyopencl, only for these builders
 
     return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
+
+
+def splits_apply(tri_positions: np.ndarray, splits: SplitSettings) -> bool:
+    """Whether `splits` can change this build: static triangles (T, 3, 3) only. A moving
+    triangle's box at a time t is refitted from its corners (scene/pack.py), which would undo
+    the split boxes, so motion-blurred scenes are built without."""
+    return splits.enabled and tri_positions.ndim == 3 and tri_positions.shape[1] == 3 \
+        and tri_positions.shape[0] >= splits.min_triangles
+
+
+def build_with(tri_positions: np.ndarray, builder: str, splits: SplitSettings = OFF) -> BVH:
+    """Build with a concrete builder name (not auto). With `splits` (accel/presplit.py) large
+    triangles enter the build as several references: `order` may then repeat a triangle."""
+    pos = np.asarray(tri_positions, np.float32)
+    if not splits_apply(pos, splits):
+        return _build_plain(pos, builder)
+    if not splits.auto:
+        return _build_split(pos, builder, splits) or _build_plain(pos, builder)
+    best = _build_plain(pos, builder)
+    best_cost = sah_cost(best) * (1.0 - AUTO_MIN_GAIN)
+    for candidate in AUTO_CANDIDATES:
+        bvh = _build_split(pos, builder, candidate)
+        if bvh is not None and (cost := sah_cost(bvh)) < best_cost:
+            best, best_cost = bvh, cost
+    return best
+
+
+def _build_split(pos: np.ndarray, builder: str, splits: SplitSettings) -> BVH | None:
+    """The tree over `splits`' references, or None where they split nothing."""
+    ref_tri, lo, hi = presplit(pos, splits)
+    if ref_tri.size == pos.shape[0]:
+        return None
+    bvh = _build_plain(np.stack([lo, hi], axis=1), builder)  # a box is the box of its 2 corners
+    bvh.order = ref_tri[bvh.order].astype(np.uint32)
+    return bvh
 
 
 def default_cache_dir() -> Path:
@@ -60,12 +95,14 @@ def default_cache_dir() -> Path:
     return Path.home() / ".cache" / "lift-gl" / "bvh"
 
 
-def cache_key(tri_positions: np.ndarray, builder: str = "sah") -> str:
+def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSettings = OFF) -> str:
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     h = hashlib.blake2b(digest_size=20)
     h.update(LAYOUT_VERSION.encode())
     if builder != "sah":  # the SAH keys stay what they were before there were other builders
         h.update(builder.encode())
+    if splits_apply(pos, splits):  # builds that splitting cannot change keep their keys
+        h.update(splits.key().encode())
     h.update(repr(pos.shape).encode())
     h.update(pos.reshape(-1).view(np.uint8))
     return h.hexdigest()
@@ -78,9 +115,11 @@ def _load(path: Path, n_tris: int) -> BVH | None:
             version = str(z["version"])
     except Exception:  # missing, truncated, not a zip, wrong keys...
         return None
+    # with splits (presplit.py) `order` repeats triangles: at least one row each
     ok = (version == LAYOUT_VERSION and nodes.dtype == np.float32 and nodes.ndim == 2
           and nodes.shape[1] == 8 and nodes.shape[0] >= 1 and order.dtype == np.uint32
-          and order.shape == (n_tris,) and 1 <= depth)
+          and order.ndim == 1 and order.shape[0] >= max(n_tris, 0) and 1 <= depth
+          and (n_tris <= 0 or (int(order.max()) < n_tris and np.unique(order).size == n_tris)))
     return BVH(nodes=nodes, order=order, depth=depth) if ok else None
 
 
@@ -102,19 +141,23 @@ def _store(path: Path, bvh: BVH) -> None:
         pass
 
 
-def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah") -> Path:
+def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah",
+               splits: SplitSettings = OFF) -> Path:
     root = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
-    return root / f"{cache_key(tri_positions, builder)}.npz"
+    return root / f"{cache_key(tri_positions, builder, splits)}.npz"
 
 
-def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | None = None) -> BVH:
-    """The BVH of tri_positions by `builder` (see resolve_builder), read from / written to
-    `cache_dir` (default: default_cache_dir())."""
+def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | None = None,
+                     splits=None) -> BVH:
+    """The BVH of tri_positions by `builder` (see resolve_builder), with large triangles split
+    per `splits` (presplit.resolve_splits: None reads $LIFT_GL_BVH_SPLITS, default on), read
+    from / written to `cache_dir` (default: default_cache_dir())."""
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     builder = resolve_builder(builder, pos.shape[0] if pos.ndim == 3 else 0)
-    path = cache_path(pos, cache_dir, builder)
+    splits = resolve_splits(splits)
+    path = cache_path(pos, cache_dir, builder, splits)
     bvh = _load(path, pos.shape[0] if pos.ndim == 3 else -1)
     if bvh is None:
-        bvh = build_with(pos, builder)
+        bvh = build_with(pos, builder, splits)
         _store(path, bvh)
     return bvh

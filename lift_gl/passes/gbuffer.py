@@ -20,6 +20,7 @@ from __future__ import annotations
 import os
 
 import moderngl
+import numpy as np
 
 from .. import shaders
 from .camera import near_far, view_projection
@@ -34,13 +35,12 @@ class GBufferPass:
     outputs = ("visibility", "normal_depth", "albedo")
 
     def __init__(self, ctx: moderngl.Context, size, defines: dict, num_triangles: int, num_spheres: int,
-                 motion_vectors: bool = False, instance_draws=()):
-        """num_triangles: the world-space triangles (drawn as they are); instance_draws:
-        (first triangle, triangles, first record, records) of each instanced draw, with
-        HAS_INSTANCES (PackedScene.instance_draws)."""
+                 motion_vectors: bool = False, instance_draws=(), raster_rows=None):
+        """num_triangles: the world-space triangle rows (drawn as they are, or only
+        `raster_rows`: set_triangles); instance_draws: (first triangle, triangles, first
+        record, records) of each instanced draw, with HAS_INSTANCES (PackedScene.instance_draws)."""
         self.ctx = ctx
         self.size = size
-        self.num_triangles = num_triangles
         self.num_spheres = num_spheres
         self.instance_draws = list(instance_draws)
         self.motion_vectors = motion_vectors
@@ -59,13 +59,32 @@ class GBufferPass:
         self.depth = ctx.depth_renderbuffer(size)
         self.fbo = self._framebuffer()
         self._spare_fbo = None  # the framebuffer for the other normal_depth texture (motion vectors)
-        self.vao = ctx.vertex_array(self._program("gbuffer", defines), [])
+        self.program = self._program("gbuffer", defines)
+        self.vao = self.index_buffer = None
+        self.set_triangles(num_triangles, raster_rows)
         self.instance_vao = None
         if defines.get("HAS_INSTANCES"):
             self.instance_vao = ctx.vertex_array(self._program("gbuffer", dict(defines, LIFT_INSTANCE_DRAW=True)), [])
         self.sphere_vao = None
         if num_spheres:
             self.sphere_vao = ctx.vertex_array(self._program("gbuffer_sphere", defines), [])
+
+    def set_triangles(self, num_triangles: int, raster_rows=None) -> None:
+        """The triangle rows to draw: all `num_triangles`, or only `raster_rows` (PackedScene:
+        a triangle the BVH stores several times is drawn once, from its first copy; gl_VertexID
+        is then the index buffer's entry, the copy's own vertex row)."""
+        for obj in (self.vao, self.index_buffer):
+            if obj is not None:
+                obj.release()
+        self.index_buffer = None
+        self.num_triangles = num_triangles
+        self.num_vertices = 3 * num_triangles
+        if raster_rows is not None and num_triangles:
+            rows = np.asarray(raster_rows, np.uint32)
+            vertices = (3 * rows[:, None] + np.arange(3, dtype=np.uint32)).ravel()
+            self.index_buffer = self.ctx.buffer(vertices.tobytes())
+            self.num_vertices = vertices.size
+        self.vao = self.ctx.vertex_array(self.program, [], index_buffer=self.index_buffer, index_element_size=4)
 
     def _framebuffer(self) -> moderngl.Framebuffer:
         colour = [self.visibility, self.normal_depth, self.albedo] + ([self.motion] if self.motion_vectors else [])
@@ -98,7 +117,7 @@ class GBufferPass:
         self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         if self.num_triangles:
             set_uniforms(self.vao.program, uniforms)
-            self.vao.render(moderngl.TRIANGLES, vertices=3 * self.num_triangles)
+            self.vao.render(moderngl.TRIANGLES, vertices=self.num_vertices)
         if self.instance_vao is not None and self.instance_draws:
             program = self.instance_vao.program
             set_uniforms(program, uniforms)
@@ -113,7 +132,7 @@ class GBufferPass:
 
     def release(self) -> None:
         for obj in (self.visibility, self.normal_depth, self.albedo, self.depth, self.fbo, self.vao,
-                    self.motion, self.prev_normal_depth, self._spare_fbo):
+                    self.index_buffer, self.program, self.motion, self.prev_normal_depth, self._spare_fbo):
             if obj is not None:
                 obj.release()
         for vao in (self.sphere_vao, self.instance_vao):

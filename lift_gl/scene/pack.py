@@ -1,6 +1,10 @@
 """Flatten a Scene into the arrays that shaders/lift/scene_data.glsl declares.
 
-Triangles of all meshes are concatenated and reordered into BVH leaf order.
+Triangles of all meshes are concatenated and reordered into BVH leaf order. Where the BVH
+split large triangles (accel/presplit.py) a triangle is stored once per leaf that holds it:
+every copy carries the same corners, normals, uvs, material and light-selection pdf, only the
+first is in the light table and rasterized (`raster_rows`), and `tri_order` maps each row back
+to its triangle.
 Moving objects (motion blur) are stored where they are when the shutter opens, plus their
 displacement until it closes (`motion`). One BVH serves the whole shutter interval: its
 topology is built over the boxes the triangles sweep, and each node keeps two boxes, at
@@ -86,6 +90,10 @@ class PackedScene:
     def instance_draws(self) -> list:
         """(first triangle, triangles, first record, records) per G-buffer draw of instances."""
         return [] if self.instance_table is None else self.instance_table.draws
+    # The rows the raster G-buffer draws, one per triangle (its first copy), when the BVH
+    # repeats triangles (accel/presplit.py); None: every row, each triangle is stored once.
+    raster_rows: np.ndarray | None = None  # uint32 (triangles,)
+    num_source_triangles: int | None = None  # triangles before the BVH's repeats (None: num_triangles)
 
     def to_gpu_camera(self, camera: Camera) -> Camera:
         """The camera in the rebased coordinates the GPU uses."""
@@ -202,11 +210,13 @@ def still_motion(packed: PackedScene) -> np.ndarray:
     return np.concatenate([displacement, packed.bvh_nodes.reshape(-1, 4)])
 
 
-def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None) -> PackedScene:
+def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
+               bvh_splits=None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
     `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
+    `bvh_splits`: see accel/presplit.py resolve_splits (None: $LIFT_GL_BVH_SPLITS, else auto).
     Instances: those that must be are flattened into world meshes (scene/instances.py), the
-    others traced through their prototypes' BLAS and a TLAS."""
+    others traced through their prototypes' BLAS and a TLAS (the BLAS are not split)."""
     instanced, traced = scene, []
     if scene.instances:
         flat, traced = split_instances(scene)
@@ -224,11 +234,18 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         # Corners at shutter open and at close: the BVH bounds the box each triangle sweeps.
         bvh_input = np.concatenate([positions, positions + tri_move[:, None, :].astype(np.float32)], axis=1)
     bvh_builder = resolve_builder(bvh_builder, len(bvh_input))
-    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder) if len(positions)
-           else build_bvh(positions))
+    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder, splits=bvh_splits)
+           if len(positions) else build_bvh(positions))
     order = bvh.order
+    n_source = len(positions)
     positions, normals, uvs, material_ids = positions[order], normals[order], uvs[order], material_ids[order]
     T_world, S = len(positions), len(scene.spheres)
+    # each world triangle's first row: the one copy that is a light and is rasterized
+    raster_rows = np.unique(order, return_index=True)[1].astype(np.uint32) if T_world > n_source else None
+    first_copy = np.ones(T_world, bool)
+    if raster_rows is not None:
+        first_copy[:] = False
+        first_copy[raster_rows] = True
     world_positions = positions
     blas_of, blas_nodes = {}, []
     if traced:  # the prototypes' BLAS after the world's triangles and nodes
@@ -269,7 +286,10 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         p = world_positions
         tri_area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
         tri_power = (emission[material_ids[:T_world]] @ LUMINANCE) * tri_area
-        emissive = np.nonzero(tri_power > 0)[0]
+        emissive = np.nonzero((tri_power > 0) & first_copy)[0]
+        # in the order of the input triangles, not the tree's: a light's index (the random
+        # number that picks it) does not depend on how the BVH was built
+        emissive = emissive[np.argsort(order[emissive], kind="stable")]
         light_prims += list(emissive)
         light_power += list(tri_power[emissive])
         light_area += list(tri_area[emissive])
@@ -292,6 +312,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     lights[: len(light_prims), 3] = light_area
     prim_select_pdf = np.zeros(T + S, np.float32)
     prim_select_pdf[np.asarray(light_prims, dtype=np.int64)] = select_pdf
+    if raster_rows is not None:  # every copy of an emissive triangle: its light's pdf (MIS)
+        prim_select_pdf[:T_world] = prim_select_pdf[raster_rows[order]]
 
     tri_info = np.zeros((max(T, 1), 2), np.uint32)
     tri_info[:T, 0] = material_ids
@@ -349,6 +371,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         instance_blas=blas_of or None,
         world_bounds=world_bounds,
         emitter_power=float(np.sum(light_power)),
+        raster_rows=raster_rows,
+        num_source_triangles=n_source,
     )
 
 

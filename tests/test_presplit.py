@@ -1,0 +1,206 @@
+"""Pre-split BVH references (accel/presplit.py): the split boxes cover their triangles, trees
+over them keep the layout rules and give the closest hits trimesh gives, the SAH cost falls on
+long thin triangles, `auto` leaves scenes without large triangles alone, the cache keys on the
+settings, and a renderer draws the same image with and without splits (the light table, the
+copies' light pdfs and the G-buffer's ids stay consistent)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from lift_gl.accel import cache as cache_mod
+from lift_gl.accel import presplit as ps
+from lift_gl.accel.bvh import build_bvh, check_invariants, intersect_numpy, sah_cost
+from test_bvh import MISMATCH_BOUND, disagreements, random_rays, soup, trimesh_closest
+
+FORCED = ps.SplitSettings(budget=1.0, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
+
+
+def slivers(n_small: int = 3000, n_long: int = 150, seed: int = 5, length: float | None = None) -> np.ndarray:
+    """Small random triangles in the unit cube and long thin ones (beams, blades) between
+    random points, or of `length` from random points."""
+    rng = np.random.default_rng(seed)
+    small = soup(n_small, seed=seed, size=0.004, degenerate=False)
+    a = rng.random((n_long, 3))
+    b = rng.random((n_long, 3))
+    if length is not None:
+        d = rng.standard_normal((n_long, 3))
+        b = a + length * d / np.linalg.norm(d, axis=1, keepdims=True)
+    side = 0.01 * rng.standard_normal((n_long, 3))
+    long_ = np.stack([a, b, a + side + 0.1 * (b - a)], axis=1)
+    return np.concatenate([small, long_.astype(np.float32)])
+
+
+def test_split_boxes_cover_their_triangles():
+    tris = slivers()
+    ref_tri, lo, hi = ps.presplit(tris, FORCED)
+    assert ref_tri.size > len(tris) * 1.5 and np.array_equal(np.unique(ref_tri), np.arange(len(tris)))
+    assert (lo <= hi).all()
+    # every reference inside its triangle's box, and every point of a triangle in one of its boxes
+    np.testing.assert_array_equal(np.minimum(lo, tris[ref_tri].min(1)), tris[ref_tri].min(1))
+    np.testing.assert_array_equal(np.maximum(hi, tris[ref_tri].max(1)), tris[ref_tri].max(1))
+    rng = np.random.default_rng(1)
+    split = np.flatnonzero(np.bincount(ref_tri) > 1)
+    u = rng.random((len(split), 64, 2))
+    u = np.where(u.sum(-1, keepdims=True) > 1, 1 - u, u)
+    t = tris[split].astype(np.float64)
+    pts = (t[:, None, 0] + u[..., :1] * (t[:, None, 1] - t[:, None, 0])
+           + u[..., 1:] * (t[:, None, 2] - t[:, None, 0])).astype(np.float32)          # (S, 64, 3)
+    pts = np.concatenate([pts, tris[split]], axis=1)                                   # and the corners
+    covered = np.zeros(pts.shape[:2], bool)
+    start = np.searchsorted(ref_tri, split)
+    for k in range(np.bincount(ref_tri).max()):
+        r = start + k
+        ok = (r < ref_tri.size)
+        ok[ok] &= ref_tri[r[ok]] == split[ok]
+        rr = np.where(ok, r, 0)
+        inside = ((pts >= lo[rr][:, None]) & (pts <= hi[rr][:, None])).all(-1)
+        covered |= inside & ok[:, None]
+    assert covered.all()
+    # the long triangles' pieces are much tighter than their whole boxes
+    long_ = np.arange(len(tris) - 150, len(tris))
+    pieces = np.isin(ref_tri, long_)
+    whole = ps._half_area(tris[long_].min(1).astype(np.float64), tris[long_].max(1).astype(np.float64)).sum()
+    assert ps._half_area(lo[pieces].astype(np.float64), hi[pieces].astype(np.float64)).sum() < 0.3 * whole
+
+
+@pytest.mark.parametrize("builder", ["sah", "lbvh"])
+def test_split_tree_closest_hits_match_trimesh(builder):
+    if builder == "lbvh":
+        pytest.importorskip("pyopencl")
+    tris = slivers()
+    b = cache_mod.build_with(tris, builder, FORCED)
+    assert b.order.size > len(tris)                       # triangles are repeated
+    check_invariants(b, tris[b.order])
+    o, d = random_rays(4000, seed=3)
+    t, row = intersect_numpy(b, tris[b.order], o, d)
+    t_ref, tri_ref = trimesh_closest(tris, o, d)
+    assert disagreements(t, t_ref).mean() < MISMATCH_BOUND
+    same = np.isfinite(t) & np.isclose(t, t_ref, rtol=1e-6)
+    assert (b.order[row[same]] == tri_ref[same]).mean() > 0.97
+    # the tree without splits gives the same hits
+    t_plain, _ = intersect_numpy(plain := build_bvh(tris), tris[plain.order], o, d)
+    assert disagreements(t, t_plain, rtol=1e-6).mean() == 0
+    assert sah_cost(b) < 0.8 * sah_cost(plain)
+
+
+def test_auto_keeps_scenes_without_large_triangles_and_splits_slivers():
+    small = soup(3000, seed=2, size=0.004, degenerate=False)   # nothing spans 1% of the cube
+    b = cache_mod.build_with(small, "sah", ps.AUTO)
+    assert b.order.size == len(small)
+    np.testing.assert_array_equal(b.nodes.view(np.uint32), build_bvh(small).nodes.view(np.uint32))
+    tris = slivers(length=0.4)   # 15-25% of the scene's diagonal
+    auto = cache_mod.build_with(tris, "sah", ps.AUTO)
+    assert auto.order.size > len(tris)
+    assert sah_cost(auto) <= (1 - ps.AUTO_MIN_GAIN) * sah_cost(build_bvh(tris))
+    # moving triangles (boxes swept over the shutter) are never split
+    swept = np.concatenate([tris, tris + 0.01], axis=1)
+    assert cache_mod.build_with(swept, "sah", ps.AUTO).order.size == len(tris)
+
+
+def test_cache_keys_on_split_settings(tmp_path):
+    tris = slivers(length=0.4)
+    auto = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="sah", splits="auto")
+    off = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="sah", splits="off")
+    assert len(list(tmp_path.glob("*.npz"))) == 2 and off.order.size == len(tris) < auto.order.size
+    again = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="sah", splits="auto")
+    np.testing.assert_array_equal(again.order, auto.order)
+    np.testing.assert_array_equal(again.nodes.view(np.uint32), auto.nodes.view(np.uint32))
+    assert cache_mod._load(cache_mod.cache_path(tris, tmp_path, "sah", ps.AUTO), len(tris)) is not None
+    assert cache_mod._load(cache_mod.cache_path(tris, tmp_path, "sah", ps.AUTO), len(tris) + 1) is None
+
+
+def test_resolve_splits(monkeypatch):
+    monkeypatch.delenv(ps.ENV_VAR, raising=False)
+    assert ps.resolve_splits(None) == ps.AUTO
+    monkeypatch.setenv(ps.ENV_VAR, "off")
+    assert ps.resolve_splits(None) == ps.OFF
+    monkeypatch.setenv(ps.ENV_VAR, "0.5")
+    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
+    monkeypatch.setenv(ps.ENV_VAR, "lots")
+    with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
+        ps.resolve_splits(None)
+
+
+def test_packed_copies_keep_ids_and_lights():
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.scene.pack import pack_scene
+
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    plain = pack_scene(scene, bvh_splits="off")
+    split = pack_scene(scene, bvh_splits="2")
+    assert plain.raster_rows is None and split.raster_rows is not None
+    n = plain.num_triangles
+    assert split.num_source_triangles == n < split.num_triangles
+    # every row is a copy of its triangle (tri_order: the input triangle), first copies rasterized
+    inv = np.argsort(plain.tri_order)
+    rows = inv[split.tri_order]
+    for name in ("tri_pos", "tri_normal", "tri_uv", "tri_info"):
+        np.testing.assert_array_equal(getattr(split, name)[: split.num_triangles], getattr(plain, name)[rows])
+    assert np.array_equal(np.sort(split.tri_order[split.raster_rows]), np.arange(n))
+    # the same lights, in the same order, each named by a copy of the same triangle
+    def lights(p):
+        ids = p.lights[: p.num_lights, 0].view(np.uint32).astype(np.int64)
+        tri = np.where(ids < p.num_triangles, p.tri_order[np.minimum(ids, p.num_triangles - 1)], -1)
+        return tri, p.lights[: p.num_lights, 1:]
+    (tri_a, rest_a), (tri_b, rest_b) = lights(plain), lights(split)
+    assert plain.num_lights == split.num_lights > 0
+    np.testing.assert_array_equal(tri_a, tri_b)
+    np.testing.assert_array_equal(rest_a, rest_b)
+
+
+@pytest.mark.parametrize("integrator, aov, gbuffer", [
+    ("pt", None, "raster"),     # the raster G-buffer draws first copies only (index buffer)
+    ("pt", None, "traced"),     # the ray-cast G-buffer's ids are whichever copy it hits
+    ("drt", None, "raster"),    # camera rays
+    ("bdpt", None, "raster"),   # light subpaths start on emissive triangles
+    ("pt", "normal", "raster"),
+])
+def test_renders_the_same_image_with_and_without_splits(monkeypatch, integrator, aov, gbuffer):
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.loader import load_scene
+
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    monkeypatch.setenv("LIFT_GL_GBUFFER", gbuffer)
+
+    def render(splits):
+        monkeypatch.setenv(ps.ENV_VAR, splits)
+        r = Renderer(scene, size=(40, 32), integrator=integrator, seed=3)
+        try:
+            assert (r.packed.raster_rows is not None) == (splits != "off")
+            return r.aov(aov) if aov else r.render(spp=4)
+        finally:
+            r.release()
+
+    plain, split = render("off"), render("3")
+    assert np.isfinite(plain).all() and plain.max() > 0
+    # the same hits through another tree: equal but where a ray meets two triangles at one
+    # t (a quad's diagonal), which one wins depends on the order of the visit
+    differ = np.abs(split - plain).max(axis=-1) > 1e-5 * max(float(plain.max()), 1.0)
+    assert differ.mean() <= 0.01, differ.mean()
+
+
+def test_scene_edit_with_splits_matches_a_fresh_renderer(monkeypatch):
+    """A geometry edit re-packs the scene; the new tree stores other copies, and the raster
+    G-buffer draws the new first copies (GBufferPass.set_triangles)."""
+    import dataclasses
+
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.loader import load_scene
+
+    monkeypatch.setenv(ps.ENV_VAR, "3")
+    monkeypatch.setenv("LIFT_GL_GBUFFER", "raster")
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    extra = [dataclasses.replace(m, positions=m.positions * 0.3 + [0.1, 0.2, 0.1]) for m in scene.meshes[:4]]
+    bigger = dataclasses.replace(scene, meshes=[*scene.meshes, *extra])
+    r = Renderer(scene, size=(32, 32), seed=1)
+    rows_before = r.packed.num_triangles
+    r.update_scene(bigger)
+    assert r.packed.raster_rows is not None and r.packed.num_triangles != rows_before
+    assert r.gbuffer.num_vertices == 3 * r.packed.num_source_triangles
+    image = r.render(spp=2)
+    fresh = Renderer(bigger, size=(32, 32), seed=1)
+    np.testing.assert_array_equal(image, fresh.render(spp=2))
+    r.release()
+    fresh.release()
