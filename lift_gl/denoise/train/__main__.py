@@ -1,12 +1,16 @@
-"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
+"""Train the denoiser and export it (torch: the `train` extra).
 
-    python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
-        --workers 10 --backend egl
+The shipped weights, in two stages on one working folder (the second resumes the first's
+checkpoint with a warm restart of the learning-rate schedule):
+
+    python -m lift_gl.denoise.train --out runs/denoiser --workers 10 --backend egl --no-export
+    python -m lift_gl.denoise.train --out runs/denoiser --scenes 400 --steps 21000 --schedule-start 11000 \
+        --lr 1e-3 --onnx assets/denoiser/lift_unet.onnx --workers 10 --backend egl
 
 It renders the training and validation scenes (resumable: existing files are kept), trains
 (resuming from --out/checkpoint.pt, whose architecture then wins over the options), and
-exports the ONNX model and its sidecar JSON. The defaults are the settings of the shipped
-model (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is its step-11000 state).
+exports the ONNX model and its sidecar JSON. The defaults are the settings of the first stage
+(docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the second stage's step-21000 state).
 """
 from __future__ import annotations
 
