@@ -1,12 +1,16 @@
-"""Train the denoiser and export it (torch: the `train` extra). The shipped weights:
+"""Train the denoiser and export it (torch: the `train` extra).
 
-    python -m lift_gl.denoise.train --out runs/denoiser --onnx assets/denoiser/lift_unet.onnx \
-        --workers 10 --backend egl
+The shipped weights, in two stages on one working folder (the second resumes the first's
+checkpoint with a warm restart of the learning-rate schedule):
+
+    python -m lift_gl.denoise.train --out runs/denoiser --workers 10 --backend egl --no-export
+    python -m lift_gl.denoise.train --out runs/denoiser --scenes 400 --steps 21000 --schedule-start 11000 \
+        --lr 1e-3 --onnx assets/denoiser/lift_unet.onnx --workers 10 --backend egl
 
 It renders the training and validation scenes (resumable: existing files are kept), trains
 (resuming from --out/checkpoint.pt, whose architecture then wins over the options), and
-exports the ONNX model and its sidecar JSON. The defaults are the settings of the shipped
-model (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is its step-11000 state).
+exports the ONNX model and its sidecar JSON. The defaults are the settings of the first stage
+(docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the second stage's step-21000 state).
 """
 from __future__ import annotations
 
@@ -30,6 +34,9 @@ def main(argv=None) -> int:
     p.add_argument("--size", type=int, default=256, help="image size of each scene (square)")
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
     p.add_argument("--steps", type=int, default=11000)
+    p.add_argument("--schedule-start", type=int, default=0,
+                   help="warm restart: the LR warm-up and cosine run from this step to --steps "
+                        "(resume a finished checkpoint at its step to train it longer)")
     p.add_argument("--batch", type=int, default=16)
     p.add_argument("--crop", type=int, default=128)
     p.add_argument("--lr", type=float, default=2e-3)
@@ -69,18 +76,20 @@ def main(argv=None) -> int:
     arch = {"encoder": [int(c) for c in a.encoder.split(",")], "bottleneck": a.bottleneck,
             "transform": a.transform, "full_res_convs": a.full_res_convs}
     result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at,
-                   a.loss_tonemap, arch)
+                   a.loss_tonemap, arch, a.schedule_start)
     model = result.pop("model")
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
               "train_scenes": result["train_scenes"], "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
               "reproduce": f"--first-scene {a.first_scene} --scenes {len(train_paths)} --ref-spp {a.ref_spp} "
                            f"--steps {a.steps}"
+                           + (f" --schedule-start {a.schedule_start} --lr {a.lr}" if a.schedule_start else "")
                            + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
               "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
               "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "batch": a.batch, "crop": a.crop, "lr": a.lr,
+              "schedule_start": a.schedule_start, "resumed_at_step": result["resumed_at"],
               "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),
               "data_bytes": data_bytes, "device": result["device"], "arch": model.arch}
     (a.out / "record.json").write_text(json.dumps(record, indent=2) + "\n")

@@ -67,13 +67,15 @@ def lr_at(step: int, steps: int, peak: float, warmup: int = 200) -> float:
 
 def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, crop: int = 128, lr: float = 2e-3,
           seed: int = 0, minutes: float | None = None, log=print, stop_at: int | None = None,
-          loss_tonemap: str = "log", arch: dict | None = None) -> dict:
+          loss_tonemap: str = "log", arch: dict | None = None, schedule_start: int = 0) -> dict:
     """Train (resuming from out_dir/checkpoint.pt when present); returns a summary dict.
 
     The learning rate follows a cosine over `steps`; `stop_at` ends the run earlier at that
     step (a resumable checkpoint; also how the shipped weights, cut short by a time cap, are
     reproduced exactly). `loss_tonemap` picks the loss's tone map (loss.TONEMAPS); `arch` the
-    network's DenoiseUNet arguments (a resumed checkpoint's own architecture wins)."""
+    network's DenoiseUNet arguments (a resumed checkpoint's own architecture wins).
+    `schedule_start` > 0 is a warm restart: the warm-up and cosine begin again at that step
+    (a resumed checkpoint's step) and end at `steps`, so a finished run can train longer."""
     device = "cuda" if torch.cuda.is_available() else "cpu"
     torch.manual_seed(seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
@@ -84,12 +86,14 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     model = DenoiseUNet(**(arch or {})).to(device).to(memory_format=torch.channels_last)
     opt = torch.optim.Adam(model.parameters(), lr=lr)
     step, seconds_before = 0, 0.0
+    resumed_at = None
     gen = torch.Generator().manual_seed(seed)
     if ckpt is not None:
         model.load_state_dict(ckpt["model"])
         opt.load_state_dict(ckpt["optimizer"])
         step, seconds_before = ckpt["step"], ckpt.get("seconds", 0.0)
         gen.set_state(ckpt["generator"].cpu())  # map_location moved it; the generator lives on the CPU
+        resumed_at = step
         log(f"train: resumed at step {step}")
     examples = Examples(train_paths, device)
     val = Examples(val_paths, device) if val_paths else None
@@ -106,7 +110,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
             log(f"train: time cap of {minutes} min reached at step {step}")
             break
         for group in opt.param_groups:
-            group["lr"] = lr_at(step, steps, lr)
+            group["lr"] = lr_at(step - schedule_start, steps - schedule_start, lr)
         x, div, tgt = examples.batch(gen, batch, crop)
         with amp:
             pred = model(x.contiguous(memory_format=torch.channels_last))
@@ -123,7 +127,8 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
                 f"val loss {vl:.4f}, {time.perf_counter() - start:.0f} s")
             save()
     save()
-    return {"steps": step, "seconds": seconds_before + time.perf_counter() - start, "device": device,
+    return {"steps": step, "resumed_at": resumed_at, "seconds": seconds_before + time.perf_counter() - start,
+            "device": device,
             "train_scenes": len(examples), "val_scenes": len(val) if val is not None else 0, "model": model}
 
 
