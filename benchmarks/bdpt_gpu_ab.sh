@@ -6,11 +6,12 @@
 #   DEST/base   BASE_REF's plugins/ and shaders/ (what variant `tree` compiles)
 #   DEST/shared/scenes_lift/{cornell-box,dining-room,classroom}, copied from SHARED
 # There (DEST carried, cwd DEST/new):   bash benchmarks/bdpt_gpu_ab.sh run OUTDIR
-#   1. gpu_pt_variants.py --integrator bdpt --variants tree,base: the two plugins compiled on
+#   1. gpu_pt_variants.py --integrator bdpt --variants tree,base,bdpt_unpacked: the plugins compiled on
 #      the same host and dispatched alternately over the same G-buffer (trace pass, GL timer
 #      queries, median of REPS) at each size in SIZES, path length 32, 1 spp. In its tables
 #      `tree` is BASE_REF's bdpt (the old one), `base` this checkout's, and the column
-#      "x base" of row `base` is old ms / new ms;
+#      "x base" of row `base` is old ms / new ms; `bdpt_unpacked` is this checkout's with
+#      the stored vertices' directions as floats (BDPT_PACK_NORMALS 0);
 #   2. gpu.py measure for this checkout's bdpt: whole frames (each pass timed), for the table
 #      beside the Lift paper's numbers.
 set -uo pipefail
@@ -31,7 +32,7 @@ run)
     scenes="$s/cornell-box/scene.pbrt $s/dining-room/scene.pbrt $s/classroom/scene.pbrt"
     for size in $(echo "${SIZES:-1920x1080,1280x720}" | tr , ' '); do
         echo "== bdpt: tree = the base commit's plugin, base = this checkout's; $size $(date -u +%T)"
-        PYTHONUNBUFFERED=1 "$py" benchmarks/gpu_pt_variants.py $scenes --integrator bdpt --variants tree,base \
+        PYTHONUNBUFFERED=1 "$py" benchmarks/gpu_pt_variants.py $scenes --integrator bdpt --variants tree,base,bdpt_unpacked \
             --base-tree ../base --size "$size" --max-depth 32 --reps "${REPS:-5}" --out "$out/bdpt_ab_$size.json" \
             --dump-binaries "$out/binaries_$size" 2>&1 | grep -v "Warning\|index = self.texture" > "$out/bdpt_ab_$size.md"
         cat "$out/bdpt_ab_$size.md"

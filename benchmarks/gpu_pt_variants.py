@@ -77,6 +77,12 @@ def no_path_steps(text: str) -> str:
     return _sub(text, "#define LIFT_PATH_STEPS\n", "")
 
 
+def bdpt_unpacked(text: str) -> str:
+    """bdpt's stored light subpath with its directions as floats (BDPT_PACK_NORMALS 0) rather
+    than one octahedral word each: what the packing saves in local memory, at some rounding."""
+    return text.replace("\n", "\n#define BDPT_PACK_NORMALS 0\n", 1)  # after #version
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -105,6 +111,7 @@ VARIANTS = {
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
+    "bdpt_unpacked": (bdpt_unpacked, {}, False),
 }
 
 

@@ -67,7 +67,7 @@ vec3 strategy_light_sample(PathVertex z, PathVertex z_prev, inout Rng rng) {
 
 // ---- t = 1: light vertex s-1 seen by the pinhole, splatted to its pixel ----
 void strategy_light_tracing(int s) {
-    PathVertex y = bdpt_light[s - 1];
+    PathVertex y = light_vertex(s - 1);
     if (!vertex_connectible(y)) return;
     vec2 pixel_pos;
     if (!camera_project(y.p, pixel_pos)) return;
@@ -81,7 +81,7 @@ void strategy_light_tracing(int s) {
     vec3 contribution = y.beta * at_y.f * importance;
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(y, wi, dist)) return;
 
-    PathVertex y_prev = bdpt_light[s - 2];
+    PathVertex y_prev = light_vertex(s - 2);
     float qs_rev = camera_pdf_dir(-wi) * abs(dot(y.ng, wi)) / dist2;  // a camera ray reaching y
     float qs_minus_rev = area_density(at_y.pdf_back, y.p, y_prev);
     float light_side = mis_side(qs_rev, y.pdf_fwd, y.mis_sum, vertex_delta(y_prev), qs_minus_rev, y_prev.pdf_fwd);
@@ -90,7 +90,7 @@ void strategy_light_tracing(int s) {
 
 // ---- s >= 2, t >= 2: light vertex s-1 and camera vertex z joined by a shadow ray ----
 vec3 strategy_connect(int s, PathVertex z, PathVertex z_prev) {
-    PathVertex y = bdpt_light[s - 1];
+    PathVertex y = light_vertex(s - 1);
     if (!vertex_connectible(y) || !vertex_connectible(z)) return vec3(0.0);
     vec3 d = y.p - z.p;
     float dist2 = dot(d, d);
@@ -102,7 +102,7 @@ vec3 strategy_connect(int s, PathVertex z, PathVertex z_prev) {
     vec3 contribution = z.beta * at_z.f * at_y.f * y.beta / dist2;
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(z, wi, dist)) return vec3(0.0);
 
-    PathVertex y_prev = bdpt_light[s - 2];
+    PathVertex y_prev = light_vertex(s - 2);
     float pt_rev = area_density(at_y.pdf_out, y.p, z);
     float pt_minus_rev = area_density(at_z.pdf_back, z.p, z_prev);
     float qs_rev = area_density(at_z.pdf_out, z.p, y);

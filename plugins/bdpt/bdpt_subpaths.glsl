@@ -58,7 +58,7 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
         if (goes_on && bs.is_delta) v.tag |= 1u;  // delta: never joined
 
         if (importance) {
-            bdpt_light[i] = v;
+            store_light_vertex(i, v);
         } else {
             L += camera_vertex_joins(v, prev, pdf_light_point(s), i + 1, light_vertices, rng);
         }
@@ -101,7 +101,7 @@ int light_subpath(int depth, inout Rng rng) {
     PathVertex y0 = path_vertex(light.p, light.n, light.n, vec3(0.0), light.radiance / light.pdf, light.pdf,
                                 vertex_tag(0u, light.delta ? VERTEX_DISTANT
                                                : light.infinite ? VERTEX_ENV : VERTEX_EMITTER));
-    bdpt_light[0] = y0;
+    store_light_vertex(0, y0);
     // Radiance times the cosine at the light, over the density of the ray (origin and direction).
     float cos_light = light.infinite ? 1.0 : dot(light.n, es.ray.dir);
     vec3 beta = light.radiance * (cos_light / (es.pdf_pos * es.pdf_dir));

@@ -58,8 +58,59 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
     return v;
 }
 
-// Private to each invocation: the light subpath, y0 first.
+// Private to each invocation: the light subpath, y0 first. Stored with its three directions
+// in one word each (lift/octahedral.glsl, about 5e-5 rad): 12 words a vertex rather than 18,
+// since on a GPU this array is local memory, read by every join. BDPT_PACK_NORMALS 0 keeps
+// them as floats (benchmarks/gpu_pt_variants.py times both).
+#ifndef BDPT_PACK_NORMALS
+#define BDPT_PACK_NORMALS 1
+#endif
+#if BDPT_PACK_NORMALS
+#include "lift/octahedral.glsl"
+struct StoredVertex {
+    vec3 p;
+    uint ng, ns, wo;    // pack_unit_vector
+    vec3 beta;
+    float pdf_fwd;
+    float mis_sum;
+    uint tag;
+#ifdef HAS_TEXTURES
+    vec3 tint;
+#endif
+};
+StoredVertex bdpt_light[BDPT_LIGHT_VERTICES];
+
+void store_light_vertex(int i, PathVertex v) {
+    StoredVertex s;
+    s.p = v.p;
+    s.ng = pack_unit_vector(v.ng);
+    s.ns = pack_unit_vector(v.ns);
+    s.wo = pack_unit_vector(v.wo);
+    s.beta = v.beta;
+    s.pdf_fwd = v.pdf_fwd;
+    s.mis_sum = v.mis_sum;
+    s.tag = v.tag;
+#ifdef HAS_TEXTURES
+    s.tint = v.tint;
+#endif
+    bdpt_light[i] = s;
+}
+
+PathVertex light_vertex(int i) {
+    StoredVertex s = bdpt_light[i];
+    PathVertex v = path_vertex(s.p, unpack_unit_vector(s.ng), unpack_unit_vector(s.ns), unpack_unit_vector(s.wo),
+                               s.beta, s.pdf_fwd, s.tag);
+    v.mis_sum = s.mis_sum;
+#ifdef HAS_TEXTURES
+    v.tint = s.tint;
+#endif
+    return v;
+}
+#else
 PathVertex bdpt_light[BDPT_LIGHT_VERTICES];
+void store_light_vertex(int i, PathVertex v) { bdpt_light[i] = v; }
+PathVertex light_vertex(int i) { return bdpt_light[i]; }
+#endif
 
 uint vertex_kind(PathVertex v) { return v.tag >> 1u & 7u; }
 uint vertex_material(PathVertex v) { return v.tag >> 4u; }
