@@ -1,10 +1,10 @@
-"""Where `pt`'s trace pass spends its GPU time: variants of its compute program, timed alike.
+"""Where `pt`'s (or `bdpt`'s) trace pass spends its GPU time: variants of its compute program, timed alike.
 
     python benchmarks/gpu_pt_variants.py SCENE... [--size 1920x1080] [--max-depth 32]
-        [--variants main,base,s8x8,...] [--base-tree CHECKOUT] [--reps 7] [--out FILE.json]
-        [--dump-binaries DIR]
+        [--integrator pt|bdpt] [--variants main,base,s8x8,...] [--base-tree CHECKOUT] [--reps 7]
+        [--out FILE.json] [--dump-binaries DIR]
 
-For each scene the renderer is built once (pt, 1 spp, path length --max-depth); its trace
+For each scene the renderer is built once (--integrator, default pt, 1 spp, path length --max-depth); its trace
 program's source (lift_gl/passes/trace.py) is then edited into variants (VARIANTS below),
 each compiled into its own program, and the programs are dispatched in turn, round after
 round (order reversed every other round), over the same G-buffer, scene buffers and uniforms.
@@ -15,7 +15,11 @@ purpose (no shadow rays, shorter paths) to tell what a part of the path costs. F
 variant the image's difference from the first is recorded, so an "exact" variant that
 changed the picture shows up. `main` is the trace program of another checkout
 (--base-tree: its shaders/ and plugins/), as it ran there, so a change is measured against
-the code it replaces in the same process.
+the code it replaces in the same process. `tree` is the plugin of that checkout (its plugins/NAME
+and shaders/) built as this renderer builds its own (work-group shape, stack placement, the
+manifest's defines): an A/B of a plugin's code on today's host, e.g. bdpt against a commit:
+    python benchmarks/gpu_pt_variants.py SCENE --integrator bdpt --variants base,tree --base-tree ../base
+For bdpt the two images differ by their random numbers (mean_rgb tells whether they agree).
 
 The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
 one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
@@ -73,6 +77,12 @@ def no_path_steps(text: str) -> str:
     return _sub(text, "#define LIFT_PATH_STEPS\n", "")
 
 
+def bdpt_unpacked(text: str) -> str:
+    """bdpt's stored light subpath with its directions as floats (BDPT_PACK_NORMALS 0) rather
+    than one octahedral word each: what the packing saves in local memory, at some rounding."""
+    return text.replace("\n", "\n#define BDPT_PACK_NORMALS 0\n", 1)  # after #version
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -101,7 +111,29 @@ VARIANTS = {
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
+    "bdpt_unpacked": (bdpt_unpacked, {}, False),
 }
+
+
+def tree_plugin_source(renderer, tree: Path) -> str:
+    """The trace program that checkout `tree`'s plugin (its plugins/NAME and shaders/) gives
+    with this renderer's host: same work groups, stack placement and defines."""
+    from lift_gl import shaders
+    from lift_gl.passes.splat import splat_defines
+    from lift_gl.passes.trace import generate_main
+    from lift_gl.plugins import param_defines
+
+    defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params), PRIMARY_GBUFFER=True)
+    if renderer.plugin.splats:
+        defines.update(splat_defines(renderer.ctx))
+    local = renderer.trace.local_size
+    if "LIFT_BVH_SHARED_STACK" in renderer.trace.source.text:
+        defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
+    folder = tree / "plugins" / renderer.plugin.name
+    main = generate_main(renderer.plugin, local).replace(
+        renderer.plugin.entry_path.as_posix(), (folder / renderer.plugin.entry_path.name).resolve().as_posix())
+    return shaders.assemble(main, defines, include_dirs=[folder, tree / "shaders"],
+                            main_name=f"<{tree} trace main>").text
 
 
 def tree_source(renderer, tree: Path) -> str:
@@ -201,7 +233,7 @@ def gbuffer_variants(renderer) -> dict:
     return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
 
 
-def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None):
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt"):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
@@ -210,7 +242,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
     from lift_gl.scene.loader import load_scene
 
     scene = load_scene(path)
-    r = Renderer(scene, size=size, integrator="pt", params={"max_depth": max_depth}, ctx=ctx)
+    r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth}, ctx=ctx)
     r.render(spp=2)  # warm-up; leaves a G-buffer for the variants
     cpu = is_software(ctx)
     base_source = r.trace.source.text
@@ -221,6 +253,8 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
             src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
         elif name == "main":
             src, over, exact, local = tree_source(r, base_tree), {}, True, (8, 8)
+        elif name == "tree":
+            src, over, exact, local = tree_plugin_source(r, base_tree), {}, integrator == "pt", r.trace.local_size
         else:
             edit, over, exact = VARIANTS[name]
             src = edit(base_source) if edit else base_source
@@ -237,6 +271,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
                       "binary": binary_summary(blob)}
     w, h = size
     frame = r.trace.frame
+    splats = r.trace.splats
     query = ctx.query(time=True)
     gb = gbuffer_variants(r) if r.gbuffer is not None else {}
     gb_programs = {k: ctx.program(vertex_shader=v, fragment_shader=f) for k, (v, f) in gb.items()}
@@ -253,7 +288,13 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
             r.gbuffer.visibility.use(location=0)
             prog["u_visibility"].value = 0
         frame.bind_to_image(0, read=False, write=True)
+        if splats is not None:
+            splats.bind()
         prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+
+    def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
+        if splats is not None:
+            splats.add_to(frame)
 
     def refresh():  # the renderer's own G-buffer (raster or traced) for the trace variants
         if r.gbuffer is not None:
@@ -291,6 +332,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
     refresh()
     for name in names:
         dispatch(name)
+        resolve_splats()
         images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()
     times = {name: [] for name in names}
     gb_names = [*gb, "traced"] if gb else []
@@ -300,6 +342,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
         for name in order:
             refresh()
             ms = timed(dispatch, name)
+            resolve_splats()
             if rep:
                 times[name].append(ms)
         for name in (gb_names if rep % 2 == 0 else gb_names[::-1]):
@@ -308,7 +351,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
                 gb_times[name].append(ms)
     base = images[names[0]]
     result = {"scene": Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
-              "size": [w, h], "triangles": int(r.packed.num_triangles), "max_depth": max_depth, "variants": {}}
+              "integrator": integrator, "size": [w, h], "triangles": int(r.packed.num_triangles), "max_depth": max_depth, "variants": {}}
     for name in names:
         img = images[name]
         result["variants"][name] = dict(info[name], ms=times[name], median_ms=float(np.median(times[name])),
@@ -325,7 +368,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None)
 
 def table(record: dict) -> str:
     names = record["variants"]
-    lines = [f"{record['gl']}; pt, 1 spp, path length {record['max_depth']}; trace pass ms (median of "
+    lines = [f"{record['gl']}; {record.get('integrator', 'pt')}, 1 spp, path length {record['max_depth']}; trace pass ms (median of "
              f"{record['reps']} timer-queried dispatches, variants interleaved); x base = base ms / variant ms.", "",
              "| variant | exact | " + " | ".join(f"{c['scene']} ms | x base" for c in record["results"]) + " |",
              "|---|---|" + "---|---|" * len(record["results"])]
@@ -351,8 +394,9 @@ def main(argv=None) -> int:
     ap.add_argument("scenes", nargs="+")
     ap.add_argument("--size", default="1920x1080")
     ap.add_argument("--max-depth", type=int, default=32)
+    ap.add_argument("--integrator", default="pt", help="pt or bdpt (or any plugin of this checkout)")
     ap.add_argument("--variants", default=",".join(list(VARIANTS) + ["camera"]),
-                    help="comma-separated, the first is the reference of the image check; also camera, main")
+                    help="comma-separated, the first is the reference of the image check; also camera, main, tree")
     ap.add_argument("--reps", type=int, default=7)
     ap.add_argument("--out", type=Path)
     ap.add_argument("--dump-binaries", type=Path)
@@ -361,16 +405,17 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
     for n in names:
-        if n == "main" and args.base_tree is None:
-            raise SystemExit("--variants main needs --base-tree")
-        if n not in VARIANTS and n not in ("camera", "main"):
+        if n in ("main", "tree") and args.base_tree is None:
+            raise SystemExit(f"--variants {n} needs --base-tree")
+        if n not in VARIANTS and n not in ("camera", "main", "tree"):
             raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
     ctx = create_context(args.backend)
-    record = {"gl": describe(ctx), "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
+    record = {"gl": describe(ctx), "integrator": args.integrator, "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
               "variants": names, "results": []}
     for path in args.scenes:
         start = time.perf_counter()
-        res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree)
+        res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree,
+                        args.integrator)
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())

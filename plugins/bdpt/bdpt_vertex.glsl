@@ -3,9 +3,11 @@
 // conversion of a direction's density into an area density at the next vertex. Multiple
 // importance sampling compares strategies by these area densities (Veach 1997, sec. 10.2).
 
-// Subpaths live in fixed arrays, so the longest path is a compile-time bound. The host defines
-// BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml) and recompiles when it changes: arrays
-// no longer than the paths keep an invocation's private memory small (scratch memory on a GPU,
+// Only the light subpath is stored: the camera subpath is joined to it vertex by vertex as it
+// is traced (bdpt_subpaths.glsl), keeping just its last two vertices in registers. The light
+// subpath lives in a fixed array, so the longest path is a compile-time bound. The host defines
+// BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml) and recompiles when it changes: an array
+// no longer than the paths keeps an invocation's private memory small (local memory on a GPU,
 // the stack on llvmpipe). Longer paths are cut at 64 bounces.
 #ifndef BDPT_MAX_DEPTH
 #define BDPT_MAX_DEPTH 64
@@ -13,9 +15,7 @@
 #undef BDPT_MAX_DEPTH
 #define BDPT_MAX_DEPTH 64
 #endif
-#define BDPT_CAMERA_VERTICES (BDPT_MAX_DEPTH + 2)   // z0 (the pinhole) .. z_{d+1}
 #define BDPT_LIGHT_VERTICES (BDPT_MAX_DEPTH + 1)    // y0 (on a light) .. y_d
-#define BDPT_LIGHT_BASE BDPT_CAMERA_VERTICES        // light vertex i is bdpt_path[BDPT_LIGHT_BASE + i]
 
 const uint VERTEX_CAMERA = 0u;   // the pinhole
 const uint VERTEX_SURFACE = 1u;  // a scattering point on either subpath
@@ -30,65 +30,129 @@ struct PathVertex {
     vec3 wo;            // unit direction towards the previous vertex of the same subpath
     vec3 beta;          // throughput of the subpath up to this vertex, this vertex's BSDF excluded
     float pdf_fwd;      // area density of this vertex, sampled from the previous one
-    float pdf_rev;      // area density of this vertex, were it sampled from the next one instead
-    float emitter_pdf;  // density of sample_light_point choosing this point (0: not an emitter)
+    float mis_sum;      // the MIS ratios of the vertices before the previous one (bdpt_mis.glsl)
     uint tag;           // material << 4 | kind (VERTEX_*) << 1 | delta: one word, not three
+#ifdef HAS_TEXTURES
+    vec3 tint;          // what the texture multiplies the base colour by (texture_tint), looked up
+                        // once when the vertex is made rather than at every join
+#endif
 };
 
 // A vertex's tag; `delta` (scattered by a delta lobe: mirror, smooth glass; cannot be joined)
-// is set later, when the vertex's BSDF is sampled.
+// is set when the vertex's BSDF is sampled.
 uint vertex_tag(uint material, uint kind) { return material << 4u | kind << 1u; }
 
-// Private to each invocation: camera subpath first, then the light subpath.
-PathVertex bdpt_path[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
+PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_fwd, uint tag) {
+    PathVertex v;
+    v.p = p;
+    v.ng = ng;
+    v.ns = ns;
+    v.wo = wo;
+    v.beta = beta;
+    v.pdf_fwd = pdf_fwd;
+    v.mis_sum = 0.0;
+    v.tag = tag;
 #ifdef HAS_TEXTURES
-// What the texture multiplies each surface vertex's base colour by (texture_tint), looked up
-// once when the vertex is made rather than at every join. Beside bdpt_path rather than in it:
-// only scenes with image textures carry it.
-vec3 bdpt_tint[BDPT_CAMERA_VERTICES + BDPT_LIGHT_VERTICES];
+    v.tint = vec3(1.0);
 #endif
+    return v;
+}
 
-uint vertex_kind(int i) { return bdpt_path[i].tag >> 1u & 7u; }
-uint vertex_material(int i) { return bdpt_path[i].tag >> 4u; }
-bool vertex_delta(int i) { return (bdpt_path[i].tag & 1u) != 0u; }
-
-// The material that scatters at surface vertex i: its texture applied, as pt shades it.
-Material vertex_bsdf_material(int i) {
+// Private to each invocation: the light subpath, y0 first. Stored with its three directions
+// in one word each (lift/octahedral.glsl, about 5e-5 rad): 12 words a vertex rather than 18,
+// since on a GPU this array is local memory, read by every join. BDPT_PACK_NORMALS 0 keeps
+// them as floats (benchmarks/gpu_pt_variants.py times both).
+#ifndef BDPT_PACK_NORMALS
+#define BDPT_PACK_NORMALS 1
+#endif
+#if BDPT_PACK_NORMALS
+#include "lift/octahedral.glsl"
+struct StoredVertex {
+    vec3 p;
+    uint ng, ns, wo;    // pack_unit_vector
+    vec3 beta;
+    float pdf_fwd;
+    float mis_sum;
+    uint tag;
 #ifdef HAS_TEXTURES
-    return material_tinted(vertex_material(i), bdpt_tint[i]);
+    vec3 tint;
+#endif
+};
+StoredVertex bdpt_light[BDPT_LIGHT_VERTICES];
+
+void store_light_vertex(int i, PathVertex v) {
+    StoredVertex s;
+    s.p = v.p;
+    s.ng = pack_unit_vector(v.ng);
+    s.ns = pack_unit_vector(v.ns);
+    s.wo = pack_unit_vector(v.wo);
+    s.beta = v.beta;
+    s.pdf_fwd = v.pdf_fwd;
+    s.mis_sum = v.mis_sum;
+    s.tag = v.tag;
+#ifdef HAS_TEXTURES
+    s.tint = v.tint;
+#endif
+    bdpt_light[i] = s;
+}
+
+PathVertex light_vertex(int i) {
+    StoredVertex s = bdpt_light[i];
+    PathVertex v = path_vertex(s.p, unpack_unit_vector(s.ng), unpack_unit_vector(s.ns), unpack_unit_vector(s.wo),
+                               s.beta, s.pdf_fwd, s.tag);
+    v.mis_sum = s.mis_sum;
+#ifdef HAS_TEXTURES
+    v.tint = s.tint;
+#endif
+    return v;
+}
 #else
-    return materials[vertex_material(i)];
+PathVertex bdpt_light[BDPT_LIGHT_VERTICES];
+void store_light_vertex(int i, PathVertex v) { bdpt_light[i] = v; }
+PathVertex light_vertex(int i) { return bdpt_light[i]; }
+#endif
+
+uint vertex_kind(PathVertex v) { return v.tag >> 1u & 7u; }
+uint vertex_material(PathVertex v) { return v.tag >> 4u; }
+bool vertex_delta(PathVertex v) { return (v.tag & 1u) != 0u; }
+
+// The material that scatters at surface vertex v: its texture applied, as pt shades it.
+Material vertex_bsdf_material(PathVertex v) {
+#ifdef HAS_TEXTURES
+    return material_tinted(vertex_material(v), v.tint);
+#else
+    return materials[vertex_material(v)];
 #endif
 }
 
-bool vertex_on_surface(int i) {
-    return vertex_kind(i) == VERTEX_SURFACE || vertex_kind(i) == VERTEX_EMITTER;
+bool vertex_on_surface(PathVertex v) {
+    return vertex_kind(v) == VERTEX_SURFACE || vertex_kind(v) == VERTEX_EMITTER;
 }
 
-// Whether another vertex can be joined to vertex i with a shadow ray.
-bool vertex_connectible(int i) {
-    return vertex_kind(i) == VERTEX_SURFACE && !vertex_delta(i);
+// Whether another vertex can be joined to vertex v with a shadow ray.
+bool vertex_connectible(PathVertex v) {
+    return vertex_kind(v) == VERTEX_SURFACE && !vertex_delta(v);
 }
 
-bool vertex_at_infinity(int i) {
-    return vertex_kind(i) == VERTEX_ENV || vertex_kind(i) == VERTEX_DISTANT;
+bool vertex_at_infinity(PathVertex v) {
+    return vertex_kind(v) == VERTEX_ENV || vertex_kind(v) == VERTEX_DISTANT;
 }
 
-// A solid-angle density at point `from`, towards vertex i, as an area density at vertex i.
+// A solid-angle density at point `from`, towards vertex v, as an area density at v.
 // Directions to lights at infinity keep their solid-angle density (pbrt does the same).
-float area_density(float pdf_dir, vec3 from, int i) {
-    if (vertex_at_infinity(i)) return pdf_dir;
-    vec3 d = bdpt_path[i].p - from;
+float area_density(float pdf_dir, vec3 from, PathVertex v) {
+    if (vertex_at_infinity(v)) return pdf_dir;
+    vec3 d = v.p - from;
     float dist2 = dot(d, d);
     if (!(dist2 > 0.0)) return 0.0;
-    float cos_i = vertex_on_surface(i) ? abs(dot(bdpt_path[i].ng, d)) * inversesqrt(dist2) : 1.0;
-    return pdf_dir * cos_i / dist2;
+    float cos_v = vertex_on_surface(v) ? abs(dot(v.ng, d)) * inversesqrt(dist2) : 1.0;
+    return pdf_dir * cos_v / dist2;
 }
 
-// Opaque surfaces (m: vertex i's material) pass no light from one side of their geometry to
+// Opaque surfaces (m: vertex v's material) pass no light from one side of their geometry to
 // the other, whatever the shading normal says.
-bool vertex_blocks(Material m, int i, vec3 wo, vec3 wi) {
-    return is_opaque(m) && dot(wi, bdpt_path[i].ng) * dot(wo, bdpt_path[i].ng) <= 0.0;
+bool vertex_blocks(Material m, PathVertex v, vec3 wo, vec3 wi) {
+    return is_opaque(m) && dot(wi, v.ng) * dot(wo, v.ng) <= 0.0;
 }
 
 // Light subpaths carry importance, whose BSDF is the adjoint of radiance's. Two differences:
@@ -102,43 +166,41 @@ float adjoint_refraction(Material m, vec3 wo_local, vec3 wi_local) {
 
 // ... and shading normals make the BSDF non-symmetric: importance is carried with the factor
 // |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) (Veach 1997, sec. 5.3). 1 where ns = ng.
-float adjoint_shading_normal(int i, vec3 wo, vec3 wi) {
-    vec3 ns = bdpt_path[i].ns, ng = bdpt_path[i].ng;
-    float denominator = abs(dot(wo, ng)) * abs(dot(wi, ns));
-    return denominator > 0.0 ? abs(dot(wo, ns)) * abs(dot(wi, ng)) / denominator : 0.0;
+float adjoint_shading_normal(PathVertex v, vec3 wo, vec3 wi) {
+    float denominator = abs(dot(wo, v.ng)) * abs(dot(wi, v.ns));
+    return denominator > 0.0 ? abs(dot(wo, v.ns)) * abs(dot(wi, v.ng)) / denominator : 0.0;
 }
 
-// What a join needs of surface vertex i for world directions wo (towards the previous vertex
+// What a join needs of surface vertex v for world directions wo (towards the previous vertex
 // of its own subpath) and wi (towards the vertex it is joined to): the BSDF, and the two
 // densities MIS compares. One frame and one material fetch serve all three.
 struct VertexScatter {
     vec3 f;         // f(wo, wi) |cos(wi, ns)|; `importance`: the adjoint, for light subpaths
-    float pdf_out;  // solid-angle density of bsdf_sample at i picking wi, coming from wo
+    float pdf_out;  // solid-angle density of bsdf_sample at v picking wi, coming from wo
     float pdf_back; // ... picking wo, coming from wi (the subpath walked the other way)
 };
 
-VertexScatter vertex_scatter(int i, vec3 wo, vec3 wi, bool importance) {
-    VertexScatter v = VertexScatter(vec3(0.0), 0.0, 0.0);
-    Material m = vertex_bsdf_material(i);
-    if (vertex_blocks(m, i, wo, wi)) return v;
-    Frame frame = frame_from_normal(bdpt_path[i].ns);
-    vec3 wo_local = to_local(frame, wo), wi_local = to_local(frame, wi);
-    v.f = bsdf_eval(m, wo_local, wi_local);
-    if (importance) v.f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(i, wo, wi);
-    v.pdf_out = bsdf_pdf(m, wo_local, wi_local);
-    v.pdf_back = bsdf_pdf(m, wi_local, wo_local);
-    return v;
+VertexScatter vertex_scatter(PathVertex v, vec3 wi, bool importance) {
+    VertexScatter vs = VertexScatter(vec3(0.0), 0.0, 0.0);
+    Material m = vertex_bsdf_material(v);
+    if (vertex_blocks(m, v, v.wo, wi)) return vs;
+    Frame frame = frame_from_normal(v.ns);
+    vec3 wo_local = to_local(frame, v.wo), wi_local = to_local(frame, wi);
+    vs.f = bsdf_eval(m, wo_local, wi_local);
+    if (importance) vs.f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(v, v.wo, wi);
+    vs.pdf_out = bsdf_pdf(m, wo_local, wi_local);
+    vs.pdf_back = bsdf_pdf(m, wi_local, wo_local);
+    return vs;
 }
 
-// Whether nothing lies between vertex i and the point at distance dist along dir (1e30: the
+// Whether nothing lies between vertex v and the point at distance dist along dir (1e30: the
 // environment). The ray starts offset off the surface on dir's side, aims from there at the
 // end point and stops just short of it (see spawn_shadow_ray in lift/surface.glsl).
-bool vertex_sees(int i, vec3 dir, float dist) {
-    vec3 p = bdpt_path[i].p;
-    vec3 n = dot(dir, bdpt_path[i].ng) >= 0.0 ? bdpt_path[i].ng : -bdpt_path[i].ng;
-    Ray r = Ray(offset_ray_origin(p, n), dir, 0.0, 1e30);
+bool vertex_sees(PathVertex v, vec3 dir, float dist) {
+    vec3 n = dot(dir, v.ng) >= 0.0 ? v.ng : -v.ng;
+    Ray r = Ray(offset_ray_origin(v.p, n), dir, 0.0, 1e30);
     if (dist < 1e30) {
-        vec3 to_end = p + dir * dist - r.origin;
+        vec3 to_end = v.p + dir * dist - r.origin;
         float len = length(to_end);
         if (len > 0.0) r.dir = to_end / len;
         r.tmax = len * (1.0 - 1e-4);
