@@ -152,7 +152,8 @@ def bind_as_storage(renderer) -> None:
 
     renderer.buffers.bind()
     for name, binding in SCENE_BINDINGS.items():
-        renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
+        if name in renderer.buffers.buffers:  # `instances` exists only in instanced scenes
+            renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
 
 
 def ray_throughput(renderer, size, repeat: int = 8) -> dict:
