@@ -36,6 +36,6 @@ timeout 80 python3 benchmarks/gpu.py measure $s/dining-room/scene.pbrt $s/classr
 [ -n "${SKIP_BIG:-}" ] && exit 0
 timeout 60 python3 benchmarks/subdivided_mesh.py $W/shared/assets/meshes/dragon_100k.ply $W/shared/assets/meshes/dragon_6400k.ply --levels 3
 sed 's/dragon_100k.ply/dragon_6400k.ply/' scenes/covered_dragon.toml > scenes/covered_dragon_6400k.toml
-timeout 100 python3 benchmarks/gpu.py measure scenes/covered_dragon_6400k.toml --sizes $SZ --integrators pt \
+LIFT_GL_BVH_BUILDER=sah timeout 400 python3 benchmarks/gpu.py measure scenes/covered_dragon_6400k.toml --sizes $SZ --integrators pt \
     --no-rays --label final --out $OUT/dragon_6400k.json 2>&1 | grep -v Warning | tail -8
 exit 0
