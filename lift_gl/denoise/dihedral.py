@@ -32,3 +32,13 @@ def ensemble_transforms(size: int):
     if size not in ENSEMBLE_SIZES:
         raise ValueError(f"ensemble must be one of {ENSEMBLE_SIZES}, not {size!r}")
     return _ALL[:size]
+
+
+def ensemble_mean(run, x: np.ndarray, size: int) -> np.ndarray:
+    """The mean over the first `size` symmetries of inverse(run(forward(x))), in float64 then
+    float32; `run` maps an (N, C, H, W) input to an (N, C', H, W) output of the same H and W."""
+    total = None
+    for forward, inverse in ensemble_transforms(size):
+        y = inverse(run(np.ascontiguousarray(forward(x)))).astype(np.float64)
+        total = y if total is None else total + y
+    return (total / size).astype(np.float32)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LiftError
-from .dihedral import ENSEMBLE_SIZES, ensemble_transforms
+from .dihedral import ENSEMBLE_SIZES, ensemble_mean
 from .model_io import checked_color, network_input, network_output
 from .tiling import pad_to_multiple, run_tiled
 
@@ -109,13 +109,10 @@ class OnnxDenoiser:
         if self._session is None:
             self._load()
         color = checked_color(color, albedo, normal)
-        h, w = color.shape[:2]
         x, exposure = network_input(color, albedo, normal)  # one exposure for every mirror image
-        total = None
-        for forward, inverse in ensemble_transforms(self.ensemble):
-            xt = np.ascontiguousarray(forward(x))
-            ht, wt = xt.shape[2:]
-            y = run_tiled(self._run, pad_to_multiple(xt, self._multiple), self._tile, self._overlap)
-            y = inverse(y[:, :, :ht, :wt]).astype(np.float64)
-            total = y if total is None else total + y
-        return network_output((total / self.ensemble).astype(np.float32), exposure, albedo)
+        y = ensemble_mean(self._run_padded, x, self.ensemble)
+        return network_output(y, exposure, albedo)
+
+    def _run_padded(self, x: np.ndarray) -> np.ndarray:
+        h, w = x.shape[2:]
+        return run_tiled(self._run, pad_to_multiple(x, self._multiple), self._tile, self._overlap)[:, :, :h, :w]
