@@ -293,6 +293,15 @@ def test_glsl_denoiser_ensemble_matches_onnx_denoiser(gl_ctx):
     assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
 
 
+def test_renderer_texture_path_refuses_an_ensemble(gl_ctx):
+    from lift_gl.denoise.glsl_denoiser import GlslDenoiser
+    from lift_gl.errors import DenoiserError
+    from lift_gl.passes.denoise import DenoisePass
+
+    with pytest.raises(DenoiserError, match="ensemble"):
+        DenoisePass(gl_ctx, (16, 16), "glsl", numpy_denoiser=GlslDenoiser(ctx=gl_ctx, ensemble=2))
+
+
 def denoiser_bound(color, albedo, normal, want):
     """How far GlslDenoiser may differ from OnnxDenoiser on these inputs: the network's
     rounding bound (above) carried through the output transform (divide by the exposure,
