@@ -114,3 +114,25 @@ def test_log_transform_values_and_gradient():
     assert bool(torch.all(y.grad > 0))
     with pytest.raises(ValueError, match="transform"):
         DenoiseUNet(transform="pu")
+
+
+def test_ssim_weight_scales_only_the_ssim_term():
+    """denoise_loss(ssim_weight=w) - denoise_loss(ssim_weight=0) is w x (1 - SSIM) of the
+    tone-mapped images, SSIM computed here from its definition on a uniform 7x7 window."""
+    torch = pytest.importorskip("torch")
+    from lift_gl.denoise.train.loss import denoise_loss, tonemap
+
+    g = torch.Generator().manual_seed(0)
+    pred, target = torch.rand(2, 3, 20, 24, generator=g), torch.rand(2, 3, 20, 24, generator=g)
+    base = denoise_loss(pred, target, ssim_weight=0.0)
+    p, t = (torch.clamp(tonemap(x), 0, 1).double() for x in (pred, target))
+    windows = lambda x: x.unfold(2, 7, 1).unfold(3, 7, 1).reshape(*x.shape[:2], 14, 18, 49)
+    wp, wt = windows(p), windows(t)
+    mp, mt = wp.mean(-1), wt.mean(-1)
+    vp, vt = ((wp - mp[..., None]) ** 2).mean(-1), ((wt - mt[..., None]) ** 2).mean(-1)
+    cov = ((wp - mp[..., None]) * (wt - mt[..., None])).mean(-1)
+    c1, c2 = 0.01 ** 2, 0.03 ** 2
+    ssim = (((2 * mp * mt + c1) * (2 * cov + c2)) / ((mp ** 2 + mt ** 2 + c1) * (vp + vt + c2))).mean()
+    for w in (0.2, 2.0):
+        got = float(denoise_loss(pred, target, ssim_weight=w) - base)
+        assert got == pytest.approx(w * (1 - float(ssim)), rel=1e-4, abs=1e-6)

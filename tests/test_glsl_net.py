@@ -262,6 +262,46 @@ def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
     assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
 
 
+def test_glsl_denoiser_ensemble_matches_onnx_denoiser(gl_ctx):
+    """With ensemble=2 (the image and its mirror image, averaged) both executors agree within
+    the mean of the two passes' bounds."""
+    if not SHIPPED.is_file():
+        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
+    from lift_gl.denoise.glsl_denoiser import GlslDenoiser
+    from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
+
+    rng = np.random.default_rng(5)
+    h, w = 19, 37
+    albedo = rng.random((h, w, 3)).astype(np.float32)
+    color = (albedo * rng.exponential(1.0, (h, w, 1))).astype(np.float32)
+    normal = rng.standard_normal((h, w, 3)).astype(np.float32)
+    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    glsl = GlslDenoiser(ctx=gl_ctx, ensemble=2)
+    try:
+        got = glsl.denoise(color, albedo, normal)
+    finally:
+        glsl.release()
+    onnx_cpu = dict(providers=["CPUExecutionProvider"])
+    want = OnnxDenoiser(ensemble=2, **onnx_cpu).denoise(color, albedo, normal)
+    single = OnnxDenoiser(ensemble=1, **onnx_cpu)
+    mirror = lambda a: np.ascontiguousarray(a[:, ::-1])
+    bounds = [denoiser_bound(color, albedo, normal, single.denoise(color, albedo, normal)),
+              mirror(denoiser_bound(*map(mirror, (color, albedo, normal)),
+                                    single.denoise(*map(mirror, (color, albedo, normal)))))]
+    bound = (bounds[0] + bounds[1]) / 2 + 4 * U * np.abs(want)  # plus the mean's own rounding
+    assert np.abs(want - single.denoise(color, albedo, normal)).max() > 10 * bound.max()  # the ensemble differs
+    assert (np.abs(got - want) <= bound).all(), np.abs(got - want).max()
+
+
+def test_renderer_texture_path_refuses_an_ensemble(gl_ctx):
+    from lift_gl.denoise.glsl_denoiser import GlslDenoiser
+    from lift_gl.errors import DenoiserError
+    from lift_gl.passes.denoise import DenoisePass
+
+    with pytest.raises(DenoiserError, match="ensemble"):
+        DenoisePass(gl_ctx, (16, 16), "glsl", numpy_denoiser=GlslDenoiser(ctx=gl_ctx, ensemble=2))
+
+
 def denoiser_bound(color, albedo, normal, want):
     """How far GlslDenoiser may differ from OnnxDenoiser on these inputs: the network's
     rounding bound (above) carried through the output transform (divide by the exposure,

@@ -24,10 +24,10 @@ def get_denoiser(name: str, **options):
     """The denoiser called `name`, its heavy imports done only now.
 
     atrous: the GLSL à-trous filter (options: ctx, settings or its fields, backend);
-    onnx: the trained network (lift_gl/denoise/onnx_denoiser.py; option model_path);
+    onnx: the trained network (lift_gl/denoise/onnx_denoiser.py; options model_path, ensemble);
     oidn: Intel Open Image Denoise through pyoidn (pip install 'lift-gl[oidn]');
     glsl: the onnx model's graph run by GLSL compute shaders (lift_gl/denoise/glsl_denoiser.py;
-    options model_path, ctx), needing the onnx package to read the model but not onnxruntime.
+    options model_path, ctx, ensemble), needing the onnx package to read the model but not onnxruntime.
     """
     if name == "atrous":
         from .atrous import AtrousDenoiser

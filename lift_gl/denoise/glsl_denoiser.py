@@ -4,7 +4,10 @@ rounding, on any OpenGL 4.3 device.
 
     GlslDenoiser().denoise(color, albedo, normal)  # (H, W, 3) float32 each
 
-The model is read and its shaders compiled on the first denoise() call.
+The model is read and its shaders compiled on the first denoise() call. `ensemble` (1, 2, 4
+or 8; default 1, whatever the sidecar says) averages over that many mirror images as the
+onnxruntime path does (lift_gl/denoise/dihedral.py); the renderer's texture path
+(passes/net_denoise.py, `network()`) always runs the single pass.
 """
 from __future__ import annotations
 
@@ -18,8 +21,13 @@ DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "assets" / "denoiser" / "l
 class GlslDenoiser:
     name = "glsl"
 
-    def __init__(self, model_path=None, ctx=None, **net_options):
+    def __init__(self, model_path=None, ctx=None, ensemble: int = 1, **net_options):
+        from .dihedral import ENSEMBLE_SIZES
+
+        if ensemble not in ENSEMBLE_SIZES:
+            raise ValueError(f"ensemble must be one of {ENSEMBLE_SIZES}, not {ensemble!r}")
         self.model_path = Path(model_path) if model_path is not None else DEFAULT_MODEL
+        self.ensemble = ensemble
         self._ctx = ctx
         self._net_options = net_options
         self.net = None
@@ -38,13 +46,14 @@ class GlslDenoiser:
 
     def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
         """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
+        from .dihedral import ensemble_mean
         from .model_io import checked_color, network_input, network_output  # the onnxruntime path's own preparation
 
         if self.net is None:
             self._load()
         color = checked_color(color, albedo, normal)
         x, exposure = network_input(color, albedo, normal)
-        return network_output(self.net.run_numpy(x), exposure, albedo)
+        return network_output(ensemble_mean(self.net.run_numpy, x, self.ensemble), exposure, albedo)
 
     def release(self) -> None:
         if self.net is not None:

@@ -6,6 +6,11 @@ The model (assets/denoiser/lift_unet.onnx, trained by lift_gl/denoise/train) and
 JSON are read on the first denoise() call, with the best execution provider onnxruntime
 offers here (CUDA, DirectML, CoreML, else CPU). Inputs are padded to the network's multiple;
 images larger than `tile` a side are denoised in overlapping tiles (lift_gl/denoise/tiling.py).
+
+`ensemble` (1, 2, 4 or 8) averages the network's outputs over that many mirror images of the
+input (test-time self-ensemble, lift_gl/denoise/dihedral.py): each pass sees the image flipped
+or rotated, its output is turned back, and the outputs are averaged. It costs that many passes.
+None takes the sidecar's `inference.ensemble` (1 where absent).
 """
 from __future__ import annotations
 
@@ -15,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LiftError
+from .dihedral import ENSEMBLE_SIZES, ensemble_mean
 from .model_io import checked_color, network_input, network_output
 from .tiling import pad_to_multiple, run_tiled
 
@@ -37,9 +43,13 @@ def best_providers(available) -> list[str]:
 class OnnxDenoiser:
     name = "onnx"
 
-    def __init__(self, model_path=None, tile: int = DEFAULT_TILE, providers=None, threads: int | None = None):
+    def __init__(self, model_path=None, tile: int = DEFAULT_TILE, providers=None, threads: int | None = None,
+                 ensemble: int | None = None):
         self.model_path = Path(model_path) if model_path is not None else DEFAULT_MODEL
         self.tile = int(tile)
+        if ensemble is not None and ensemble not in ENSEMBLE_SIZES:
+            raise ValueError(f"ensemble must be one of {ENSEMBLE_SIZES}, not {ensemble!r}")
+        self.ensemble = ensemble
         self._providers = providers
         self._threads = threads
         self._session = None
@@ -55,6 +65,9 @@ class OnnxDenoiser:
         try:
             meta = json.loads(json_path.read_text())
             multiple, overlap = int(meta["multiple"]), int(meta["receptive_radius"])
+            ensemble = int(meta.get("inference", {}).get("ensemble", 1))
+            if ensemble not in ENSEMBLE_SIZES:
+                raise ValueError(f"inference.ensemble must be one of {ENSEMBLE_SIZES}, not {ensemble}")
         except FileNotFoundError:
             raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
         except (ValueError, KeyError, TypeError) as e:
@@ -74,6 +87,8 @@ class OnnxDenoiser:
             raise DenoiserModelError(f"not a loadable ONNX model ({type(e).__name__}: "
                                      f"{str(e).strip().splitlines()[0][:200]})", path) from None
         self.meta, self._multiple = meta, multiple
+        if self.ensemble is None:
+            self.ensemble = ensemble
         # tiles and their context are aligned to the network's multiple so that pooling grids agree
         self._overlap = -(-overlap // multiple) * multiple
         self._tile = max(multiple, self.tile // multiple * multiple)
@@ -94,7 +109,10 @@ class OnnxDenoiser:
         if self._session is None:
             self._load()
         color = checked_color(color, albedo, normal)
-        h, w = color.shape[:2]
-        x, exposure = network_input(color, albedo, normal)
-        y = run_tiled(self._run, pad_to_multiple(x, self._multiple), self._tile, self._overlap)
-        return network_output(y[:, :, :h, :w], exposure, albedo)
+        x, exposure = network_input(color, albedo, normal)  # one exposure for every mirror image
+        y = ensemble_mean(self._run_padded, x, self.ensemble)
+        return network_output(y, exposure, albedo)
+
+    def _run_padded(self, x: np.ndarray) -> np.ndarray:
+        h, w = x.shape[2:]
+        return run_tiled(self._run, pad_to_multiple(x, self._multiple), self._tile, self._overlap)[:, :, :h, :w]

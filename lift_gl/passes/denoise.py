@@ -41,6 +41,12 @@ class DenoisePass:
         if getattr(numpy_denoiser, "name", None) == "glsl":
             from .net_denoise import NetDenoise
 
+            if getattr(numpy_denoiser, "ensemble", 1) != 1:  # said, not silently ignored
+                from ..errors import DenoiserError
+
+                raise DenoiserError("the renderer's glsl denoiser runs the network once on its textures: "
+                                    "ensemble > 1 is for the onnx denoiser or GlslDenoiser.denoise on arrays")
+
             self.net = NetDenoise(ctx, self.size, numpy_denoiser.network())
             self.output = self.net.output  # _run_numpy (the readback road, for comparison) writes here too
         elif numpy_denoiser is None:

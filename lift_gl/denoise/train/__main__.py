@@ -51,6 +51,8 @@ def main(argv=None) -> int:
     p.add_argument("--loss-tonemap", default="log", choices=("log", "log1p"),  # loss.TONEMAPS (torch loads later)
                    help="the loss's tone map (lift_gl/denoise/train/loss.py); "
                         "log1p trained the first model's first 2604 steps")
+    p.add_argument("--ssim-weight", type=float, default=0.2,  # loss.W_SSIM (torch loads later)
+                   help="weight of the loss's 1 - SSIM term (L1 and gradient terms keep theirs)")
     p.add_argument("--encoder", default="32,48,64,80",  # model.ENCODER (torch loads later)
                    help="encoder channels at 1, 1/2, 1/4, 1/8 resolution")
     p.add_argument("--bottleneck", type=int, default=80, help="bottleneck channels at 1/16")
@@ -76,7 +78,7 @@ def main(argv=None) -> int:
     arch = {"encoder": [int(c) for c in a.encoder.split(",")], "bottleneck": a.bottleneck,
             "transform": a.transform, "full_res_convs": a.full_res_convs}
     result = train(train_paths, val_paths, a.out, a.steps, a.batch, a.crop, a.lr, a.seed, a.minutes, log, a.stop_at,
-                   a.loss_tonemap, arch, a.schedule_start)
+                   a.loss_tonemap, arch, a.schedule_start, a.ssim_weight)
     model = result.pop("model")
     data_bytes = sum(f.stat().st_size for f in train_paths + val_paths)
     record = {"command": "python -m lift_gl.denoise.train " + " ".join(argv if argv is not None else sys.argv[1:]),
@@ -84,11 +86,12 @@ def main(argv=None) -> int:
               "reproduce": f"--first-scene {a.first_scene} --scenes {len(train_paths)} --ref-spp {a.ref_spp} "
                            f"--steps {a.steps}"
                            + (f" --schedule-start {a.schedule_start} --lr {a.lr}" if a.schedule_start else "")
+                           + (f" --ssim-weight {a.ssim_weight}" if a.ssim_weight != 0.2 else "")
                            + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
               "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
-              "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "batch": a.batch, "crop": a.crop, "lr": a.lr,
+              "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "ssim_weight": a.ssim_weight, "batch": a.batch, "crop": a.crop, "lr": a.lr,
               "schedule_start": a.schedule_start, "resumed_at_step": result["resumed_at"],
               "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),
               "data_bytes": data_bytes, "device": result["device"], "arch": model.arch}

@@ -42,6 +42,9 @@ def sidecar(model: DenoiseUNet, record: dict) -> dict:
                          "parameters": sum(p.numel() for p in model.parameters()),
                          "macs_per_pixel": macs_per_pixel(model)},
         "training": record,
+        # the OnnxDenoiser's default self-ensemble (lift_gl/denoise/dihedral.py): 1, one pass;
+        # 2, 4 or 8 average over mirror images at that many times the cost (docs/denoiser.md)
+        "inference": {"ensemble": 1},
     }
 
 

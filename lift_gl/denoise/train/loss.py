@@ -46,7 +46,9 @@ def gradient_l1(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return F.l1_loss(dx(a), dx(b)) + F.l1_loss(dy(a), dy(b))
 
 
-def denoise_loss(pred_radiance: torch.Tensor, target_radiance: torch.Tensor, kind: str = "log") -> torch.Tensor:
+def denoise_loss(pred_radiance: torch.Tensor, target_radiance: torch.Tensor, kind: str = "log",
+                 ssim_weight: float = W_SSIM) -> torch.Tensor:
+    """L1 + W_GRADIENT x gradient L1 + ssim_weight x (1 - SSIM), on tone-mapped values."""
     p, t = tonemap(pred_radiance, kind), tonemap(target_radiance, kind)
     return (F.l1_loss(p, t) + W_GRADIENT * gradient_l1(p, t)
-            + W_SSIM * (1.0 - ssim(torch.clamp(p, 0, 1), torch.clamp(t, 0, 1))))
+            + ssim_weight * (1.0 - ssim(torch.clamp(p, 0, 1), torch.clamp(t, 0, 1))))

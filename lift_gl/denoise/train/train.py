@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .loss import denoise_loss
+from .loss import W_SSIM, denoise_loss
 from .model import DenoiseUNet
 
 TRAIN_LEVELS_WEIGHTS = (3, 2, 3, 2, 2, 1, 1)  # 1..64 spp; the low counts matter most
@@ -67,7 +67,8 @@ def lr_at(step: int, steps: int, peak: float, warmup: int = 200) -> float:
 
 def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, crop: int = 128, lr: float = 2e-3,
           seed: int = 0, minutes: float | None = None, log=print, stop_at: int | None = None,
-          loss_tonemap: str = "log", arch: dict | None = None, schedule_start: int = 0) -> dict:
+          loss_tonemap: str = "log", arch: dict | None = None, schedule_start: int = 0,
+          ssim_weight: float = W_SSIM) -> dict:
     """Train (resuming from out_dir/checkpoint.pt when present); returns a summary dict.
 
     The learning rate follows a cosine over `steps`; `stop_at` ends the run earlier at that
@@ -75,7 +76,9 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     reproduced exactly). `loss_tonemap` picks the loss's tone map (loss.TONEMAPS); `arch` the
     network's DenoiseUNet arguments (a resumed checkpoint's own architecture wins).
     `schedule_start` > 0 is a warm restart: the warm-up and cosine begin again at that step
-    (a resumed checkpoint's step) and end at `steps`, so a finished run can train longer."""
+    (a resumed checkpoint's step) and end at `steps`, so a finished run can train longer.
+    `ssim_weight` is the training loss's SSIM weight; the validation loss keeps the default
+    (loss.W_SSIM) so that runs with other weights stay comparable."""
     device = "cuda" if torch.cuda.is_available() else "cpu"
     torch.manual_seed(seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
@@ -114,7 +117,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
         x, div, tgt = examples.batch(gen, batch, crop)
         with amp:
             pred = model(x.contiguous(memory_format=torch.channels_last))
-        loss = denoise_loss(pred.float() * div, tgt, loss_tonemap)
+        loss = denoise_loss(pred.float() * div, tgt, loss_tonemap, ssim_weight)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
