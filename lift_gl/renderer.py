@@ -214,6 +214,7 @@ class Renderer:
             options = dict(self.denoiser_options)
             if self.denoiser == "glsl":  # its shaders run in the renderer's context, not a second one
                 options.setdefault("ctx", self.ctx)
+                options.setdefault("ensemble", 1)  # the texture road runs the network once (passes/denoise.py)
             self._numpy_denoiser = get_denoiser(self.denoiser, **options)
         return DenoisePass(self.ctx, self.size, self.denoiser, numpy_denoiser=self._numpy_denoiser)
 

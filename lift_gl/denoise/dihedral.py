@@ -42,3 +42,11 @@ def ensemble_mean(run, x: np.ndarray, size: int) -> np.ndarray:
         y = inverse(run(np.ascontiguousarray(forward(x)))).astype(np.float64)
         total = y if total is None else total + y
     return (total / size).astype(np.float32)
+
+
+def sidecar_ensemble(meta: dict) -> int:
+    """The model sidecar's default number of passes, `inference.ensemble` (1 where absent)."""
+    n = int(meta.get("inference", {}).get("ensemble", 1))
+    if n not in ENSEMBLE_SIZES:
+        raise ValueError(f"inference.ensemble must be one of {ENSEMBLE_SIZES}, not {n}")
+    return n

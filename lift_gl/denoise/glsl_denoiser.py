@@ -5,9 +5,10 @@ rounding, on any OpenGL 4.3 device.
     GlslDenoiser().denoise(color, albedo, normal)  # (H, W, 3) float32 each
 
 The model is read and its shaders compiled on the first denoise() call. `ensemble` (1, 2, 4
-or 8; default 1, whatever the sidecar says) averages over that many mirror images as the
-onnxruntime path does (lift_gl/denoise/dihedral.py); the renderer's texture path
-(passes/net_denoise.py, `network()`) always runs the single pass.
+or 8; None: the sidecar's `inference.ensemble`, as OnnxDenoiser) averages over that many
+mirror images as the onnxruntime path does (lift_gl/denoise/dihedral.py); the renderer's
+texture path (passes/net_denoise.py, `network()`, the viewer's real-time road) always runs
+the single pass.
 """
 from __future__ import annotations
 
@@ -21,10 +22,10 @@ DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "assets" / "denoiser" / "l
 class GlslDenoiser:
     name = "glsl"
 
-    def __init__(self, model_path=None, ctx=None, ensemble: int = 1, **net_options):
+    def __init__(self, model_path=None, ctx=None, ensemble: int | None = None, **net_options):
         from .dihedral import ENSEMBLE_SIZES
 
-        if ensemble not in ENSEMBLE_SIZES:
+        if ensemble is not None and ensemble not in ENSEMBLE_SIZES:
             raise ValueError(f"ensemble must be one of {ENSEMBLE_SIZES}, not {ensemble!r}")
         self.model_path = Path(model_path) if model_path is not None else DEFAULT_MODEL
         self.ensemble = ensemble
@@ -51,9 +52,25 @@ class GlslDenoiser:
 
         if self.net is None:
             self._load()
+        if self.ensemble is None:
+            self.ensemble = self._sidecar_ensemble()
         color = checked_color(color, albedo, normal)
         x, exposure = network_input(color, albedo, normal)
         return network_output(ensemble_mean(self.net.run_numpy, x, self.ensemble), exposure, albedo)
+
+    def _sidecar_ensemble(self) -> int:
+        import json
+
+        from .onnx_denoiser import DenoiserModelError
+        from .dihedral import sidecar_ensemble
+
+        json_path = self.model_path.with_suffix(".json")
+        try:
+            return sidecar_ensemble(json.loads(json_path.read_text()))
+        except FileNotFoundError:
+            raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
+        except (ValueError, TypeError, AttributeError) as e:
+            raise DenoiserModelError(f"the model's sidecar JSON is not valid ({e})", json_path) from None
 
     def release(self) -> None:
         if self.net is not None:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LiftError
-from .dihedral import ENSEMBLE_SIZES, ensemble_mean
+from .dihedral import ENSEMBLE_SIZES, ensemble_mean, sidecar_ensemble
 from .model_io import checked_color, network_input, network_output
 from .tiling import pad_to_multiple, run_tiled
 
@@ -65,9 +65,7 @@ class OnnxDenoiser:
         try:
             meta = json.loads(json_path.read_text())
             multiple, overlap = int(meta["multiple"]), int(meta["receptive_radius"])
-            ensemble = int(meta.get("inference", {}).get("ensemble", 1))
-            if ensemble not in ENSEMBLE_SIZES:
-                raise ValueError(f"inference.ensemble must be one of {ENSEMBLE_SIZES}, not {ensemble}")
+            ensemble = sidecar_ensemble(meta)
         except FileNotFoundError:
             raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
         except (ValueError, KeyError, TypeError) as e:

@@ -41,7 +41,7 @@ class DenoisePass:
         if getattr(numpy_denoiser, "name", None) == "glsl":
             from .net_denoise import NetDenoise
 
-            if getattr(numpy_denoiser, "ensemble", 1) != 1:  # said, not silently ignored
+            if getattr(numpy_denoiser, "ensemble", None) not in (None, 1):  # said, not silently ignored
                 from ..errors import DenoiserError
 
                 raise DenoiserError("the renderer's glsl denoiser runs the network once on its textures: "
