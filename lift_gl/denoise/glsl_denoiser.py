@@ -53,24 +53,12 @@ class GlslDenoiser:
         if self.net is None:
             self._load()
         if self.ensemble is None:
-            self.ensemble = self._sidecar_ensemble()
+            from .onnx_denoiser import read_sidecar  # the onnxruntime path's own reading and checks
+
+            self.ensemble = read_sidecar(self.model_path).ensemble
         color = checked_color(color, albedo, normal)
         x, exposure = network_input(color, albedo, normal)
         return network_output(ensemble_mean(self.net.run_numpy, x, self.ensemble), exposure, albedo)
-
-    def _sidecar_ensemble(self) -> int:
-        import json
-
-        from .onnx_denoiser import DenoiserModelError
-        from .dihedral import sidecar_ensemble
-
-        json_path = self.model_path.with_suffix(".json")
-        try:
-            return sidecar_ensemble(json.loads(json_path.read_text()))
-        except FileNotFoundError:
-            raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
-        except (ValueError, TypeError, AttributeError) as e:
-            raise DenoiserModelError(f"the model's sidecar JSON is not valid ({e})", json_path) from None
 
     def release(self) -> None:
         if self.net is not None:

@@ -15,6 +15,7 @@ None takes the sidecar's `inference.ensemble` (1 where absent).
 from __future__ import annotations
 
 import json
+from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,23 @@ DEFAULT_TILE = 2048  # a 1080p frame runs in one pass; larger images in tiles (m
 
 class DenoiserModelError(LiftError):
     """A denoiser model file (or its sidecar JSON) that is missing or cannot be loaded."""
+
+
+Sidecar = namedtuple("Sidecar", "meta multiple receptive_radius ensemble")
+
+
+def read_sidecar(model_path: Path) -> Sidecar:
+    """The model's sidecar JSON (beside it, .json) with the fields inference needs checked:
+    the size multiple, the receptive radius and the default self-ensemble. A missing or
+    invalid file raises DenoiserModelError naming it."""
+    json_path = Path(model_path).with_suffix(".json")
+    try:
+        meta = json.loads(json_path.read_text())
+        return Sidecar(meta, int(meta["multiple"]), int(meta["receptive_radius"]), sidecar_ensemble(meta))
+    except FileNotFoundError:
+        raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
+    except (ValueError, KeyError, TypeError, AttributeError) as e:
+        raise DenoiserModelError(f"the model's sidecar JSON is not valid ({e})", json_path) from None
 
 
 def best_providers(available) -> list[str]:
@@ -61,15 +79,7 @@ class OnnxDenoiser:
         if not path.is_file():
             raise DenoiserModelError("denoiser model file not found (train one with "
                                      "`python -m lift_gl.denoise.train`, see docs/denoiser.md)", path)
-        json_path = path.with_suffix(".json")
-        try:
-            meta = json.loads(json_path.read_text())
-            multiple, overlap = int(meta["multiple"]), int(meta["receptive_radius"])
-            ensemble = sidecar_ensemble(meta)
-        except FileNotFoundError:
-            raise DenoiserModelError("the model's sidecar JSON (inputs and normalisation) is missing", json_path) from None
-        except (ValueError, KeyError, TypeError) as e:
-            raise DenoiserModelError(f"the model's sidecar JSON is not valid ({e})", json_path) from None
+        meta, multiple, overlap, ensemble = read_sidecar(path)
         try:
             import onnxruntime as ort
         except ImportError:
