@@ -33,7 +33,7 @@ from .loader import warn_at
 from .mesh_io import load_mesh_file
 from .mitsuba_bsdfs import BsdfReader
 from .mitsuba_props import Props
-from .model import Camera, DistantLight, Environment, Material, Mesh, PixelFilter, Scene
+from .model import Camera, DistantLight, Environment, Material, Mesh, PixelFilter, Scene, film_filter
 from .texture_files import TextureLibrary, read_environment_image
 from .xml_tree import Node, parse_xml
 
@@ -240,18 +240,18 @@ class _Loader:
             return
         p = Props(node, self.warn)
         where = f"{node.where[0]}:{node.where[1]}"
-        if p.kind == "box":
-            self.scene.pixel_filter = None  # a box over each pixel: what every render does anyway
+        if p.kind == "box":  # Mitsuba's box: half a pixel either way
+            self.scene.pixel_filter = film_filter("box", (0.5, 0.5), source=where)
         elif p.kind == "tent":
             radius = p.float("radius", 1.0)
             if not radius > 0:
                 raise SceneError("the tent filter's radius must be positive", *node.where)
-            self.scene.pixel_filter = PixelFilter("triangle", (radius, radius), source=where)
+            self.scene.pixel_filter = film_filter("triangle", (radius, radius), source=where)
         elif p.kind == "gaussian":
             stddev = p.float("stddev", 0.5)
             if not stddev > 0:
                 raise SceneError("the gaussian filter's stddev must be positive", *node.where)
-            self.scene.pixel_filter = PixelFilter("gaussian", (4 * stddev, 4 * stddev), alpha=0.5 / stddev ** 2,
+            self.scene.pixel_filter = film_filter("gaussian", (4 * stddev, 4 * stddev), alpha=0.5 / stddev ** 2,
                                                   source=where)
         else:
             self.warn(node, f"rfilter '{p.kind}' cannot be sampled as a density (negative lobes or unknown); "

@@ -195,6 +195,15 @@ class PixelFilter:
     source: str = ""
 
 
+def film_filter(kind: str, radius, alpha: float = 2.0, source: str = "") -> PixelFilter | None:
+    """The scene's PixelFilter as the importers keep it: None for a box of half a pixel, which
+    is what every render does without a filter (a box over each rendered pixel)."""
+    radius = tuple(float(v) for v in radius)
+    if kind == "box" and radius == (0.5, 0.5):
+        return None
+    return PixelFilter(kind, radius, alpha=alpha, source=source)
+
+
 @dataclass
 class DistantLight:
     """A directional (delta) light: `irradiance` on a surface facing it, arriving from

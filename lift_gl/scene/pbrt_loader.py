@@ -35,7 +35,7 @@ from ..errors import LiftError, SceneError
 from . import primitives as prim
 from .loader import internal_error, warn_at
 from .mesh_io import load_mesh_file
-from .model import Camera, DistantLight, Environment, Instance, Material, Mesh, PixelFilter, Scene
+from .model import Camera, DistantLight, Environment, Instance, Material, Mesh, Scene, film_filter
 from .optics import ior_from_f0
 from .texture_files import FLOAT_EXTENSIONS, TextureLibrary, read_environment_image
 
@@ -542,10 +542,7 @@ class _Builder:
         ps.warn_unused(f"PixelFilter '{kind}'")
         if not all(np.isfinite(r) and r > 0 for r in radius) or not alpha > 0:
             raise SceneError(f"PixelFilter '{kind}': xwidth, ywidth and alpha must be positive", st.path, st.line)
-        if kind == "box" and radius == (0.5, 0.5):
-            self.scene.pixel_filter = None  # a box over each pixel: what every render does anyway
-        else:
-            self.scene.pixel_filter = PixelFilter(kind=kind, radius=radius, alpha=alpha, source=f"{st.path}:{st.line}")
+        self.scene.pixel_filter = film_filter(kind, radius, alpha, source=f"{st.path}:{st.line}")
 
     def do_Film(self, st):
         kind, ps = self._kind_and_params(st)

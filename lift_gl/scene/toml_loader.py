@@ -18,7 +18,7 @@ from . import primitives as prim
 from .loader import framing_camera, warn_at
 from .mesh_io import load_mesh_file
 from .instances import check_transform
-from .model import Camera, DistantLight, Environment, Instance, Material, PixelFilter, Scene
+from .model import Camera, DistantLight, Environment, Instance, Material, Scene, film_filter
 from .texture_files import TextureLibrary, read_environment_image
 
 # RGB complex indices of refraction (eta, k) at roughly 650/550/450 nm.
@@ -314,10 +314,7 @@ def _read_pixel_filter(r, scene):
                                      and math.isfinite(v) and v > 0 for v in radius)):
         r.error("filter_radius", f"'filter_radius' in [film] must be a positive number or [x, y], not {_show(value)}")
     alpha = r.number("filter_alpha", 2.0, positive=True)
-    if kind == "box" and radius == (0.5, 0.5):
-        return  # a box over each pixel: what every render does anyway
-    scene.pixel_filter = PixelFilter(kind, tuple(float(v) for v in radius), alpha=alpha,
-                                     source=f"{r.ctx.path}:{r.line('filter')}")
+    scene.pixel_filter = film_filter(kind, radius, alpha, source=f"{r.ctx.path}:{r.line('filter')}")
 
 
 def _read_camera(ctx, data) -> Camera:
