@@ -156,12 +156,26 @@ def bind_as_storage(renderer) -> None:
             renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
 
 
+def timed_dispatch(ctx, program, query, size, cpu: bool, cpu_clock=time.perf_counter_ns) -> float:
+    """Milliseconds of one dispatch of `program` over `size` pixels: its GL timer query on a GPU;
+    on a CPU rasterizer `cpu_clock` around it (the wall clock, or time.process_time_ns: the CPU
+    time of all of this process's threads, whatever share of the cores the run got)."""
+    from lift_gl.passes.common import groups
+
+    ctx.finish()
+    start = cpu_clock()
+    with query:
+        program.run(*groups(*size))
+    ctx.finish()
+    return ((cpu_clock() - start) if cpu else query.elapsed) / 1e6
+
+
 def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     """Mrays/s of each ray kind (see the module docstring) for the renderer's scene and
     camera at `size`: the best of `repeat` dispatches (after one warm-up)."""
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import camera_uniforms
-    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.passes.common import set_uniforms
     from lift_gl.shaders import assemble, compile_compute
 
     ctx = renderer.ctx
@@ -182,23 +196,18 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
         best = None
         for rep in range(repeat + 1):
             set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
-            ctx.finish()
-            start = time.perf_counter_ns()
-            with query:
-                program.run(*groups(w, h))
-            ctx.finish()
-            ns = time.perf_counter_ns() - start if cpu else query.elapsed
+            ms = timed_dispatch(ctx, program, query, size, cpu)
             if rep == 0:
                 continue  # warm-up
-            if best is None or ns < best:
-                best = ns
+            if best is None or ms < best:
+                best = ms
         # The shadow and bounce kinds start from the primary hits of the last primary dispatch.
         rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
         hit = rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF
         rays = w * h if kind == "primary" else int(hit.sum())
         hits_of_kind = int(hit.sum()) if kind == "primary" else int((rows[hit, 1, 3] > 0.5).sum())
-        out[kind] = {"rays": rays, "hits": hits_of_kind, "ms": best / 1e6,
-                     "mrays_per_s": rays / max(best, 1) * 1e3}
+        out[kind] = {"rays": rays, "hits": hits_of_kind, "ms": best,
+                     "mrays_per_s": rays / max(best * 1e6, 1) * 1e3}
     for b in (hits, program):
         b.release()
     return out
@@ -212,7 +221,7 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
     as other jobs take the rasterizer's threads, and Mrays/s then means per CPU-second."""
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import camera_uniforms
-    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.passes.common import set_uniforms
     from lift_gl.shaders import assemble, compile_compute
 
     w, h = size
@@ -237,15 +246,11 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
                 hits.bind_to_storage_buffer(10)
                 # every renderer's rep-th dispatch of a kind casts the same rays (same seed)
                 set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
-                ctx.finish()
-                start, start_cpu = time.perf_counter_ns(), time.process_time_ns()
-                with query:
-                    program.run(*groups(w, h))
-                ctx.finish()
+                # on a CPU rasterizer: the CPU time of all of this process's threads (the
+                # rasterizer's work however the shared cores were scheduled)
+                ms = timed_dispatch(ctx, program, query, size, cpu, cpu_clock=time.process_time_ns)
                 if rep:  # rep 0 warms up
-                    # on a CPU rasterizer: the CPU time of all of this process's threads (the
-                    # rasterizer's work however the shared cores were scheduled)
-                    times[i].append((time.process_time_ns() - start_cpu if cpu else query.elapsed) / 1e6)
+                    times[i].append(ms)
         for i, (r, program, hits, uniforms) in enumerate(setups):
             rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
             hit = rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF
@@ -339,14 +344,9 @@ def ab(args) -> int:
                         i = i if rep % 2 == 0 else len(progs) - 1 - i
                         nodes[i].bind_to_storage_buffer(0)
                         set_uniforms(prog, dict(uniforms, u_kind=kind_index, u_seed=rep))
-                        ctx.finish()
-                        start = time.perf_counter_ns()
-                        with query:
-                            prog.run(*groups(w, h))
-                        ctx.finish()
-                        ns = time.perf_counter_ns() - start if cpu else query.elapsed
+                        ms = timed_dispatch(ctx, prog, query, size, cpu)
                         if rep:
-                            times[i].append(ns / 1e6)
+                            times[i].append(ms)
                 if kind == "primary":
                     # Every version must find the same primary hits (up to a few rays through
                     # edges): one that misread the BVH would be fast and wrong.
