@@ -193,9 +193,9 @@ class TracePass:
     outputs = ("frame",)
 
     def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict, wavefront: bool | None = None,
-                 wavefront_steps: int | None = None):
+                 wavefront_options: dict | None = None):
         """`wavefront`: run it as a wavefront (passes/wavefront.py) where the plugin allows;
-        None: as $LIFT_GL_WAVEFRONT says."""
+        None: as $LIFT_GL_WAVEFRONT says. `wavefront_options`: WavefrontTrace's steps, ballot."""
         self.ctx = ctx
         self.size = size
         self.plugin = plugin
@@ -221,7 +221,7 @@ class TracePass:
             if self.wavefront_fallback is None:
                 try:
                     self.wavefront = WavefrontTrace(ctx, size, plugin, defines, param_declarations(plugin),
-                                                    self.local_size, wavefront_steps)
+                                                    self.local_size, **(wavefront_options or {}))
                 except SlotsTooBig as exc:  # known once the plugin's slot size is
                     self.wavefront_fallback = str(exc)
 

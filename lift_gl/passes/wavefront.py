@@ -41,6 +41,10 @@ DEFAULT_STEPS = 32  # step dispatches before the tail (pt's paths: max_depth of 
 MAX_GROUPS_X = 32768  # an indirect dispatch's groups, split over y beyond this (GL's minimum limit: 65535)
 _PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.M)
 
+# glMemoryBarrier between the wave's dispatches: storage (slots, queues, counts), image (the
+# frame, read back by the next sample's wave) and command (the indirect dispatch's arguments).
+WAVE_BARRIERS = 0x2000 | 0x20 | 0x40
+
 # The control buffer: the live queue's length, the next queue's, then the indirect dispatch.
 CONTROL_WORDS = 8
 ARGS_OFFSET = 16
@@ -271,15 +275,15 @@ class WavefrontTrace:
             prog["u_wave_mode"].value = MODE_START
             prog.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1)
             for k in range(self.steps + 1):
-                ctx.memory_barrier()
+                ctx.memory_barrier(WAVE_BARRIERS)
                 self.args.run(1, 1, 1)
-                ctx.memory_barrier()
+                ctx.memory_barrier(WAVE_BARRIERS)
                 queue_in, queue_out = queue_out, queue_in
                 queue_in.bind_to_storage_buffer(QUEUE_IN_BINDING)
                 queue_out.bind_to_storage_buffer(QUEUE_OUT_BINDING)
                 prog["u_wave_mode"].value = MODE_TAIL if k == self.steps else MODE_STEP
                 prog.run_indirect(self.control, ARGS_OFFSET)
-            ctx.memory_barrier()
+            ctx.memory_barrier()  # all: the passes after this one read the frame as they like
 
     def release(self) -> None:
         for b in (self.program, self.args, self.slots, *self.queues, self.control):
