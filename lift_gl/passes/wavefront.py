@@ -35,7 +35,7 @@ from ..errors import LiftError
 from ..gl.context import is_software
 
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
-SLOTS_BINDING, QUEUE_IN_BINDING, QUEUE_OUT_BINDING, CONTROL_BINDING = 11, 12, 13, 14
+SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
 MODE_START, MODE_STEP, MODE_TAIL, MODE_PROBE = 0, 1, 2, 3
 DEFAULT_STEPS = 32  # step dispatches before the tail (pt's paths: max_depth of them at most)
 MAX_GROUPS_X = 32768  # an indirect dispatch's groups, split over y beyond this (GL's minimum limit: 65535)
@@ -80,9 +80,9 @@ struct WaveSlot {{
     uint cut;  // the driver's loop limit cut one of this pixel's dispatches short this frame
 }};
 layout(std430, binding = {slots}) buffer WaveSlots {{ WaveSlot wave_slots[]; }};
-layout(std430, binding = {queue_in}) readonly buffer WaveQueueIn {{ uint wave_queue_in[]; }};
-layout(std430, binding = {queue_out}) writeonly buffer WaveQueueOut {{ uint wave_queue_out[]; }};
-layout(std430, binding = {control}) buffer WaveControl {{ uint wave_count_in; uint wave_count_out; }};
+// Two queues in one buffer, its halves taking turns (wave_parity): the live one and the next.
+layout(std430, binding = {queues}) buffer WaveQueues {{ uint wave_queues[]; }};
+layout(std430, binding = {control}) buffer WaveControl {{ uint wave_count_in; uint wave_count_out; uint wave_parity; }};
 
 // A place in the next queue for each invocation with `alive`; with ballots one atomic a subgroup.
 uint wave_append(bool alive) {{
@@ -133,7 +133,7 @@ void main() {{
         uint id = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * {group}u + gl_LocalInvocationIndex;
         running = id < wave_count_in;
         if (running) {{
-            index = wave_queue_in[id];
+            index = wave_queues[wave_parity * size.x * size.y + id];
             path = wave_slots[index].path;
             rng = wave_slots[index].rng;
             cut = wave_slots[index].cut;
@@ -155,7 +155,7 @@ void main() {{
         wave_slots[index].path = path;
         wave_slots[index].rng = rng;
         wave_slots[index].cut = cut;
-        wave_queue_out[place] = index;
+        wave_queues[(u_wave_mode == 0u ? 0u : 1u - wave_parity) * size.x * size.y + place] = index;
     }} else {{
         ivec2 pixel = ivec2(index % size.x, index / size.x);
         vec4 sum = u_wave_sample == 0u ? vec4(0.0) : imageLoad(u_frame_out, pixel);
@@ -184,14 +184,16 @@ ARGS_SOURCE = f"""
 #version 430
 layout(local_size_x = 1) in;
 layout(std430, binding = {CONTROL_BINDING}) buffer WaveControl {{
-    uint wave_count_in; uint wave_count_out; uint pad0; uint pad1; uvec4 wave_dispatch; }};
+    uint wave_count_in; uint wave_count_out; uint wave_parity; uint pad; uvec4 wave_dispatch; }};
 uniform uint u_group;
+uniform bool u_first;  // after the start kernel
 void main() {{
     uint n = wave_count_out;
     uint groups = (n + u_group - 1u) / u_group;
     uint x = min(groups, {MAX_GROUPS_X}u);
     wave_count_in = n;
     wave_count_out = 0u;
+    wave_parity = u_first ? 0u : 1u - wave_parity;  // the start kernel writes the first half
     wave_dispatch = uvec4(x, x == 0u ? 0u : (groups + x - 1u) / x, 1u, 0u);
 }}
 """
@@ -240,7 +242,7 @@ class WavefrontTrace:
             defines["LIFT_WAVE_BALLOT"] = True
         text = WAVE_TEMPLATE.format(group=self.group, tile_x=local_size[0], tile_y=local_size[1], params=params,
                                     entry=plugin.entry_path.as_posix(), slots=SLOTS_BINDING,
-                                    queue_in=QUEUE_IN_BINDING, queue_out=QUEUE_OUT_BINDING, control=CONTROL_BINDING)
+                                    queues=QUEUES_BINDING, control=CONTROL_BINDING)
         self.source = shaders.assemble(text, defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} wavefront>")
         self.program = shaders.compile_compute(ctx, self.source)
@@ -255,38 +257,40 @@ class WavefrontTrace:
             raise SlotsTooBig(f"{self.slot_bytes * pixels / 2**20:.0f} MiB of path slots ({self.slot_bytes} bytes a "
                               f"pixel) over the {limit / 2**20:.0f} MiB a storage buffer may hold here")
         self.slots = ctx.buffer(reserve=self.slot_bytes * pixels)
-        self.queues = [ctx.buffer(reserve=4 * pixels), ctx.buffer(reserve=4 * pixels)]
+        self.queues = ctx.buffer(reserve=2 * 4 * pixels)
         self.control = ctx.buffer(reserve=4 * CONTROL_WORDS)  # zeros: the next queue starts empty
 
     @property
     def memory_bytes(self) -> int:
-        return self.slots.size + sum(q.size for q in self.queues) + self.control.size
+        return self.slots.size + self.queues.size + self.control.size
 
     def run(self, frame, samples: int) -> None:
-        ctx, prog = self.ctx, self.program
+        """Few GL calls a step (the queue's halves and lengths change on the GPU): the CPU's
+        commands keep ahead of short steps."""
+        ctx, prog, args = self.ctx, self.program, self.args
         (tx, ty), (w, h) = self.tile, self.size
         frame.bind_to_image(0, read=True, write=True)
         self.slots.bind_to_storage_buffer(SLOTS_BINDING)
+        self.queues.bind_to_storage_buffer(QUEUES_BINDING)
         self.control.bind_to_storage_buffer(CONTROL_BINDING)
+        mode, first = prog["u_wave_mode"], args["u_first"]
         for s in range(samples):
             prog["u_wave_sample"].value = s
-            queue_in, queue_out = self.queues
-            queue_out.bind_to_storage_buffer(QUEUE_OUT_BINDING)
-            prog["u_wave_mode"].value = MODE_START
+            mode.value = MODE_START
             prog.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1)
             for k in range(self.steps + 1):
                 ctx.memory_barrier(WAVE_BARRIERS)
-                self.args.run(1, 1, 1)
+                if k < 2:
+                    first.value = k == 0
+                args.run(1, 1, 1)
                 ctx.memory_barrier(WAVE_BARRIERS)
-                queue_in, queue_out = queue_out, queue_in
-                queue_in.bind_to_storage_buffer(QUEUE_IN_BINDING)
-                queue_out.bind_to_storage_buffer(QUEUE_OUT_BINDING)
-                prog["u_wave_mode"].value = MODE_TAIL if k == self.steps else MODE_STEP
+                if k == 0 or k == self.steps:
+                    mode.value = MODE_TAIL if k == self.steps else MODE_STEP
                 prog.run_indirect(self.control, ARGS_OFFSET)
             ctx.memory_barrier()  # all: the passes after this one read the frame as they like
 
     def release(self) -> None:
-        for b in (self.program, self.args, self.slots, *self.queues, self.control):
+        for b in (self.program, self.args, self.slots, self.queues, self.control):
             b.release()
 
 
