@@ -590,6 +590,7 @@ def wavefront_cmd(args) -> int:
                     t, g = frames_with(label, True)
                     trace_ms[label].append(t)
                     gbuffer_ms[label].append(g)
+            profiles = {label: wavefront_profile(r, passes[label]) for label in args.profile if label in passes}
             med = {v: (float(np.median(trace_ms[v])), float(np.median(frame_ms[v]))) for v in labels}
             ref = images["mega"]
             case = {"scene_name": scene_name(path), "scene": portable(path), "size": list(size),
@@ -604,7 +605,8 @@ def wavefront_cmd(args) -> int:
                     "image_equal": {v: bool(np.array_equal(images[v], ref)) for v in labels},
                     "dropped_samples": dropped,
                     "wavefront_bytes": {v: passes[v].wavefront.memory_bytes for v in labels[1:]},
-                    "slot_bytes": {v: passes[v].wavefront.slot_bytes for v in labels[1:]}}
+                    "slot_bytes": {v: passes[v].wavefront.slot_bytes for v in labels[1:]},
+                    "profile": profiles}
             record["results"].append(case)
             print(f"{case['scene_name']} {size[0]}x{size[1]}: " + "; ".join(
                 f"{v} trace {med[v][0]:.3f} ms ({case['trace_speedup'][v]:.2f}x) frame {med[v][1]:.3f} ms "
@@ -612,6 +614,10 @@ def wavefront_cmd(args) -> int:
                 for v in labels), flush=True)
             r.trace = passes["mega"]
             r.timers = timers
+            for label, rows in profiles.items():
+                print(f"  {label} dispatches (live paths: GPU ms): " + ", ".join(
+                    f"{row['what']}{row['step']} {row['paths']}: {row['ms']:.3f}" for row in rows
+                    if row["what"] != "args" and (row["paths"] or row["what"] == "start")), flush=True)
             for label in labels[1:]:
                 passes[label].release()
             r.release()
@@ -623,6 +629,39 @@ def wavefront_cmd(args) -> int:
     if args.md:
         args.md.write_text(text + "\n")
     return 0
+
+
+def wavefront_profile(renderer, trace_pass) -> list[dict]:
+    """One frame of a wavefront with each dispatch alone: its GL timer query (the CPU clock on
+    llvmpipe) and the paths it ran (its queue's length; every pixel for the start kernel)."""
+    from lift_gl.gl.context import is_software
+    ctx, wave = renderer.ctx, trace_pass.wavefront
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    rows = []
+
+    def hook(what, s, k, go):
+        paths = wave.size[0] * wave.size[1]
+        if what in ("step", "tail"):
+            ctx.finish()
+            paths = int(np.frombuffer(wave.control.read(), np.uint32)[0])
+        ctx.finish()
+        start = time.perf_counter_ns()
+        with query:
+            go()
+        ctx.finish()
+        ns = (time.perf_counter_ns() - start) if cpu else query.elapsed
+        rows.append({"what": what, "sample": s, "step": k, "paths": paths, "ms": ns / 1e6})
+
+    renderer.trace = trace_pass
+    renderer.timers = None
+    renderer.reset(seed=0)
+    wave.run = lambda frame, samples: type(wave).run(wave, frame, samples, hook=hook)  # this frame only
+    try:
+        renderer.render(spp=1, readback=False)
+    finally:
+        del wave.run
+    return rows
 
 
 def wavefront_table(record: dict) -> str:
@@ -795,6 +834,8 @@ def main(argv=None) -> int:
     wf.add_argument("--frames", type=int, default=8)
     wf.add_argument("--rounds", type=int, default=5)
     wf.add_argument("--backend", default="auto")
+    wf.add_argument("--profile", default="", type=lambda s: [v for v in s.split(",") if v],
+                    help="comma-separated variants: also one frame with each dispatch timed alone")
     wf.add_argument("--out", type=Path)
     wf.add_argument("--md", type=Path)
     wf.set_defaults(func=wavefront_cmd)

@@ -264,9 +264,10 @@ class WavefrontTrace:
     def memory_bytes(self) -> int:
         return self.slots.size + self.queues.size + self.control.size
 
-    def run(self, frame, samples: int) -> None:
+    def run(self, frame, samples: int, hook=None) -> None:
         """Few GL calls a step (the queue's halves and lengths change on the GPU): the CPU's
-        commands keep ahead of short steps."""
+        commands keep ahead of short steps. hook(what, sample, step, dispatch), where given,
+        makes each dispatch (benchmarks/gpu.py wavefront --profile times them)."""
         ctx, prog, args = self.ctx, self.program, self.args
         (tx, ty), (w, h) = self.tile, self.size
         frame.bind_to_image(0, read=True, write=True)
@@ -274,19 +275,21 @@ class WavefrontTrace:
         self.queues.bind_to_storage_buffer(QUEUES_BINDING)
         self.control.bind_to_storage_buffer(CONTROL_BINDING)
         mode, first = prog["u_wave_mode"], args["u_first"]
+        dispatch = hook or (lambda what, s, k, go: go())
         for s in range(samples):
             prog["u_wave_sample"].value = s
             mode.value = MODE_START
-            prog.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1)
+            dispatch("start", s, 0, lambda: prog.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1))
             for k in range(self.steps + 1):
                 ctx.memory_barrier(WAVE_BARRIERS)
                 if k < 2:
                     first.value = k == 0
-                args.run(1, 1, 1)
+                dispatch("args", s, k + 1, lambda: args.run(1, 1, 1))
                 ctx.memory_barrier(WAVE_BARRIERS)
                 if k == 0 or k == self.steps:
                     mode.value = MODE_TAIL if k == self.steps else MODE_STEP
-                prog.run_indirect(self.control, ARGS_OFFSET)
+                dispatch("tail" if k == self.steps else "step", s, k + 1,
+                         lambda: prog.run_indirect(self.control, ARGS_OFFSET))
             ctx.memory_barrier()  # all: the passes after this one read the frame as they like
 
     def release(self) -> None:
