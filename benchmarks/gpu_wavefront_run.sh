@@ -19,7 +19,7 @@ for size in ${SIZES:-1920x1080 1280x720}; do
     PYTHONUNBUFFERED=1 timeout $limit python3 benchmarks/gpu.py wavefront $s/cornell-box/scene.pbrt \
         $s/dining-room/scene.pbrt $s/classroom/scene.pbrt scenes/covered_dragon.toml --sizes $size \
         --variants ${VARIANTS:-mega,wave32,wave8,wave4,wave32-noballot} --rounds ${ROUNDS:-5} --frames ${FRAMES:-8} \
-        --out $OUT/wavefront_$size.json --md $OUT/wavefront_$size.md 2>&1 | grep -v "Warning\|index = self.texture\|^|"
+        --profile "${PROFILE:-}" --out $OUT/wavefront_$size.json --md $OUT/wavefront_$size.md 2>&1 | grep -v "Warning\|index = self.texture\|^|"
     limit=${LIMIT2:-90}
 done
 exit 0
