@@ -514,13 +514,14 @@ WAVEFRONT_VARIANTS = "mega,wave32,wave8,wave4,wave32-noballot"
 
 def _wave_variant(label: str) -> dict | None:
     """mega: the megakernel; waveN: the wavefront with N step dispatches before its tail;
-    a -noballot suffix: one queue atomic an invocation instead of one a subgroup."""
+    suffixes -noballot: one queue atomic an invocation instead of one a subgroup; -split: a
+    program for each of the start, step and tail modes."""
     if label == "mega":
         return None
-    body = label.removesuffix("-noballot")
-    if not body.startswith("wave") or not body[4:].isdigit():
-        raise SystemExit(f"--variants: {label!r} is not mega, waveN or waveN-noballot")
-    return {"steps": int(body[4:]), "ballot": False if label.endswith("-noballot") else None}
+    body, *suffixes = label.split("-")
+    if not body.startswith("wave") or not body[4:].isdigit() or not set(suffixes) <= {"noballot", "split"}:
+        raise SystemExit(f"--variants: {label!r} is not mega or waveN[-noballot][-split]")
+    return {"steps": int(body[4:]), "ballot": False if "noballot" in suffixes else None, "split": "split" in suffixes}
 
 
 def wavefront_cmd(args) -> int:
@@ -591,6 +592,11 @@ def wavefront_cmd(args) -> int:
                     trace_ms[label].append(t)
                     gbuffer_ms[label].append(g)
             profiles = {label: wavefront_profile(r, passes[label]) for label in args.profile if label in passes}
+            from gpu_pt_variants import binary_summary, program_binary  # benchmarks/: NVIDIA's assembly
+            binaries = {"mega": binary_summary(program_binary(passes["mega"].program))}
+            for label in labels[1:]:
+                for mode, prog in zip(("start", "step", "tail"), passes[label].wavefront.modes):
+                    binaries.setdefault(f"{label} {mode}", binary_summary(program_binary(prog)))
             med = {v: (float(np.median(trace_ms[v])), float(np.median(frame_ms[v]))) for v in labels}
             ref = images["mega"]
             case = {"scene_name": scene_name(path), "scene": portable(path), "size": list(size),
@@ -606,7 +612,7 @@ def wavefront_cmd(args) -> int:
                     "dropped_samples": dropped,
                     "wavefront_bytes": {v: passes[v].wavefront.memory_bytes for v in labels[1:]},
                     "slot_bytes": {v: passes[v].wavefront.slot_bytes for v in labels[1:]},
-                    "profile": profiles}
+                    "profile": profiles, "binaries": binaries}
             record["results"].append(case)
             print(f"{case['scene_name']} {size[0]}x{size[1]}: " + "; ".join(
                 f"{v} trace {med[v][0]:.3f} ms ({case['trace_speedup'][v]:.2f}x) frame {med[v][1]:.3f} ms "
@@ -829,7 +835,8 @@ def main(argv=None) -> int:
     wf = sub.add_parser("wavefront", help="pt's trace pass as megakernel and wavefronts, interleaved in one process")
     wf.add_argument("scenes", nargs="+")
     wf.add_argument("--sizes", default="1920x1080")
-    wf.add_argument("--variants", default=WAVEFRONT_VARIANTS, help="comma-separated: mega first, then waveN[-noballot]")
+    wf.add_argument("--variants", default=WAVEFRONT_VARIANTS,
+                    help="comma-separated: mega first, then waveN[-noballot][-split]")
     wf.add_argument("--max-depth", type=int, default=32)
     wf.add_argument("--frames", type=int, default=8)
     wf.add_argument("--rounds", type=int, default=5)

@@ -14,12 +14,12 @@ tar -c --exclude=./lift_scenes.tar.xz . | tar -x -C $W/gpu
 cd $W/gpu   # beside shared/: scenes/covered_dragon.toml reads ../../shared/assets/...
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $OUT/gpu.txt 2>&1; cat $OUT/gpu.txt
 s=$W/shared/scenes_lift
-limit=${LIMIT:-150}
-for size in ${SIZES:-1920x1080 1280x720}; do
+limit=${LIMIT:-150}; variants=${VARIANTS:-mega,wave32,wave8,wave4,wave8-split,wave4-split}; profile=${PROFILE:-}
+for size in ${SIZES:-1920x1080 1280x720}; do   # the later sizes: LIMIT2, VARIANTS2, no profile
     PYTHONUNBUFFERED=1 timeout $limit python3 benchmarks/gpu.py wavefront $s/cornell-box/scene.pbrt \
         $s/dining-room/scene.pbrt $s/classroom/scene.pbrt scenes/covered_dragon.toml --sizes $size \
-        --variants ${VARIANTS:-mega,wave32,wave8,wave4,wave32-noballot} --rounds ${ROUNDS:-5} --frames ${FRAMES:-8} \
-        --profile "${PROFILE:-}" --out $OUT/wavefront_$size.json --md $OUT/wavefront_$size.md 2>&1 | grep -v "Warning\|index = self.texture\|^|"
-    limit=${LIMIT2:-90}
+        --variants $variants --rounds ${ROUNDS:-5} --frames ${FRAMES:-8} --profile "$profile" \
+        --out $OUT/wavefront_$size.json --md $OUT/wavefront_$size.md 2>&1 | grep -v "Warning\|index = self.texture\|^|"
+    limit=${LIMIT2:-90}; variants=${VARIANTS2:-$variants}; profile=
 done
 exit 0

@@ -74,15 +74,15 @@ def test_dropped_samples_are_counted_alike(monkeypatch, tmp_path):
 
 
 def test_few_steps_and_no_ballot_leave_the_rest_to_the_tail(monkeypatch):
-    """One step dispatch, then the tail runs every longer path to its end; the queue appended
-    one atomic an invocation: still the megakernel's image."""
+    """One step dispatch (or none), then the tail runs every longer path to its end; the queue
+    appended one atomic an invocation; a program for each mode: still the megakernel's image."""
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
     scene = load_scene(REPO / "scenes" / "showcase.toml")
     r = Renderer(scene, size=SIZE, integrator="pt", seed=3)
     try:
         mega = r.render(spp=2)
         defines = r._plugin_defines(r.plugin, r.params)
-        for options in ({"steps": 1, "ballot": False}, {"steps": 0}):
+        for options in ({"steps": 1, "ballot": False}, {"steps": 0}, {"steps": 2, "split": True}):
             wave = TracePass(r.ctx, SIZE, r.plugin, defines, wavefront=True, wavefront_options=options)
             assert wave.wavefront is not None and wave.wavefront.steps == options["steps"]
             megakernel, r.trace = r.trace, wave

@@ -231,10 +231,11 @@ class TracePass:
             visibility.use(location=0)
             self.program["u_visibility"].value = 0
         if self.wavefront is not None:
-            set_uniforms(self.wavefront.program, uniforms)
-            if "u_visibility" in self.wavefront.program:
-                visibility.use(location=0)
-                self.wavefront.program["u_visibility"].value = 0
+            for program in self.wavefront.programs:
+                set_uniforms(program, uniforms)
+                if "u_visibility" in program:
+                    visibility.use(location=0)
+                    program["u_visibility"].value = 0
             self.wavefront.run(self.frame, int(uniforms["u_samples"]))
             return
         self.frame.bind_to_image(0, read=False, write=True)

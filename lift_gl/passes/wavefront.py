@@ -66,6 +66,11 @@ uniform uint u_stream;
 uniform vec2 u_jitter;
 uniform uint u_wave_mode;    // 0 start, 1 step, 2 tail, 3 probe (lift_gl/passes/wavefront.py)
 uniform uint u_wave_sample;  // which sample of this frame the wave runs
+#ifdef LIFT_WAVE_MODE
+#define WAVE_MODE LIFT_WAVE_MODE  // a program for one mode (WavefrontTrace's split option)
+#else
+#define WAVE_MODE u_wave_mode
+#endif
 
 // ---- plugin parameters ----
 {params}
@@ -102,7 +107,7 @@ uint wave_append(bool alive) {{
 }}
 
 void main() {{
-    if (u_wave_mode == 3u) {{  // the host asks the slot's size: slot_stride()
+    if (WAVE_MODE == 3u) {{  // the host asks the slot's size: slot_stride()
         if (gl_LocalInvocationIndex == 0u) wave_count_in = uint(wave_slots.length());
         return;
     }}
@@ -115,7 +120,7 @@ void main() {{
 #ifdef HAS_MOTION
     g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
 #endif
-    if (u_wave_mode == 0u) {{
+    if (WAVE_MODE == 0u) {{
         // the megakernel's pixel tiles, so that neighbouring pixels share a subgroup
         uvec2 pixel = gl_WorkGroupID.xy * uvec2({tile_x}u, {tile_y}u)
                       + uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u);
@@ -143,7 +148,7 @@ void main() {{
     if (running) {{
         do {{
             alive = path_step(path, rng);
-        }} while (alive && u_wave_mode == 2u);
+        }} while (alive && WAVE_MODE == 2u);
         // ---- the driver's loop budget (see lift_gl/passes/trace.py) ----
         uint probe = 0u;
         for (uint i = 0u; i < 2u; ++i) probe += 1u;
@@ -155,7 +160,7 @@ void main() {{
         wave_slots[index].path = path;
         wave_slots[index].rng = rng;
         wave_slots[index].cut = cut;
-        wave_queues[(u_wave_mode == 0u ? 0u : 1u - wave_parity) * size.x * size.y + place] = index;
+        wave_queues[(WAVE_MODE == 0u ? 0u : 1u - wave_parity) * size.x * size.y + place] = index;
     }} else {{
         ivec2 pixel = ivec2(index % size.x, index / size.x);
         vec4 sum = u_wave_sample == 0u ? vec4(0.0) : imageLoad(u_frame_out, pixel);
@@ -227,9 +232,10 @@ class WavefrontTrace:
     """The wavefront executor of one trace program: fills `frame` as the megakernel would."""
 
     def __init__(self, ctx: moderngl.Context, size, plugin, defines: dict, params: str, local_size, steps=None,
-                 ballot: bool | None = None):
+                 ballot: bool | None = None, split: bool = False):
         """steps: step dispatches before the tail; ballot: one atomic a subgroup for the queue
-        (None: where the driver has ARB_shader_ballot and 64-bit integers)."""
+        (None: where the driver has ARB_shader_ballot and 64-bit integers); split: a program
+        for each mode (start, step, tail) instead of one with the mode a uniform."""
         self.ctx = ctx
         self.size = size
         self.tile = local_size
@@ -256,6 +262,15 @@ class WavefrontTrace:
             self.args.release()
             raise SlotsTooBig(f"{self.slot_bytes * pixels / 2**20:.0f} MiB of path slots ({self.slot_bytes} bytes a "
                               f"pixel) over the {limit / 2**20:.0f} MiB a storage buffer may hold here")
+        # the programs of the start, step and tail modes
+        self.modes = [self.program] * 3
+        if split:
+            self.program.release()
+            self.modes = [shaders.compile_compute(ctx, shaders.assemble(
+                text, dict(defines, LIFT_WAVE_MODE=f"{mode}u"), include_dirs=[plugin.folder],
+                main_name=f"<{plugin.name} wavefront, mode {mode}>")) for mode in (MODE_START, MODE_STEP, MODE_TAIL)]
+            self.program = None
+        self.programs = list(dict.fromkeys(self.modes))
         self.slots = ctx.buffer(reserve=self.slot_bytes * pixels)
         self.queues = ctx.buffer(reserve=2 * 4 * pixels)
         self.control = ctx.buffer(reserve=4 * CONTROL_WORDS)  # zeros: the next queue starts empty
@@ -268,32 +283,37 @@ class WavefrontTrace:
         """Few GL calls a step (the queue's halves and lengths change on the GPU): the CPU's
         commands keep ahead of short steps. hook(what, sample, step, dispatch), where given,
         makes each dispatch (benchmarks/gpu.py wavefront --profile times them)."""
-        ctx, prog, args = self.ctx, self.program, self.args
+        ctx, args = self.ctx, self.args
+        start, step, tail = self.modes
+        generic = start is step
         (tx, ty), (w, h) = self.tile, self.size
         frame.bind_to_image(0, read=True, write=True)
         self.slots.bind_to_storage_buffer(SLOTS_BINDING)
         self.queues.bind_to_storage_buffer(QUEUES_BINDING)
         self.control.bind_to_storage_buffer(CONTROL_BINDING)
-        mode, first = prog["u_wave_mode"], args["u_first"]
+        first = args["u_first"]
         dispatch = hook or (lambda what, s, k, go: go())
         for s in range(samples):
-            prog["u_wave_sample"].value = s
-            mode.value = MODE_START
-            dispatch("start", s, 0, lambda: prog.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1))
+            for prog in self.programs:
+                prog["u_wave_sample"].value = s
+            if generic:
+                start["u_wave_mode"].value = MODE_START
+            dispatch("start", s, 0, lambda: start.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1))
             for k in range(self.steps + 1):
                 ctx.memory_barrier(WAVE_BARRIERS)
                 if k < 2:
                     first.value = k == 0
                 dispatch("args", s, k + 1, lambda: args.run(1, 1, 1))
                 ctx.memory_barrier(WAVE_BARRIERS)
-                if k == 0 or k == self.steps:
-                    mode.value = MODE_TAIL if k == self.steps else MODE_STEP
+                prog = tail if k == self.steps else step
+                if generic and (k == 0 or k == self.steps):
+                    prog["u_wave_mode"].value = MODE_TAIL if k == self.steps else MODE_STEP
                 dispatch("tail" if k == self.steps else "step", s, k + 1,
                          lambda: prog.run_indirect(self.control, ARGS_OFFSET))
             ctx.memory_barrier()  # all: the passes after this one read the frame as they like
 
     def release(self) -> None:
-        for b in (self.program, self.args, self.slots, self.queues, self.control):
+        for b in (*self.programs, self.args, self.slots, self.queues, self.control):
             b.release()
 
 
