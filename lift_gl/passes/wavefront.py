@@ -37,7 +37,7 @@ from ..gl.context import is_software
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
 MODE_START, MODE_STEP, MODE_TAIL, MODE_PROBE = 0, 1, 2, 3
-DEFAULT_STEPS = 32  # step dispatches before the tail (pt's paths: max_depth of them at most)
+DEFAULT_STEPS = 4  # step dispatches before the tail: 4 did best over the four scenes measured on the H100 (docs/gpu.md)
 MAX_GROUPS_X = 32768  # an indirect dispatch's groups, split over y beyond this (GL's minimum limit: 65535)
 _PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.M)
 
