@@ -29,6 +29,10 @@ On a GPU the program runs in 8x4 work groups with the BVH traversal stack in sha
 memory there, and on an H100 the two together made pt's trace pass 2.6-3.6x faster than 8x8
 groups with local stacks (docs/gpu.md). CPU rasterizers keep 8x8 groups and local stacks.
 $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways).
+
+With $LIFT_GL_WAVEFRONT = on, a plugin with LIFT_PATH_STEPS runs as a wavefront instead (a
+dispatch per path vertex over the paths still alive, passes/wavefront.py): the same image;
+off by default, as it won only on one of four scenes on an H100 (docs/gpu.md).
 """
 from __future__ import annotations
 
