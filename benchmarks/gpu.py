@@ -509,6 +509,186 @@ def measure(args) -> int:
     return 0
 
 
+WAVEFRONT_VARIANTS = "mega,wave32,wave8,wave4,wave32-noballot"
+
+
+def _wave_variant(label: str) -> dict | None:
+    """mega: the megakernel; waveN: the wavefront with N step dispatches before its tail;
+    suffixes -noballot: one queue atomic an invocation instead of one a subgroup; -split: a
+    program for each of the start, step and tail modes."""
+    if label == "mega":
+        return None
+    body, *suffixes = label.split("-")
+    if not body.startswith("wave") or not body[4:].isdigit() or not set(suffixes) <= {"noballot", "split"}:
+        raise SystemExit(f"--variants: {label!r} is not mega or waveN[-noballot][-split]")
+    return {"steps": int(body[4:]), "ballot": False if "noballot" in suffixes else None, "split": "split" in suffixes}
+
+
+def wavefront_cmd(args) -> int:
+    """pt's trace pass as the megakernel and as wavefronts (lift_gl/passes/wavefront.py) on the
+    same renderer (same G-buffer and buffers), alternating round by round (order reversed every
+    other round): per variant the trace pass's GL timer query (all of its dispatches) and the
+    pipelined frame time, medians over rounds; the images against the megakernel's (same seed)."""
+    import lift_gl
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import describe, is_software
+    from lift_gl.passes.trace import TracePass
+    from lift_gl.renderer import Renderer
+    from lift_gl.report.machine import describe_machine, machine_line
+    from lift_gl.scene.loader import load_scene
+
+    labels = [v.strip() for v in args.variants.split(",") if v.strip()]
+    options = {label: _wave_variant(label) for label in labels}
+    if labels[0] != "mega":
+        raise SystemExit("--variants: the first must be mega (the baseline of the ratios)")
+    os.environ["LIFT_GL_WAVEFRONT"] = "off"  # the renderer's own trace pass: the megakernel
+    record = {"variants": labels, "max_depth": args.max_depth, "frames": args.frames, "rounds": args.rounds,
+              "results": []}
+    for path in args.scenes:
+        scene = load_scene(path)
+        for size in [_size(s.strip()) for s in args.sizes.split(",")]:
+            r = Renderer(scene, size=size, integrator="pt", params={"max_depth": args.max_depth},
+                         backend=args.backend, timers=True)
+            if "gl" not in record:
+                record["gl"] = describe(r.ctx)
+                record["machine"] = describe_machine(r.ctx)
+                print(f"machine: {machine_line(record['machine'])}; {record['gl']}; lift_gl from "
+                      f"{Path(lift_gl.__file__).parent.parent}", flush=True)
+            cpu = is_software(r.ctx)
+            defines = r._plugin_defines(r.plugin, r.params)
+            passes = {"mega": r.trace}
+            for label in labels[1:]:
+                passes[label] = TracePass(r.ctx, size, r.plugin, defines, wavefront=True,
+                                          wavefront_options=options[label])
+                if passes[label].wavefront is None:
+                    raise SystemExit(f"{label}: no wavefront: {passes[label].wavefront_fallback}")
+            timers = r.timers
+
+            def frames_with(label, timed):
+                r.trace = passes[label]
+                r.timers = timers if timed else None
+                r.reset(seed=0)
+                r.render(spp=args.frames, readback=False)
+                if timed:
+                    return timers["trace"].mean_ms, timers["gbuffer"].mean_ms if "gbuffer" in timers else 0.0
+                return 1e3 * r.stats.render_seconds / args.frames
+
+            # the images: one frame each, same seed, against the megakernel's
+            images, dropped = {}, {}
+            for label in labels:
+                r.trace = passes[label]
+                r.timers = None
+                r.reset(seed=1)
+                images[label] = r.render(spp=1)
+                dropped[label] = r.stats.dropped_samples
+                frames_with(label, False)  # warm-up
+            trace_ms = {v: [] for v in labels}
+            frame_ms = {v: [] for v in labels}
+            gbuffer_ms = {v: [] for v in labels}
+            for k in range(args.rounds):
+                for label in (labels if k % 2 == 0 else labels[::-1]):
+                    frame_ms[label].append(frames_with(label, False))
+                    t, g = frames_with(label, True)
+                    trace_ms[label].append(t)
+                    gbuffer_ms[label].append(g)
+            profiles = {label: wavefront_profile(r, passes[label]) for label in args.profile if label in passes}
+            from gpu_pt_variants import binary_summary, program_binary  # benchmarks/: NVIDIA's assembly
+            binaries = {"mega": binary_summary(program_binary(passes["mega"].program))}
+            for label in labels[1:]:
+                for mode, prog in zip(("start", "step", "tail"), passes[label].wavefront.modes):
+                    binaries.setdefault(f"{label} {mode}", binary_summary(program_binary(prog)))
+            med = {v: (float(np.median(trace_ms[v])), float(np.median(frame_ms[v]))) for v in labels}
+            ref = images["mega"]
+            case = {"scene_name": scene_name(path), "scene": portable(path), "size": list(size),
+                    "triangles": scene.triangle_count, "cpu_clock": cpu,
+                    "trace_ms": trace_ms, "frame_ms": frame_ms, "gbuffer_ms": gbuffer_ms,
+                    "median_trace_ms": {v: m[0] for v, m in med.items()},
+                    "median_frame_ms": {v: m[1] for v, m in med.items()},
+                    "trace_speedup": {v: med["mega"][0] / med[v][0] for v in labels},
+                    "frame_speedup": {v: med["mega"][1] / med[v][1] for v in labels},
+                    "image_max_abs_diff": {v: float(np.abs(images[v] - ref).max()) for v in labels},
+                    "image_mean": {v: float(images[v].mean()) for v in labels},
+                    "image_equal": {v: bool(np.array_equal(images[v], ref)) for v in labels},
+                    "dropped_samples": dropped,
+                    "wavefront_bytes": {v: passes[v].wavefront.memory_bytes for v in labels[1:]},
+                    "slot_bytes": {v: passes[v].wavefront.slot_bytes for v in labels[1:]},
+                    "profile": profiles, "binaries": binaries}
+            record["results"].append(case)
+            print(f"{case['scene_name']} {size[0]}x{size[1]}: " + "; ".join(
+                f"{v} trace {med[v][0]:.3f} ms ({case['trace_speedup'][v]:.2f}x) frame {med[v][1]:.3f} ms "
+                f"({case['frame_speedup'][v]:.2f}x) max|diff| {case['image_max_abs_diff'][v]:.2g}"
+                for v in labels), flush=True)
+            r.trace = passes["mega"]
+            r.timers = timers
+            for label, rows in profiles.items():
+                print(f"  {label} dispatches (live paths: GPU ms): " + ", ".join(
+                    f"{row['what']}{row['step']} {row['paths']}: {row['ms']:.3f}" for row in rows
+                    if row["what"] != "args" and (row["paths"] or row["what"] == "start")), flush=True)
+            for label in labels[1:]:
+                passes[label].release()
+            r.release()
+            if args.out:
+                args.out.parent.mkdir(parents=True, exist_ok=True)
+                args.out.write_text(json.dumps(record, indent=1))
+    text = wavefront_table(record)
+    print(text)
+    if args.md:
+        args.md.write_text(text + "\n")
+    return 0
+
+
+def wavefront_profile(renderer, trace_pass) -> list[dict]:
+    """One frame of a wavefront with each dispatch alone: its GL timer query (the CPU clock on
+    llvmpipe) and the paths it ran (its queue's length; every pixel for the start kernel)."""
+    from lift_gl.gl.context import is_software
+    ctx, wave = renderer.ctx, trace_pass.wavefront
+    cpu = is_software(ctx)
+    query = ctx.query(time=True)
+    rows = []
+
+    def hook(what, s, k, go):
+        paths = wave.size[0] * wave.size[1]
+        if what in ("step", "tail"):
+            ctx.finish()
+            paths = int(np.frombuffer(wave.control.read(), np.uint32)[0])
+        ctx.finish()
+        start = time.perf_counter_ns()
+        with query:
+            go()
+        ctx.finish()
+        ns = (time.perf_counter_ns() - start) if cpu else query.elapsed
+        rows.append({"what": what, "sample": s, "step": k, "paths": paths, "ms": ns / 1e6})
+
+    renderer.trace = trace_pass
+    renderer.timers = None
+    renderer.reset(seed=0)
+    wave.run = lambda frame, samples: type(wave).run(wave, frame, samples, hook=hook)  # this frame only
+    try:
+        renderer.render(spp=1, readback=False)
+    finally:
+        del wave.run
+    return rows
+
+
+def wavefront_table(record: dict) -> str:
+    labels = record["variants"]
+    lines = [f"Machine: {record.get('gl', '?')}. pt, 1 spp, path length {record['max_depth']}; medians of "
+             f"{record['rounds']} alternating rounds of {record['frames']} frames; x = megakernel time / variant time.",
+             "", "| scene | size | " + " | ".join(f"{v} trace ms (x)" for v in labels) + " | "
+             + " | ".join(f"{v} frame ms (x)" for v in labels) + " | max abs diff vs mega | MiB |",
+             "|" + "---|" * (4 + 2 * len(labels))]
+    for c in record["results"]:
+        w, h = c["size"]
+        cells = [c["scene_name"], f"{w}x{h}"]
+        cells += [f"{c['median_trace_ms'][v]:.3f} ({c['trace_speedup'][v]:.2f})" for v in labels]
+        cells += [f"{c['median_frame_ms'][v]:.3f} ({c['frame_speedup'][v]:.2f})" for v in labels]
+        cells.append(", ".join(f"{c['image_max_abs_diff'][v]:.2g}" for v in labels[1:]))
+        mib = sorted({round(b / 2**20, 1) for b in c["wavefront_bytes"].values()})
+        cells.append(", ".join(f"{m:g}" for m in mib))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def _set_splits(value, previous) -> None:
     """$LIFT_GL_BVH_SPLITS for the next renderer (value None: as it was when the run began)."""
     value = previous if value is None else value
@@ -652,6 +832,20 @@ def main(argv=None) -> int:
     v.add_argument("--out", type=Path)
     v.add_argument("--md", type=Path)
     v.set_defaults(func=ab)
+    wf = sub.add_parser("wavefront", help="pt's trace pass as megakernel and wavefronts, interleaved in one process")
+    wf.add_argument("scenes", nargs="+")
+    wf.add_argument("--sizes", default="1920x1080")
+    wf.add_argument("--variants", default=WAVEFRONT_VARIANTS,
+                    help="comma-separated: mega first, then waveN[-noballot][-split]")
+    wf.add_argument("--max-depth", type=int, default=32)
+    wf.add_argument("--frames", type=int, default=8)
+    wf.add_argument("--rounds", type=int, default=5)
+    wf.add_argument("--backend", default="auto")
+    wf.add_argument("--profile", default="", type=lambda s: [v for v in s.split(",") if v],
+                    help="comma-separated variants: also one frame with each dispatch timed alone")
+    wf.add_argument("--out", type=Path)
+    wf.add_argument("--md", type=Path)
+    wf.set_defaults(func=wavefront_cmd)
     t = sub.add_parser("table")
     t.add_argument("files", nargs="+")
     t.add_argument("--md", type=Path)

@@ -563,7 +563,12 @@ class Renderer:
 
     def _trace_device(self) -> str:
         if self.plugin.language != "opencl":
-            return ""
+            wave = getattr(self.trace, "wavefront", None)
+            if wave is not None:
+                return (f" as a wavefront ($LIFT_GL_WAVEFRONT): a dispatch per path vertex over the live paths, "
+                        f"{wave.memory_bytes / 2**20:.1f} MiB of path slots and queues")
+            why = getattr(self.trace, "wavefront_fallback", None)
+            return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why})" if why else ""
         from .opencl import describe_device
 
         return f" as an OpenCL kernel on {describe_device()}; G-buffer read back, frame written to GL"

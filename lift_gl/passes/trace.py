@@ -29,6 +29,10 @@ On a GPU the program runs in 8x4 work groups with the BVH traversal stack in sha
 memory there, and on an H100 the two together made pt's trace pass 2.6-3.6x faster than 8x8
 groups with local stacks (docs/gpu.md). CPU rasterizers keep 8x8 groups and local stacks.
 $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways).
+
+With $LIFT_GL_WAVEFRONT = on, a plugin with LIFT_PATH_STEPS runs as a wavefront instead (a
+dispatch per path vertex over the paths still alive, passes/wavefront.py): the same image;
+off by default, as it won only on one of four scenes on an H100 (docs/gpu.md).
 """
 from __future__ import annotations
 
@@ -42,6 +46,7 @@ from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from .common import LOCAL_SIZE, set_uniforms
 from .splat import SplatBuffer, splat_defines
+from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_wanted
 
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
@@ -168,10 +173,13 @@ def trace_layout(ctx: moderngl.Context) -> tuple[tuple[int, int], bool]:
     return (GPU_LOCAL_SIZE if shared else (LOCAL_SIZE, LOCAL_SIZE)), shared
 
 
+def param_declarations(plugin: Plugin) -> str:
+    return "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {' '.join(p.help.split())}"
+                     for p in plugin.params.values())
+
+
 def generate_main(plugin: Plugin, local_size: tuple[int, int] = (LOCAL_SIZE, LOCAL_SIZE)) -> str:
-    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {' '.join(p.help.split())}"
-                       for p in plugin.params.values())
-    return MAIN_TEMPLATE.format(local_x=local_size[0], local_y=local_size[1], params=params,
+    return MAIN_TEMPLATE.format(local_x=local_size[0], local_y=local_size[1], params=param_declarations(plugin),
                                 entry=plugin.entry_path.as_posix())
 
 
@@ -188,7 +196,10 @@ class TracePass:
     inputs = ("scene", "camera", "visibility?")
     outputs = ("frame",)
 
-    def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict):
+    def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict, wavefront: bool | None = None,
+                 wavefront_options: dict | None = None):
+        """`wavefront`: run it as a wavefront (passes/wavefront.py) where the plugin allows;
+        None: as $LIFT_GL_WAVEFRONT says. `wavefront_options`: WavefrontTrace's steps, ballot."""
         self.ctx = ctx
         self.size = size
         self.plugin = plugin
@@ -207,12 +218,30 @@ class TracePass:
                                        main_name=f"<{plugin.name} host main>")
         self.program = shaders.compile_compute(ctx, self.source)
         self.frame = ctx.texture(size, 4, dtype="f4")
+        self.wavefront = None
+        self.wavefront_fallback = None  # why a wavefront asked for runs as the megakernel
+        if wavefront_wanted(ctx) if wavefront is None else wavefront:
+            self.wavefront_fallback = fallback_reason(plugin, self.source.text, defines)
+            if self.wavefront_fallback is None:
+                try:
+                    self.wavefront = WavefrontTrace(ctx, size, plugin, defines, param_declarations(plugin),
+                                                    self.local_size, **(wavefront_options or {}))
+                except SlotsTooBig as exc:  # known once the plugin's slot size is
+                    self.wavefront_fallback = str(exc)
 
     def run(self, uniforms: dict, visibility=None) -> None:
         set_uniforms(self.program, uniforms)
         if visibility is not None and "u_visibility" in self.program:
             visibility.use(location=0)
             self.program["u_visibility"].value = 0
+        if self.wavefront is not None:
+            for program in self.wavefront.programs:
+                set_uniforms(program, uniforms)
+                if "u_visibility" in program:
+                    visibility.use(location=0)
+                    program["u_visibility"].value = 0
+            self.wavefront.run(self.frame, int(uniforms["u_samples"]))
+            return
         self.frame.bind_to_image(0, read=False, write=True)
         if self.splats is not None:
             self.splats.bind()
@@ -224,5 +253,7 @@ class TracePass:
     def release(self) -> None:
         self.program.release()
         self.frame.release()
+        if self.wavefront is not None:
+            self.wavefront.release()
         if self.splats is not None:
             self.splats.release()

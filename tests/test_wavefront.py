@@ -1,0 +1,134 @@
+"""The wavefront trace pass (lift_gl/passes/wavefront.py) against the megakernel it replaces:
+the same paths from the same random numbers, so the same images bit for bit on llvmpipe, the
+same dropped-sample and ray counts; and the megakernel wherever the wavefront cannot run."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from lift_gl.errors import LiftError
+from lift_gl.passes.trace import TracePass
+from lift_gl.passes.wavefront import WAVEFRONT_ENV_VAR
+from lift_gl.renderer import Renderer
+from lift_gl.scene.loader import load_scene
+
+SIZE = (64, 48)
+
+
+def _render(monkeypatch, mode, scene, spp=4, integrator="pt", **kw):
+    """Image, dropped samples, rays (with count_rays) and whether a wavefront ran."""
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, mode)
+    r = Renderer(scene, size=SIZE, integrator=integrator, seed=7, **kw)
+    try:
+        image = r.render(spp=spp)
+        return image, r.stats.dropped_samples, r.stats.rays, r.trace.wavefront is not None
+    finally:
+        r.release()
+
+
+def _plugin_copy(tmp_path, name, edit=None, edit_manifest=None):
+    """A copy of pt named `name` whose pt.glsl is edit(text), its manifest edit_manifest(text)."""
+    source = REPO / "plugins" / "pt"
+    folder = tmp_path / name
+    folder.mkdir()
+    for file, change in (("plugin.toml", edit_manifest), ("pt.glsl", edit)):
+        text = (source / file).read_text()
+        edited = change(text) if change else text
+        assert edited != text or change is None
+        if file == "plugin.toml":
+            edited = edited.replace('name = "pt"', f'name = "{name}"')
+        (folder / file).write_text(edited)
+    return str(folder)
+
+
+@pytest.mark.parametrize("scene_name, kw", [
+    ("cornell.toml", {}),                                  # area lights, shadow rays
+    ("showcase.toml", {"samples_per_frame": 2}),           # textures, environment map, spheres; 2 waves a frame
+    ("instances.toml", {"count_rays": True}),              # instances, environment; rays counted
+])
+def test_wavefront_renders_the_megakernels_image(monkeypatch, scene_name, kw):
+    scene = load_scene(REPO / "scenes" / scene_name)
+    mega, mega_dropped, mega_rays, mega_wave = _render(monkeypatch, "off", scene, **kw)
+    wave, wave_dropped, wave_rays, wave_wave = _render(monkeypatch, "on", scene, **kw)
+    assert (mega_wave, wave_wave) == (False, True)
+    assert np.isfinite(mega).all() and mega.max() > 0
+    np.testing.assert_array_equal(wave, mega)
+    assert wave_dropped == mega_dropped
+    assert wave_rays == mega_rays and (mega_rays > SIZE[0] * SIZE[1] * 4 if kw.get("count_rays") else True)
+
+
+def test_dropped_samples_are_counted_alike(monkeypatch, tmp_path):
+    """A pt whose paths of 3 or more vertices return NaN: the wavefront drops and counts the
+    same samples as the megakernel, and both images keep only the others."""
+    plugin = _plugin_copy(tmp_path, "pt_nan", lambda t: t.replace(
+        "vec3 path_radiance(PathState path) { return path.L; }",
+        "vec3 path_radiance(PathState path) { return path.depth >= 2 ? vec3(uintBitsToFloat(0x7fc00000u)) : path.L; }"))
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    mega, mega_dropped, _, _ = _render(monkeypatch, "off", scene, integrator=plugin)
+    wave, wave_dropped, _, ran = _render(monkeypatch, "on", scene, integrator=plugin)
+    assert ran
+    assert 0 < mega_dropped < SIZE[0] * SIZE[1] * 4
+    assert wave_dropped == mega_dropped
+    np.testing.assert_array_equal(wave, mega)
+
+
+def test_few_steps_and_no_ballot_leave_the_rest_to_the_tail(monkeypatch):
+    """One step dispatch (or none), then the tail runs every longer path to its end; the queue
+    appended one atomic an invocation; a program for each mode: still the megakernel's image."""
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
+    scene = load_scene(REPO / "scenes" / "showcase.toml")
+    r = Renderer(scene, size=SIZE, integrator="pt", seed=3)
+    try:
+        mega = r.render(spp=2)
+        defines = r._plugin_defines(r.plugin, r.params)
+        for options in ({"steps": 1, "ballot": False}, {"steps": 0}, {"steps": 2, "split": True}):
+            wave = TracePass(r.ctx, SIZE, r.plugin, defines, wavefront=True, wavefront_options=options)
+            assert wave.wavefront is not None and wave.wavefront.steps == options["steps"]
+            megakernel, r.trace = r.trace, wave
+            r.reset(seed=3)
+            image = r.render(spp=2)
+            r.trace = megakernel
+            wave.release()
+            np.testing.assert_array_equal(image, mega)
+    finally:
+        r.release()
+
+
+def test_plugins_the_wavefront_cannot_run_keep_the_megakernel(monkeypatch, tmp_path):
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    plain = _plugin_copy(tmp_path, "pt_plain", lambda t: t.replace("#define LIFT_PATH_STEPS\n", ""))
+    camera = _plugin_copy(tmp_path, "pt_camera", edit_manifest=lambda t: t.replace(
+        'primary = "gbuffer"', 'primary = "camera"'))
+    for integrator, reason in ((plain, "LIFT_PATH_STEPS"), (camera, "camera"), ("bdpt", "LIFT_PATH_STEPS")):
+        monkeypatch.setenv(WAVEFRONT_ENV_VAR, "on")
+        r = Renderer(scene, size=SIZE, integrator=integrator, seed=7)
+        try:
+            assert r.trace.wavefront is None and reason in r.trace.wavefront_fallback
+            assert "megakernel although" in r.explain()
+            asked = r.render(spp=2)
+        finally:
+            r.release()
+        image, _, _, ran = _render(monkeypatch, "off", scene, spp=2, integrator=integrator)
+        assert not ran
+        # (bdpt's splats are added by float atomics, in whatever order the lanes get there)
+        np.testing.assert_allclose(asked, image, rtol=1e-5, atol=1e-6)
+
+
+def test_slots_over_the_storage_buffer_limit_keep_the_megakernel(monkeypatch):
+    """llvmpipe lets a storage buffer hold 128 MiB: a frame's pt slots at 1024x1024 would not fit."""
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "on")
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(1024, 1024), integrator="pt")
+    try:
+        limit = r.ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"]
+        if limit >= 1024 * 1024 * 256:
+            pytest.skip(f"this driver's storage buffers hold {limit} bytes")
+        assert r.trace.wavefront is None and "MiB of path slots" in r.trace.wavefront_fallback
+    finally:
+        r.release()
+
+
+def test_bad_wavefront_setting_is_refused(monkeypatch):
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "sometimes")
+    with pytest.raises(LiftError, match=WAVEFRONT_ENV_VAR):
+        Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
