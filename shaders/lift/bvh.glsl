@@ -64,11 +64,39 @@ uint lift_rays_traced = 0u;
 #define LIFT_COUNT_RAY()
 #endif
 
-// Möller–Trumbore. Updates t and returns true when the hit is in (ray.tmin, t).
-// Triangles seen exactly edge-on, and zero-area ones, have det == 0 and never hit.
-bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+// ---- Ray/triangle test --------------------------------------------------------------------
+// The watertight test of Woop, Benthin and Wald (JCGT 2013), the default: the triangle is
+// moved into a frame where the ray runs along +z from (0, 0) (the axes permuted so that z is
+// the ray's largest, then a shear), and three 2D edge functions U, V, W decide the hit. Two
+// triangles sharing an edge compute its edge function from the same two products, subtracted
+// in the opposite order, so the one is exactly the negation of the other and a ray through
+// the edge or a shared vertex cannot slip between them (Möller–Trumbore, LIFT_MOLLER_TRUMBORE,
+// computes each triangle's barycentrics from its own edge vectors and lets 3-5% of such rays
+// through: tests/test_watertight.py). The axis permutation and the shear depend only on the
+// ray, so the traversal computes them once (lift_ray_shear) and passes them down; the
+// permutation is a select between three swizzles: a vec3 indexed by a per-ray axis was moved
+// to local memory by NVIDIA's compiler (docs/gpu.md). The paper also swaps x and y when the
+// ray runs towards -z, to keep the triangles' winding; this test accepts both windings and
+// t, b1, b2 are ratios of U, V, W, so the swap (which negates all three) would change nothing.
+struct LiftRayShear { vec3 s; int kz; };   // s: (dx/dz, dy/dz, 1/dz) in the permuted frame; kz: ray's largest axis
+
+// v's axes in the frame's order (x, y, z), z the ray's largest axis; a cyclic permutation.
+vec3 lift_permute(vec3 v, int kz) { return kz == 0 ? v.yzx : (kz == 1 ? v.zxy : v); }
+
+LiftRayShear lift_ray_shear(vec3 dir) {
+    vec3 a = abs(dir);
+    int kz = a.x >= a.y ? (a.x >= a.z ? 0 : 2) : (a.y >= a.z ? 1 : 2);
+    vec3 d = lift_permute(dir, kz);
+    float inv_dz = 1.0 / d.z;   // |d.z| >= |dir| / sqrt(3): finite for any nonzero dir
+    return LiftRayShear(vec3(d.x * inv_dz, d.y * inv_dz, inv_dz), kz);
+}
+
+// Updates t and returns true when the hit is in (ray.tmin, t); bary = (b1, b2), as in Hit.
+// Zero-area triangles (U + V + W == 0) and triangles seen edge-on never hit; a NaN anywhere fails.
+bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
+#ifdef LIFT_MOLLER_TRUMBORE
     vec3 p0 = tri_pos_row(i).xyz;
     vec3 e1 = tri_pos_row(i + 1u).xyz - p0;
     vec3 e2 = tri_pos_row(i + 2u).xyz - p0;
@@ -88,6 +116,45 @@ bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
     t = th;
     bary = vec2(b1, b2);
     return true;
+#else
+    // `precise` (no operation fused or reordered by the compiler): a corner shared by two
+    // triangles gets the same coordinates in both, and the edge functions stay exact negations
+    precise vec3 org = ray.origin - prim_displacement(tri);  // a moving triangle: where it is now
+    precise vec3 a = lift_permute(tri_pos_row(i).xyz - org, sh.kz);
+    precise vec3 b = lift_permute(tri_pos_row(i + 1u).xyz - org, sh.kz);
+    precise vec3 c = lift_permute(tri_pos_row(i + 2u).xyz - org, sh.kz);
+    precise float ax = fma(-sh.s.x, a.z, a.x), ay = fma(-sh.s.y, a.z, a.y);
+    precise float bx = fma(-sh.s.x, b.z, b.x), by = fma(-sh.s.y, b.z, b.y);
+    precise float cx = fma(-sh.s.x, c.z, c.x), cy = fma(-sh.s.y, c.z, c.y);
+    precise float u = cx * by - cy * bx;
+    precise float v = ax * cy - ay * cx;
+    precise float w = bx * ay - by * ax;
+#ifndef LIFT_WATERTIGHT_FLOAT_ONLY
+    // An edge function of exactly 0 may be the rounding of a tiny nonzero one: redo the three
+    // in double precision, where the products of floats are exact (the paper's fallback; rare,
+    // so the branch costs next to nothing). Without it such a ray hits both triangles of the edge.
+    if (u == 0.0 || v == 0.0 || w == 0.0) {
+        u = float(double(cx) * double(by) - double(cy) * double(bx));
+        v = float(double(ax) * double(cy) - double(ay) * double(cx));
+        w = float(double(bx) * double(ay) - double(by) * double(ax));
+    }
+#endif
+    if (!((u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0))) return false;
+    precise float det = u + v + w;
+    if (det == 0.0) return false;
+    float inv_det = 1.0 / det;
+    // t from the corners' distances along the ray (z / dz), weighted by the edge functions
+    float th = (u * a.z + v * b.z + w * c.z) * sh.s.z * inv_det;
+    if (!(th > ray.tmin && th < t)) return false;   // a NaN th fails too
+    t = th;
+    bary = vec2(v, w) * inv_det;
+    return true;
+#endif
+}
+
+// The test for one triangle (lift/primary_hit.glsl, plugins), with its own ray shear.
+bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+    return lift_intersect_triangle(ray, lift_ray_shear(ray.dir), tri, t, bary);
 }
 
 // Both roots of |o + t d - c|^2 = r^2 (inside a sphere the far root is the hit).
@@ -115,7 +182,7 @@ vec3 lift_bvh_inv_dir(vec3 d) {
     return 1.0 / (s * max(abs(d), vec3(1e-30)));
 }
 
-// Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
+// Slab test of node n's box against the interval (tmin, tmax), conservative; tn: entry distance.
 bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
     vec3 bmin = bvh_node_row(2u * n).xyz;
     vec3 bmax = bvh_node_row(2u * n + 1u).xyz;
@@ -132,7 +199,11 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
     vec3 lo = min(t0, t1);
     vec3 hi = max(t0, t1);
     tn = max(max(lo.x, lo.y), max(lo.z, tmin));
-    float tf = min(min(hi.x, hi.y), min(hi.z, tmax));
+    // The exit enlarged by the rounding bound of Ize (JCGT 2013: 1 + 2 gamma(3)), so that a ray
+    // through a triangle's corner or edge lying on its leaf's box is not culled by the
+    // rounding of the slab distances (without it 5 of tests/test_watertight.py's 8,236 rays
+    // through shared edges slip through): watertight triangles need conservative boxes.
+    float tf = min(min(hi.x, hi.y), min(hi.z, tmax)) * 1.0000004;
     return tn <= tf;
 }
 
@@ -146,6 +217,7 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
 bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
     bool found = false;
     vec3 inv = lift_bvh_inv_dir(ray.dir);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
     LIFT_BVH_STACK_DECLARE
     int sp = 0;
     uint node = root;
@@ -176,7 +248,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
         }
         for (uint i = first; i < first + count; ++i) {   // a leaf (count 0 when none was left)
             vec2 bary;
-            if (intersect_triangle(ray, i, t, bary)) {
+            if (lift_intersect_triangle(ray, shear, i, t, bary)) {
                 prim = i;
                 bary_out = bary;
                 found = true;
@@ -192,6 +264,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
 // The same while-while traversal as lift_bvh_closest.
 bool lift_bvh_any(uint root, Ray ray, float t) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
     LIFT_BVH_STACK_DECLARE
     int sp = 0;
     float troot;
@@ -220,7 +293,7 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
         }
         for (uint i = first; i < first + count; ++i) {
             vec2 bary;
-            if (intersect_triangle(ray, i, t, bary)) return true;
+            if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
         }
         if (sp == 0) return false;
         node = LIFT_BVH_STACK_AT(--sp);
