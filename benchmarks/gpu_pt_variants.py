@@ -122,6 +122,8 @@ VARIANTS = {
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
     "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
     "wt_float": (define("LIFT_WATERTIGHT_FLOAT_ONLY"), {}, False),
+    "wt_rows": (define("LIFT_WATERTIGHT_ROWS"), {}, False),
+    "wt_rows_float": (compose(define("LIFT_WATERTIGHT_ROWS"), define("LIFT_WATERTIGHT_FLOAT_ONLY")), {}, False),
 }
 
 

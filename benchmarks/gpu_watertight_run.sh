@@ -26,12 +26,11 @@ SCENES="$s/cornell-box/scene.pbrt $s/dining-room/scene.pbrt $s/classroom/scene.p
 cat $OUT/gpu.txt
 # 1. ray kinds, versions interleaved dispatch by dispatch; primary hit counts per version
 PYTHONUNBUFFERED=1 timeout ${AB_TIMEOUT:-110} python3 benchmarks/gpu.py ab $SCENES --sizes $SZ --reps $REPS \
-    --variant mt=.:binary:LIFT_MOLLER_TRUMBORE --variant wt=.:binary \
-    --variant wt_float=.:binary:LIFT_WATERTIGHT_FLOAT_ONLY --variant main=$MAIN:binary \
+    --variant mt=.:binary:LIFT_MOLLER_TRUMBORE --variant wt=.:binary ${AB_VARIANTS:---variant wt_float=.:binary:LIFT_WATERTIGHT_FLOAT_ONLY --variant main=$MAIN:binary} \
     --out $OUT/rays_ab.json --md $OUT/rays_ab.md 2>&1 | grep -v "Warning\|index = self" | tail -14
 # 2. pt's trace pass (1 spp, path length 32): this tree (wt), mt, wt_float, main's pt (tree)
 PYTHONUNBUFFERED=1 timeout ${PT_TIMEOUT:-160} python3 benchmarks/gpu_pt_variants.py $SCENES --size $SZ --reps $((REPS / 2 + 2)) \
-    --variants base,mt,wt_float,tree --base-tree $MAIN --out $OUT/pt_variants.json 2>&1 \
+    --variants ${PT_VARIANTS:-base,mt,wt_float,tree} --base-tree $MAIN --out $OUT/pt_variants.json 2>&1 \
     | grep -v "Warning\|index = self" > $OUT/pt_variants.md
 tail -16 $OUT/pt_variants.md
 exit 0
