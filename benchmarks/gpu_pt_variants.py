@@ -121,9 +121,7 @@ VARIANTS = {
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
     "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
-    "wt_float": (define("LIFT_WATERTIGHT_FLOAT_ONLY"), {}, False),
-    "wt_rows": (define("LIFT_WATERTIGHT_ROWS"), {}, False),
-    "wt_rows_float": (compose(define("LIFT_WATERTIGHT_ROWS"), define("LIFT_WATERTIGHT_FLOAT_ONLY")), {}, False),
+    "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
 }
 
 

@@ -239,15 +239,15 @@ def test_no_ray_slips_through_shared_edges_and_vertices(gl, surface, up):
         # the same rays with Möller–Trumbore: some slip through, so this test can fail
         mt = slipped(run, tris, o, d, defines={"LIFT_MOLLER_TRUMBORE": True})
         assert mt > 0.005 * len(o), f"Möller–Trumbore let only {mt} of {len(o)} through"
-        # without the double-precision fallback the float test is still watertight (an edge
-        # function of exactly 0 counts as inside)
-        assert slipped(run, tris, o, d, defines={"LIFT_WATERTIGHT_FLOAT_ONLY": True}) == 0
+        # with the double-precision fallback for edge functions of exactly 0, watertight too
+        assert slipped(run, tris, o, d, defines={"LIFT_WATERTIGHT_FP64": True}) == 0
 
 
 def test_opencl_no_ray_slips_through(surface):
     tris, o, d = surface
     tris, o, d = orient(tris, "-y"), orient(o, "-y"), orient(d, "-y")
     assert slipped(run_opencl, tris, o, d) == 0
+    assert slipped(run_opencl, tris, o, d, defines={"LIFT_WATERTIGHT_FP64": True}) == 0
     assert slipped(run_opencl, tris, o, d, defines={"LIFT_MOLLER_TRUMBORE": True}) > 0.005 * len(o)
 
 

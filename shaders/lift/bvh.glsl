@@ -72,19 +72,19 @@ uint lift_rays_traced = 0u;
 // in the opposite order, so the one is exactly the negation of the other and a ray through
 // the edge or a shared vertex cannot slip between them (Möller–Trumbore, LIFT_MOLLER_TRUMBORE,
 // computes each triangle's barycentrics from its own edge vectors and lets 3-5% of such rays
-// through: tests/test_watertight.py). The axis permutation and the shear depend only on the
-// ray, so the traversal computes them once (lift_ray_shear) and passes them down; the
-// permutation is a select between three swizzles: a vec3 indexed by a per-ray axis was moved
-// to local memory by NVIDIA's compiler (docs/gpu.md). The paper also swaps x and y when the
+// through: tests/test_watertight.py). The permutation and the shear depend only on the ray:
+// the traversal computes them once (lift_ray_shear) as two rows, the frame's x and y axes in
+// world space, so a corner's frame x and y are two fused dot products, and its z (for t) is
+// read only for a hit. On an H100 this costs pt's trace pass 1-4% over Möller–Trumbore; the
+// permutation done by selecting swizzles of each corner cost 8-16%, and a vec3 indexed by a
+// per-ray axis up to 40% (local memory); docs/gpu.md. The paper also swaps x and y when the
 // ray runs towards -z, to keep the triangles' winding; this test accepts both windings and
 // t, b1, b2 are ratios of U, V, W, so the swap (which negates all three) would change nothing.
-#ifdef LIFT_WATERTIGHT_ROWS
-// Experiment: the permutation folded into the shear's rows (world space), so a corner's frame
-// x and y are two fused dot products and no select; its z is needed for t only.
-struct LiftRayShear { vec3 mx; vec3 my; float sz; int kz; };
-#else
-struct LiftRayShear { vec3 s; int kz; };   // s: (dx/dz, dy/dz, 1/dz) in the permuted frame; kz: ray's largest axis
-#endif
+struct LiftRayShear {
+    vec3 row_x, row_y;   // frame x = dot(row_x, p - origin): the axis after the ray's largest, sheared
+    float inv_dz;        // 1 / the direction's largest component
+    int kz;              // the ray's largest axis
+};
 
 // v's axes in the frame's order (x, y, z), z the ray's largest axis; a cyclic permutation.
 vec3 lift_permute(vec3 v, int kz) { return kz == 0 ? v.yzx : (kz == 1 ? v.zxy : v); }
@@ -94,14 +94,14 @@ LiftRayShear lift_ray_shear(vec3 dir) {
     int kz = a.x >= a.y ? (a.x >= a.z ? 0 : 2) : (a.y >= a.z ? 1 : 2);
     vec3 d = lift_permute(dir, kz);
     float inv_dz = 1.0 / d.z;   // |d.z| >= |dir| / sqrt(3): finite for any nonzero dir
-#ifdef LIFT_WATERTIGHT_ROWS
     vec3 ez = vec3(equal(ivec3(0, 1, 2), ivec3(kz)));
     vec3 ex = ez.zxy, ey = ez.yzx;   // the frame's x and y axes, one-hot
     return LiftRayShear(ex - (d.x * inv_dz) * ez, ey - (d.y * inv_dz) * ez, inv_dz, kz);
-#else
-    return LiftRayShear(vec3(d.x * inv_dz, d.y * inv_dz, inv_dz), kz);
-#endif
 }
+
+// A corner's frame coordinate: one rounding where the row's 1 and 0 come first (kz = 2), two
+// otherwise; the same operations for every corner, which is what watertightness needs.
+float lift_shear(vec3 p, vec3 row) { return fma(p.z, row.z, fma(p.y, row.y, p.x * row.x)); }
 
 // Updates t and returns true when the hit is in (ray.tmin, t); bary = (b1, b2), as in Hit.
 // Zero-area triangles (U + V + W == 0) and triangles seen edge-on never hit; a NaN anywhere fails.
@@ -132,31 +132,20 @@ bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, 
     // `precise` (no operation fused or reordered by the compiler): a corner shared by two
     // triangles gets the same coordinates in both, and the edge functions stay exact negations
     precise vec3 org = ray.origin - prim_displacement(tri);  // a moving triangle: where it is now
-#ifdef LIFT_WATERTIGHT_ROWS
     precise vec3 a = tri_pos_row(i).xyz - org;
     precise vec3 b = tri_pos_row(i + 1u).xyz - org;
     precise vec3 c = tri_pos_row(i + 2u).xyz - org;
-    precise float ax = fma(a.z, sh.mx.z, fma(a.y, sh.mx.y, a.x * sh.mx.x));
-    precise float ay = fma(a.z, sh.my.z, fma(a.y, sh.my.y, a.x * sh.my.x));
-    precise float bx = fma(b.z, sh.mx.z, fma(b.y, sh.mx.y, b.x * sh.mx.x));
-    precise float by = fma(b.z, sh.my.z, fma(b.y, sh.my.y, b.x * sh.my.x));
-    precise float cx = fma(c.z, sh.mx.z, fma(c.y, sh.mx.y, c.x * sh.mx.x));
-    precise float cy = fma(c.z, sh.my.z, fma(c.y, sh.my.y, c.x * sh.my.x));
-#else
-    precise vec3 a = lift_permute(tri_pos_row(i).xyz - org, sh.kz);
-    precise vec3 b = lift_permute(tri_pos_row(i + 1u).xyz - org, sh.kz);
-    precise vec3 c = lift_permute(tri_pos_row(i + 2u).xyz - org, sh.kz);
-    precise float ax = fma(-sh.s.x, a.z, a.x), ay = fma(-sh.s.y, a.z, a.y);
-    precise float bx = fma(-sh.s.x, b.z, b.x), by = fma(-sh.s.y, b.z, b.y);
-    precise float cx = fma(-sh.s.x, c.z, c.x), cy = fma(-sh.s.y, c.z, c.y);
-#endif
+    precise float ax = lift_shear(a, sh.row_x), ay = lift_shear(a, sh.row_y);
+    precise float bx = lift_shear(b, sh.row_x), by = lift_shear(b, sh.row_y);
+    precise float cx = lift_shear(c, sh.row_x), cy = lift_shear(c, sh.row_y);
     precise float u = cx * by - cy * bx;
     precise float v = ax * cy - ay * cx;
     precise float w = bx * ay - by * ax;
-#ifndef LIFT_WATERTIGHT_FLOAT_ONLY
-    // An edge function of exactly 0 may be the rounding of a tiny nonzero one: redo the three
-    // in double precision, where the products of floats are exact (the paper's fallback; rare,
-    // so the branch costs next to nothing). Without it such a ray hits both triangles of the edge.
+    // An edge function of exactly 0 counts as inside, so a ray through an edge or vertex hits
+    // every triangle there (the closest hit keeps one). With LIFT_WATERTIGHT_FP64, such a 0
+    // is redone in double precision, where products of floats are exact (the paper's
+    // fallback: the exact side of the edge), at 1-3% more of pt's trace pass on an H100.
+#ifdef LIFT_WATERTIGHT_FP64
     if (u == 0.0 || v == 0.0 || w == 0.0) {
         u = float(double(cx) * double(by) - double(cy) * double(bx));
         v = float(double(ax) * double(cy) - double(ay) * double(cx));
@@ -167,12 +156,9 @@ bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, 
     precise float det = u + v + w;
     if (det == 0.0) return false;
     float inv_det = 1.0 / det;
-    // t from the corners' distances along the ray (z / dz), weighted by the edge functions
-#ifdef LIFT_WATERTIGHT_ROWS
-    float th = (u * lift_permute(a, sh.kz).z + v * lift_permute(b, sh.kz).z + w * lift_permute(c, sh.kz).z) * sh.sz * inv_det;
-#else
-    float th = (u * a.z + v * b.z + w * c.z) * sh.s.z * inv_det;
-#endif
+    // t from the corners' distances along the ray's largest axis, weighted by U, V, W
+    float th = (u * lift_permute(a, sh.kz).z + v * lift_permute(b, sh.kz).z + w * lift_permute(c, sh.kz).z)
+               * sh.inv_dz * inv_det;
     if (!(th > ray.tmin && th < t)) return false;   // a NaN th fails too
     t = th;
     bary = vec2(v, w) * inv_det;

@@ -23,14 +23,20 @@ Ray make_ray(float3 origin, float3 dir, float tmin, float tmax) {
 }
 
 // ---- Ray/triangle test: the watertight test of Woop, Benthin and Wald (JCGT 2013), as in
-// shaders/lift/bvh.glsl (which says why): the axes permuted so that z is the ray's largest, a
-// shear that makes the ray run along +z from (0, 0), and 2D edge functions U, V, W that two
-// triangles sharing an edge compute as exact negations. LIFT_MOLLER_TRUMBORE: the old test.
-#ifdef cl_khr_fp64
+// shaders/lift/bvh.glsl (which says why), with the same arithmetic: the axes permuted so that
+// z is the ray's largest, a shear that makes the ray run along +z from (0, 0), both folded
+// into two rows per ray, and 2D edge functions U, V, W that two triangles sharing an edge
+// compute as exact negations. LIFT_MOLLER_TRUMBORE: the old test; LIFT_WATERTIGHT_FP64: an
+// edge function of exactly 0 redone in double precision (where the device has it).
+#if defined(LIFT_WATERTIGHT_FP64) && defined(cl_khr_fp64)
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
-typedef struct { float3 s; int kz; } LiftRayShear;  // s: (dx/dz, dy/dz, 1/dz) permuted; kz: largest axis
+typedef struct {
+    float3 row_x, row_y;  // frame x = dot(row_x, p - origin): the axis after the ray's largest, sheared
+    float inv_dz;         // 1 / the direction's largest component
+    int kz;               // the ray's largest axis
+} LiftRayShear;
 
 // v's axes in the frame's order (x, y, z), z the ray's largest axis; a cyclic permutation.
 float3 lift_permute(float3 v, int kz) { return kz == 0 ? v.yzx : (kz == 1 ? v.zxy : v); }
@@ -40,11 +46,16 @@ LiftRayShear lift_ray_shear(float3 dir) {
     int kz = a.x >= a.y ? (a.x >= a.z ? 0 : 2) : (a.y >= a.z ? 1 : 2);
     float3 d = lift_permute(dir, kz);
     float inv_dz = 1.0f / d.z;
+    float3 ez = (float3)(kz == 0 ? 1.0f : 0.0f, kz == 1 ? 1.0f : 0.0f, kz == 2 ? 1.0f : 0.0f);
     LiftRayShear sh;
-    sh.s = (float3)(d.x * inv_dz, d.y * inv_dz, inv_dz);
+    sh.row_x = ez.zxy - (d.x * inv_dz) * ez;
+    sh.row_y = ez.yzx - (d.y * inv_dz) * ez;
+    sh.inv_dz = inv_dz;
     sh.kz = kz;
     return sh;
 }
+
+float lift_shear(float3 p, float3 row) { return fma(p.z, row.z, fma(p.y, row.y, p.x * row.x)); }
 
 // Updates t and returns true when the hit is in (ray.tmin, t); bary = (b1, b2), as in Hit.
 bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint tri, float* t, float2* bary) {
@@ -73,16 +84,16 @@ bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint 
     *bary = (float2)(b1, b2);
     return true;
 #else
-    float3 a = lift_permute(scene->tri_pos[i].xyz - ray.origin, sh.kz);
-    float3 b = lift_permute(scene->tri_pos[i + 1u].xyz - ray.origin, sh.kz);
-    float3 c = lift_permute(scene->tri_pos[i + 2u].xyz - ray.origin, sh.kz);
-    float ax = fma(-sh.s.x, a.z, a.x), ay = fma(-sh.s.y, a.z, a.y);
-    float bx = fma(-sh.s.x, b.z, b.x), by = fma(-sh.s.y, b.z, b.y);
-    float cx = fma(-sh.s.x, c.z, c.x), cy = fma(-sh.s.y, c.z, c.y);
+    float3 a = scene->tri_pos[i].xyz - ray.origin;
+    float3 b = scene->tri_pos[i + 1u].xyz - ray.origin;
+    float3 c = scene->tri_pos[i + 2u].xyz - ray.origin;
+    float ax = lift_shear(a, sh.row_x), ay = lift_shear(a, sh.row_y);
+    float bx = lift_shear(b, sh.row_x), by = lift_shear(b, sh.row_y);
+    float cx = lift_shear(c, sh.row_x), cy = lift_shear(c, sh.row_y);
     float u = cx * by - cy * bx;
     float v = ax * cy - ay * cx;
     float w = bx * ay - by * ax;
-#if defined(cl_khr_fp64) && !defined(LIFT_WATERTIGHT_FLOAT_ONLY)
+#if defined(LIFT_WATERTIGHT_FP64) && defined(cl_khr_fp64)
     if (u == 0.0f || v == 0.0f || w == 0.0f) {   // exactly 0: decide in double, products exact
         u = (float)((double)cx * (double)by - (double)cy * (double)bx);
         v = (float)((double)ax * (double)cy - (double)ay * (double)cx);
@@ -93,7 +104,8 @@ bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint 
     float det = u + v + w;
     if (det == 0.0f) return false;
     float inv_det = 1.0f / det;
-    float th = (u * a.z + v * b.z + w * c.z) * sh.s.z * inv_det;
+    float th = (u * lift_permute(a, sh.kz).z + v * lift_permute(b, sh.kz).z + w * lift_permute(c, sh.kz).z)
+               * sh.inv_dz * inv_det;
     if (!(th > ray.tmin && th < *t)) return false;  // a NaN th fails too
     *t = th;
     *bary = (float2)(v, w) * inv_det;
