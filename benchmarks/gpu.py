@@ -292,8 +292,9 @@ def ab_table(record: dict) -> str:
     """Markdown of an `ab` record: speed-up of each version over the first, by ray kind, and
     the first version's Mrays/s."""
     labels = [v[0] for v in record["variants"]]
-    lines = [f"Machine: {record['gl']}. Median of {record['reps']} interleaved dispatches; speed-up = "
-             f"{labels[0]} time / version time.", "",
+    lines = [f"Machine: {record['gl']}. {record['reps']} interleaved dispatches a version; speed-up = median over "
+             f"the rounds of {labels[0]}'s time / the version's in the same round (a GPU that changes its clocks "
+             f"mid-run changes both alike); Mrays/s from the median time.", "",
              "| scene | size | triangles | " + " | ".join(f"{labels[0]} {k} Mrays/s" for k in RAY_KINDS) + " | "
              + " | ".join(f"{k} {lab}" for k in RAY_KINDS for lab in labels[1:]) + " |",
              "|" + "---|" * (3 + len(RAY_KINDS) * len(labels))]
@@ -303,9 +304,14 @@ def ab_table(record: dict) -> str:
         rays = {"primary": w * h, "shadow": hits, "bounce": hits}
         cells = [c["scene_name"], f"{w}x{h}", f"{c['triangles']:,}"]
         cells += ["–" if rays[k] is None else _mrays(rays[k] / c["kinds"][k]["median_ms"][0] / 1e3) for k in RAY_KINDS]
-        cells += [f"{c['kinds'][k]['speedup_vs_first'][j]:.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
+        cells += [f"{paired_speedup(c['kinds'][k]['ms'], j):.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def paired_speedup(times: list[list[float]], j: int) -> float:
+    """Median over the rounds of version 0's time / version j's time in the same round."""
+    return float(np.median(np.asarray(times[0]) / np.asarray(times[j])))
 
 
 def ab(args) -> int:
