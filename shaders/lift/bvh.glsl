@@ -101,10 +101,14 @@ LiftRayShear lift_ray_shear(vec3 dir) {
 
 // A corner's frame coordinate: one rounding where the row's 1 and 0 come first (kz = 2), two
 // otherwise; the same operations for every corner, which is what watertightness needs.
-float lift_shear(vec3 p, vec3 row) { return fma(p.z, row.z, fma(p.y, row.y, p.x * row.x)); }
+float lift_shear(vec3 p, vec3 row) {
+    precise float x = fma(p.z, row.z, fma(p.y, row.y, p.x * row.x));   // precise: fma() fused, always
+    return x;
+}
 
 // Updates t and returns true when the hit is in (ray.tmin, t); bary = (b1, b2), as in Hit.
-// Zero-area triangles (U + V + W == 0) and triangles seen edge-on never hit; a NaN anywhere fails.
+// A triangle with a repeated corner has U + V + W == 0 exactly and never hits, nor does one
+// seen exactly edge-on; a NaN anywhere (corner, direction) fails the test.
 bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
