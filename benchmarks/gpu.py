@@ -52,8 +52,9 @@ LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakf
 
 RAY_KINDS = ("primary", "shadow", "bounce")
 
+# Compiled by ray_program, in the trace pass's work-group shape and BVH stack placement.
 RAY_SHADER = """
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = LIFT_RAY_LOCAL_X, local_size_y = LIFT_RAY_LOCAL_Y) in;
 #include "lift/bvh.glsl"
 
 uniform vec3 u_cam_pos;
@@ -156,16 +157,39 @@ def bind_as_storage(renderer) -> None:
             renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
 
 
-def timed_dispatch(ctx, program, query, size, cpu: bool, cpu_clock=time.perf_counter_ns) -> float:
-    """Milliseconds of one dispatch of `program` over `size` pixels: its GL timer query on a GPU;
-    on a CPU rasterizer `cpu_clock` around it (the wall clock, or time.process_time_ns: the CPU
-    time of all of this process's threads, whatever share of the cores the run got)."""
-    from lift_gl.passes.common import groups
+def ray_program(ctx, defines: dict, include_dirs=(), label: str = "gpu.py ray kinds"):
+    """The ray-kind shader, compiled as lift-gl's trace pass would run on this GL: its work-group
+    shape and BVH stack placement (trace_layout, lift_gl/passes/trace.py: on GPUs 8x4 with the
+    stack in shared memory). Returns (program, local size). A lift_gl older than trace_layout
+    ($LIFT_GL_TREE) ran its trace pass in 8x8 groups with local stacks, and so does this then."""
+    from lift_gl.shaders import assemble, compile_compute
+    try:
+        from lift_gl.passes.trace import trace_layout
+    except ImportError:
+        local, shared = (8, 8), False
+    else:
+        local, shared = trace_layout(ctx)
+    defines = dict(defines, LIFT_RAY_LOCAL_X=local[0], LIFT_RAY_LOCAL_Y=local[1])
+    if shared:
+        defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
+    source = assemble(RAY_SHADER, defines, include_dirs=list(include_dirs), main_name=f"<{label}>")
+    return compile_compute(ctx, source), local
 
+
+def dispatch_groups(size, local) -> tuple[int, int, int]:
+    (w, h), (lx, ly) = size, local
+    return (w + lx - 1) // lx, (h + ly - 1) // ly, 1
+
+
+def timed_dispatch(ctx, program, query, size, cpu: bool, cpu_clock=time.perf_counter_ns, local=(8, 8)) -> float:
+    """Milliseconds of one dispatch of `program` (work groups of `local`) over `size` pixels: its
+    GL timer query on a GPU; on a CPU rasterizer `cpu_clock` around it (the wall clock, or
+    time.process_time_ns: the CPU time of all of this process's threads, whatever share of the
+    cores the run got)."""
     ctx.finish()
     start = cpu_clock()
     with query:
-        program.run(*groups(*size))
+        program.run(*dispatch_groups(size, local))
     ctx.finish()
     return ((cpu_clock() - start) if cpu else query.elapsed) / 1e6
 
@@ -176,11 +200,10 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import camera_uniforms
     from lift_gl.passes.common import set_uniforms
-    from lift_gl.shaders import assemble, compile_compute
 
     ctx = renderer.ctx
     defines = {k: v for k, v in renderer.defines.items() if k in ("HAS_SPHERES",)}
-    program = compile_compute(ctx, assemble(RAY_SHADER, defines, main_name="<gpu.py ray kinds>"))
+    program, local = ray_program(ctx, defines)
     w, h = size
     hits = ctx.buffer(reserve=32 * w * h)
     hits.bind_to_storage_buffer(10)
@@ -196,7 +219,7 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
         best = None
         for rep in range(repeat + 1):
             set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
-            ms = timed_dispatch(ctx, program, query, size, cpu)
+            ms = timed_dispatch(ctx, program, query, size, cpu, local=local)
             if rep == 0:
                 continue  # warm-up
             if best is None or ms < best:
@@ -222,13 +245,12 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import camera_uniforms
     from lift_gl.passes.common import set_uniforms
-    from lift_gl.shaders import assemble, compile_compute
 
     w, h = size
     setups = []
     for r in renderers:
         defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
-        program = compile_compute(r.ctx, assemble(RAY_SHADER, defines, main_name="<gpu.py ray kinds>"))
+        program, local = ray_program(r.ctx, defines)
         extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
         uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
         setups.append((r, program, r.ctx.buffer(reserve=32 * w * h), uniforms))
@@ -248,7 +270,7 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
                 set_uniforms(program, dict(uniforms, u_kind=kind_index, u_seed=rep))
                 # on a CPU rasterizer: the CPU time of all of this process's threads (the
                 # rasterizer's work however the shared cores were scheduled)
-                ms = timed_dispatch(ctx, program, query, size, cpu, cpu_clock=time.process_time_ns)
+                ms = timed_dispatch(ctx, program, query, size, cpu, cpu_clock=time.process_time_ns, local=local)
                 if rep:  # rep 0 warms up
                     times[i].append(ms)
         for i, (r, program, hits, uniforms) in enumerate(setups):
@@ -270,8 +292,9 @@ def ab_table(record: dict) -> str:
     """Markdown of an `ab` record: speed-up of each version over the first, by ray kind, and
     the first version's Mrays/s."""
     labels = [v[0] for v in record["variants"]]
-    lines = [f"Machine: {record['gl']}. Median of {record['reps']} interleaved dispatches; speed-up = "
-             f"{labels[0]} time / version time.", "",
+    lines = [f"Machine: {record['gl']}. {record['reps']} interleaved dispatches a version; speed-up = median over "
+             f"the rounds of {labels[0]}'s time / the version's in the same round (a GPU that changes its clocks "
+             f"mid-run changes both alike); Mrays/s from the median time.", "",
              "| scene | size | triangles | " + " | ".join(f"{labels[0]} {k} Mrays/s" for k in RAY_KINDS) + " | "
              + " | ".join(f"{k} {lab}" for k in RAY_KINDS for lab in labels[1:]) + " |",
              "|" + "---|" * (3 + len(RAY_KINDS) * len(labels))]
@@ -281,41 +304,48 @@ def ab_table(record: dict) -> str:
         rays = {"primary": w * h, "shadow": hits, "bounce": hits}
         cells = [c["scene_name"], f"{w}x{h}", f"{c['triangles']:,}"]
         cells += ["–" if rays[k] is None else _mrays(rays[k] / c["kinds"][k]["median_ms"][0] / 1e3) for k in RAY_KINDS]
-        cells += [f"{c['kinds'][k]['speedup_vs_first'][j]:.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
+        cells += [f"{paired_speedup(c['kinds'][k]['ms'], j):.3f}" for k in RAY_KINDS for j in range(1, len(labels))]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+def paired_speedup(times: list[list[float]], j: int) -> float:
+    """Median over the rounds of version 0's time / version j's time in the same round."""
+    return float(np.median(np.asarray(times[0]) / np.asarray(times[j])))
 
 
 def ab(args) -> int:
     """Versions of lift/bvh.glsl against each other in one process, dispatch by dispatch
     (A, B, A, B, ...), on the same scene buffers: on a busy machine (llvmpipe on shared
     cores) the load then hits every version alike, and the ratio of the medians holds even
-    where single timings scatter by 2x. --variant LABEL=TREE:LAYOUT takes TREE/shaders/lift/
-    bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, what lift-gl's bvh.glsl
-    reads) or records (benchmarks/bvh_records.py, what the gpu-speed experiments read)."""
+    where single timings scatter by 2x. --variant LABEL=TREE:LAYOUT[:NAME,...] takes TREE/shaders/
+    lift/bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, what lift-gl's bvh.glsl
+    reads) or records (benchmarks/bvh_records.py, what the gpu-speed experiments read), and
+    the NAMEs #defined (e.g. LIFT_MOLLER_TRUMBORE: the same tree with its other triangle test).
+    Every version runs in the trace pass's work-group shape and stack placement (ray_program)."""
     from lift_gl.cli import _size
     from lift_gl.gl.context import create_context, describe, is_software
     from lift_gl.passes.camera import camera_uniforms
-    from lift_gl.passes.common import groups, set_uniforms
+    from lift_gl.passes.common import set_uniforms
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
-    from lift_gl.shaders import assemble, compile_compute
 
     from bvh_records import gpu_nodes  # benchmarks/: the records experiment
 
     variants = []
     for text in args.variant:
         label, rest = text.split("=", 1)
-        tree, layout = rest.rsplit(":", 1)
-        if layout not in ("binary", "records"):
-            raise SystemExit(f"--variant {text}: layout must be binary or records")
-        variants.append((label, Path(tree), layout))
+        tree, layout, *names = rest.split(":")
+        if layout not in ("binary", "records") or len(names) > 1:
+            raise SystemExit(f"--variant {text}: expected LABEL=TREE:binary|records[:NAME,...]")
+        extra = {n.strip(): True for n in (names[0].split(",") if names else []) if n.strip()}
+        variants.append((label, Path(tree), layout, extra))
     ctx = create_context(args.backend)
     cpu = is_software(ctx)
     query = ctx.query(time=True)
     print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
     results = []
-    record = {"gl": describe(ctx), "variants": [[v[0], v[2]] for v in variants], "reps": args.reps,
+    record = {"gl": describe(ctx), "variants": [[v[0], v[2], sorted(v[3])] for v in variants], "reps": args.reps,
               "results": results}
     for path in args.scenes:
         scene = load_scene(path)
@@ -323,9 +353,10 @@ def ab(args) -> int:
             r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
             defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
             progs, nodes = [], []
-            for label, tree, layout in variants:
-                progs.append(compile_compute(ctx, assemble(RAY_SHADER, defines, include_dirs=[tree / "shaders"],
-                                                           main_name=f"<gpu.py ray kinds, {label}>")))
+            for label, tree, layout, extra in variants:
+                prog, local = ray_program(ctx, dict(defines, **extra), include_dirs=[tree / "shaders"],
+                                          label=f"gpu.py ray kinds, {label}")
+                progs.append(prog)
                 data = r.packed.bvh_nodes if layout == "binary" else gpu_nodes(r.packed.bvh_nodes)
                 nodes.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
 
@@ -336,7 +367,7 @@ def ab(args) -> int:
             extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
             uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
             case = {"scene_name": scene_name(path), "size": list(size), "triangles": r.packed.num_triangles,
-                    "kinds": {}}
+                    "local_size": list(local), "kinds": {}}
             for kind_index, kind in enumerate(RAY_KINDS):
                 times = [[] for _ in variants]
                 for rep in range(args.reps + 1):
@@ -344,17 +375,18 @@ def ab(args) -> int:
                         i = i if rep % 2 == 0 else len(progs) - 1 - i
                         nodes[i].bind_to_storage_buffer(0)
                         set_uniforms(prog, dict(uniforms, u_kind=kind_index, u_seed=rep))
-                        ms = timed_dispatch(ctx, prog, query, size, cpu)
+                        # on a CPU rasterizer: the process's CPU time (ray_throughput_interleaved says why)
+                        ms = timed_dispatch(ctx, prog, query, size, cpu, cpu_clock=time.process_time_ns, local=local)
                         if rep:
                             times[i].append(ms)
                 if kind == "primary":
                     # Every version must find the same primary hits (up to a few rays through
                     # edges): one that misread the BVH would be fast and wrong.
                     case["primary_hits"] = {}
-                    for (label, _, _), prog, buf in zip(variants, progs, nodes):
+                    for (label, *_), prog, buf in zip(variants, progs, nodes):
                         buf.bind_to_storage_buffer(0)
                         set_uniforms(prog, dict(uniforms, u_kind=0, u_seed=0))
-                        prog.run(*groups(w, h))
+                        prog.run(*dispatch_groups(size, local))
                         rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
                         case["primary_hits"][label] = int((rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF).sum())
                 med = [float(np.median(t)) for t in times]

@@ -83,6 +83,14 @@ def bdpt_unpacked(text: str) -> str:
     return text.replace("\n", "\n#define BDPT_PACK_NORMALS 0\n", 1)  # after #version
 
 
+def define(name: str):
+    """The program with `name` #defined (e.g. LIFT_MOLLER_TRUMBORE: lift/bvh.glsl's other
+    triangle test; the image may move by the rays through shared edges)."""
+    def edit(text):
+        return text.replace("\n", f"\n#define {name}\n", 1)  # after #version
+    return edit
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -112,6 +120,8 @@ VARIANTS = {
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
+    "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
+    "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
 }
 
 

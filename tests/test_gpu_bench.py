@@ -55,3 +55,24 @@ def test_tables_give_ratios_to_the_first_run_and_the_paper_at_1080p():
 ])
 def test_results_keep_no_machine_paths(path, expect):
     assert gpu.portable(path) == expect
+
+
+def test_ray_kinds_run_in_the_trace_pass_layout(monkeypatch):
+    """The ray-kind shader takes the trace pass's work-group shape and stack placement
+    (trace_layout), and finds the same hits either way (here: llvmpipe, both forced)."""
+    from lift_gl.passes.trace import trace_layout
+    from lift_gl.renderer import Renderer
+    from lift_gl.testing import cornell_scene
+
+    size = (40, 24)
+    r = Renderer(cornell_scene(), size=size, integrator="pt")
+    hits = {}
+    for mode in ("shared", "local"):
+        monkeypatch.setenv("LIFT_GL_BVH_STACK", mode)
+        program, local = gpu.ray_program(r.ctx, {"HAS_SPHERES": True})
+        program.release()
+        assert local == trace_layout(r.ctx)[0] == ((8, 4) if mode == "shared" else (8, 8))
+        rays = gpu.ray_throughput(r, size, repeat=1)
+        hits[mode] = [rays[k]["hits"] for k in gpu.RAY_KINDS]
+    r.release()
+    assert hits["shared"] == hits["local"] and hits["shared"][0] > 0.5 * size[0] * size[1]

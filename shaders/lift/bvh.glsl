@@ -64,11 +64,55 @@ uint lift_rays_traced = 0u;
 #define LIFT_COUNT_RAY()
 #endif
 
-// Möller–Trumbore. Updates t and returns true when the hit is in (ray.tmin, t).
-// Triangles seen exactly edge-on, and zero-area ones, have det == 0 and never hit.
-bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+// ---- Ray/triangle test --------------------------------------------------------------------
+// The watertight test of Woop, Benthin and Wald (JCGT 2013), the default: the triangle is
+// moved into a frame where the ray runs along +z from (0, 0) (the axes permuted so that z is
+// the ray's largest, then a shear), and three 2D edge functions U, V, W decide the hit. Two
+// triangles sharing an edge compute its edge function from the same two products, subtracted
+// in the opposite order, so the one is exactly the negation of the other and a ray through
+// the edge or a shared vertex cannot slip between them (Möller–Trumbore, LIFT_MOLLER_TRUMBORE,
+// computes each triangle's barycentrics from its own edge vectors and lets 3-5% of such rays
+// through: tests/test_watertight.py). The permutation and the shear depend only on the ray:
+// the traversal computes them once (lift_ray_shear) as two rows, the frame's x and y axes in
+// world space, so a corner's frame x and y are two fused dot products, and its z (for t) is
+// read only for a hit. On an H100 this costs pt's trace pass 1-4% over Möller–Trumbore; the
+// permutation done by selecting swizzles of each corner cost 8-16%, and a vec3 indexed by a
+// per-ray axis up to 40% (local memory); docs/gpu.md. The paper also swaps x and y when the
+// ray runs towards -z, to keep the triangles' winding; this test accepts both windings and
+// t, b1, b2 are ratios of U, V, W, so the swap (which negates all three) would change nothing.
+struct LiftRayShear {
+    vec3 row_x, row_y;   // frame x = dot(row_x, p - origin): the axis after the ray's largest, sheared
+    float inv_dz;        // 1 / the direction's largest component
+    int kz;              // the ray's largest axis
+};
+
+// v's axes in the frame's order (x, y, z), z the ray's largest axis; a cyclic permutation.
+vec3 lift_permute(vec3 v, int kz) { return kz == 0 ? v.yzx : (kz == 1 ? v.zxy : v); }
+
+LiftRayShear lift_ray_shear(vec3 dir) {
+    vec3 a = abs(dir);
+    int kz = a.x >= a.y ? (a.x >= a.z ? 0 : 2) : (a.y >= a.z ? 1 : 2);
+    vec3 d = lift_permute(dir, kz);
+    float inv_dz = 1.0 / d.z;   // |d.z| >= |dir| / sqrt(3): finite for any nonzero dir
+    vec3 ez = vec3(equal(ivec3(0, 1, 2), ivec3(kz)));
+    vec3 ex = ez.zxy, ey = ez.yzx;   // the frame's x and y axes, one-hot
+    return LiftRayShear(ex - (d.x * inv_dz) * ez, ey - (d.y * inv_dz) * ez, inv_dz, kz);
+}
+
+// A corner's frame coordinate: one rounding where the row's 1 and 0 come first (kz = 2), two
+// otherwise; the same operations for every corner, which is what watertightness needs.
+float lift_shear(vec3 p, vec3 row) {
+    precise float x = fma(p.z, row.z, fma(p.y, row.y, p.x * row.x));   // precise: fma() fused, always
+    return x;
+}
+
+// Updates t and returns true when the hit is in (ray.tmin, t); bary = (b1, b2), as in Hit.
+// A triangle with a repeated corner has U + V + W == 0 exactly and never hits, nor does one
+// seen exactly edge-on; a NaN anywhere (corner, direction) fails the test.
+bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
+#ifdef LIFT_MOLLER_TRUMBORE
     vec3 p0 = tri_pos_row(i).xyz;
     vec3 e1 = tri_pos_row(i + 1u).xyz - p0;
     vec3 e2 = tri_pos_row(i + 2u).xyz - p0;
@@ -88,6 +132,47 @@ bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
     t = th;
     bary = vec2(b1, b2);
     return true;
+#else
+    // `precise` (no operation fused or reordered by the compiler): a corner shared by two
+    // triangles gets the same coordinates in both, and the edge functions stay exact negations
+    precise vec3 org = ray.origin - prim_displacement(tri);  // a moving triangle: where it is now
+    precise vec3 a = tri_pos_row(i).xyz - org;
+    precise vec3 b = tri_pos_row(i + 1u).xyz - org;
+    precise vec3 c = tri_pos_row(i + 2u).xyz - org;
+    precise float ax = lift_shear(a, sh.row_x), ay = lift_shear(a, sh.row_y);
+    precise float bx = lift_shear(b, sh.row_x), by = lift_shear(b, sh.row_y);
+    precise float cx = lift_shear(c, sh.row_x), cy = lift_shear(c, sh.row_y);
+    precise float u = cx * by - cy * bx;
+    precise float v = ax * cy - ay * cx;
+    precise float w = bx * ay - by * ax;
+    // An edge function of exactly 0 counts as inside, so a ray through an edge or vertex hits
+    // every triangle there (the closest hit keeps one). With LIFT_WATERTIGHT_FP64, such a 0
+    // is redone in double precision, where products of floats are exact (the paper's
+    // fallback: the exact side of the edge), at 1-3% more of pt's trace pass on an H100.
+#ifdef LIFT_WATERTIGHT_FP64
+    if (u == 0.0 || v == 0.0 || w == 0.0) {
+        u = float(double(cx) * double(by) - double(cy) * double(bx));
+        v = float(double(ax) * double(cy) - double(ay) * double(cx));
+        w = float(double(bx) * double(ay) - double(by) * double(ax));
+    }
+#endif
+    if (!((u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0))) return false;
+    precise float det = u + v + w;
+    if (det == 0.0) return false;
+    float inv_det = 1.0 / det;
+    // t from the corners' distances along the ray's largest axis, weighted by U, V, W
+    float th = (u * lift_permute(a, sh.kz).z + v * lift_permute(b, sh.kz).z + w * lift_permute(c, sh.kz).z)
+               * sh.inv_dz * inv_det;
+    if (!(th > ray.tmin && th < t)) return false;   // a NaN th fails too
+    t = th;
+    bary = vec2(v, w) * inv_det;
+    return true;
+#endif
+}
+
+// The test for one triangle (lift/primary_hit.glsl, plugins), with its own ray shear.
+bool intersect_triangle(Ray ray, uint tri, inout float t, out vec2 bary) {
+    return lift_intersect_triangle(ray, lift_ray_shear(ray.dir), tri, t, bary);
 }
 
 // Both roots of |o + t d - c|^2 = r^2 (inside a sphere the far root is the hit).
@@ -115,7 +200,7 @@ vec3 lift_bvh_inv_dir(vec3 d) {
     return 1.0 / (s * max(abs(d), vec3(1e-30)));
 }
 
-// Slab test of node n's box against the interval (tmin, tmax); tn: entry distance.
+// Slab test of node n's box against the interval (tmin, tmax), conservative; tn: entry distance.
 bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float tn) {
     vec3 bmin = bvh_node_row(2u * n).xyz;
     vec3 bmax = bvh_node_row(2u * n + 1u).xyz;
@@ -132,7 +217,11 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
     vec3 lo = min(t0, t1);
     vec3 hi = max(t0, t1);
     tn = max(max(lo.x, lo.y), max(lo.z, tmin));
-    float tf = min(min(hi.x, hi.y), min(hi.z, tmax));
+    // The exit enlarged by the rounding bound of Ize (JCGT 2013: 1 + 2 gamma(3)), so that a ray
+    // through a triangle's corner or edge lying on its leaf's box is not culled by the
+    // rounding of the slab distances (without it 5 of tests/test_watertight.py's 8,236 rays
+    // through shared edges slip through): watertight triangles need conservative boxes.
+    float tf = min(min(hi.x, hi.y), min(hi.z, tmax)) * 1.0000004;
     return tn <= tf;
 }
 
@@ -146,6 +235,7 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
 bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
     bool found = false;
     vec3 inv = lift_bvh_inv_dir(ray.dir);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
     LIFT_BVH_STACK_DECLARE
     int sp = 0;
     uint node = root;
@@ -176,7 +266,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
         }
         for (uint i = first; i < first + count; ++i) {   // a leaf (count 0 when none was left)
             vec2 bary;
-            if (intersect_triangle(ray, i, t, bary)) {
+            if (lift_intersect_triangle(ray, shear, i, t, bary)) {
                 prim = i;
                 bary_out = bary;
                 found = true;
@@ -192,6 +282,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
 // The same while-while traversal as lift_bvh_closest.
 bool lift_bvh_any(uint root, Ray ray, float t) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
     LIFT_BVH_STACK_DECLARE
     int sp = 0;
     float troot;
@@ -220,7 +311,7 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
         }
         for (uint i = first; i < first + count; ++i) {
             vec2 bary;
-            if (intersect_triangle(ray, i, t, bary)) return true;
+            if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
         }
         if (sp == 0) return false;
         node = LIFT_BVH_STACK_AT(--sp);

@@ -22,10 +22,49 @@ Ray make_ray(float3 origin, float3 dir, float tmin, float tmax) {
     return r;
 }
 
-// Moller-Trumbore. Updates t and returns true when the hit is in (ray.tmin, t).
-bool intersect_triangle(const Scene* scene, Ray ray, uint tri, float* t, float2* bary) {
+// ---- Ray/triangle test: the watertight test of Woop, Benthin and Wald (JCGT 2013), as in
+// shaders/lift/bvh.glsl (which says why), with the same arithmetic: the axes permuted so that
+// z is the ray's largest, a shear that makes the ray run along +z from (0, 0), both folded
+// into two rows per ray, and 2D edge functions U, V, W that two triangles sharing an edge
+// compute as exact negations. LIFT_MOLLER_TRUMBORE: the old test; LIFT_WATERTIGHT_FP64: an
+// edge function of exactly 0 redone in double precision (where the device has it).
+#if defined(LIFT_WATERTIGHT_FP64) && defined(cl_khr_fp64)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+typedef struct {
+    float3 row_x, row_y;  // frame x = dot(row_x, p - origin): the axis after the ray's largest, sheared
+    float inv_dz;         // 1 / the direction's largest component
+    int kz;               // the ray's largest axis
+} LiftRayShear;
+
+// v's axes in the frame's order (x, y, z), z the ray's largest axis; a cyclic permutation.
+float3 lift_permute(float3 v, int kz) { return kz == 0 ? v.yzx : (kz == 1 ? v.zxy : v); }
+
+LiftRayShear lift_ray_shear(float3 dir) {
+    float3 a = fabs(dir);
+    int kz = a.x >= a.y ? (a.x >= a.z ? 0 : 2) : (a.y >= a.z ? 1 : 2);
+    float3 d = lift_permute(dir, kz);
+    float inv_dz = 1.0f / d.z;
+    float3 ez = (float3)(kz == 0 ? 1.0f : 0.0f, kz == 1 ? 1.0f : 0.0f, kz == 2 ? 1.0f : 0.0f);
+    LiftRayShear sh;
+    sh.row_x = ez.zxy - (d.x * inv_dz) * ez;
+    sh.row_y = ez.yzx - (d.y * inv_dz) * ez;
+    sh.inv_dz = inv_dz;
+    sh.kz = kz;
+    return sh;
+}
+
+float lift_shear(float3 p, float3 row) { return fma(p.z, row.z, fma(p.y, row.y, p.x * row.x)); }
+
+// Updates t and returns true when the hit is in (ray.tmin, t); bary = (b1, b2), as in Hit.
+bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint tri, float* t, float2* bary) {
+    // no contraction into fused multiply-adds (OpenCL's default allows it): the edge
+    // functions of a shared edge must stay exact negations
+#pragma OPENCL FP_CONTRACT OFF
     *bary = (float2)(0.0f);
     uint i = 3u * tri;
+#ifdef LIFT_MOLLER_TRUMBORE
     float3 p0 = scene->tri_pos[i].xyz;
     float3 e1 = scene->tri_pos[i + 1u].xyz - p0;
     float3 e2 = scene->tri_pos[i + 2u].xyz - p0;
@@ -44,6 +83,39 @@ bool intersect_triangle(const Scene* scene, Ray ray, uint tri, float* t, float2*
     *t = th;
     *bary = (float2)(b1, b2);
     return true;
+#else
+    float3 a = scene->tri_pos[i].xyz - ray.origin;
+    float3 b = scene->tri_pos[i + 1u].xyz - ray.origin;
+    float3 c = scene->tri_pos[i + 2u].xyz - ray.origin;
+    float ax = lift_shear(a, sh.row_x), ay = lift_shear(a, sh.row_y);
+    float bx = lift_shear(b, sh.row_x), by = lift_shear(b, sh.row_y);
+    float cx = lift_shear(c, sh.row_x), cy = lift_shear(c, sh.row_y);
+    float u = cx * by - cy * bx;
+    float v = ax * cy - ay * cx;
+    float w = bx * ay - by * ax;
+#if defined(LIFT_WATERTIGHT_FP64) && defined(cl_khr_fp64)
+    if (u == 0.0f || v == 0.0f || w == 0.0f) {   // exactly 0: decide in double, products exact
+        u = (float)((double)cx * (double)by - (double)cy * (double)bx);
+        v = (float)((double)ax * (double)cy - (double)ay * (double)cx);
+        w = (float)((double)bx * (double)ay - (double)by * (double)ax);
+    }
+#endif
+    if (!((u >= 0.0f && v >= 0.0f && w >= 0.0f) || (u <= 0.0f && v <= 0.0f && w <= 0.0f))) return false;
+    float det = u + v + w;
+    if (det == 0.0f) return false;
+    float inv_det = 1.0f / det;
+    float th = (u * lift_permute(a, sh.kz).z + v * lift_permute(b, sh.kz).z + w * lift_permute(c, sh.kz).z)
+               * sh.inv_dz * inv_det;
+    if (!(th > ray.tmin && th < *t)) return false;  // a NaN th fails too
+    *t = th;
+    *bary = (float2)(v, w) * inv_det;
+    return true;
+#endif
+}
+
+// The test for one triangle (the host's gbuffer_hit, plugins), with its own ray shear.
+bool intersect_triangle(const Scene* scene, Ray ray, uint tri, float* t, float2* bary) {
+    return lift_intersect_triangle(scene, ray, lift_ray_shear(ray.dir), tri, t, bary);
 }
 
 // Both roots of |o + t d - c|^2 = r^2; the discriminant from the centre's distance to the line.
@@ -68,14 +140,15 @@ float3 lift_bvh_inv_dir(float3 d) {
     return 1.0f / (s * fmax(fabs(d), (float3)(1e-30f)));
 }
 
-// Slab test of node n's box against (tmin, tmax); *tn: entry distance.
+// Slab test of node n's box against (tmin, tmax), conservative; *tn: entry distance.
 bool lift_bvh_box(const Scene* scene, uint n, float3 org, float3 inv, float tmin, float tmax, float* tn) {
     float3 t0 = (scene->bvh_nodes[2u * n].xyz - org) * inv;
     float3 t1 = (scene->bvh_nodes[2u * n + 1u].xyz - org) * inv;
     float3 lo = fmin(t0, t1);
     float3 hi = fmax(t0, t1);
     *tn = fmax(fmax(lo.x, lo.y), fmax(lo.z, tmin));
-    float tf = fmin(fmin(hi.x, hi.y), fmin(hi.z, tmax));
+    // the exit enlarged by Ize's rounding bound, as in lift/bvh.glsl (which says why)
+    float tf = fmin(fmin(hi.x, hi.y), fmin(hi.z, tmax)) * 1.0000004f;
     return *tn <= tf;
 }
 
@@ -92,6 +165,7 @@ bool trace_closest(const Scene* scene, Ray ray, Hit* hit) {
 #endif
     if (scene->num_triangles > 0u) {
         float3 inv = lift_bvh_inv_dir(ray.dir);
+        LiftRayShear shear = lift_ray_shear(ray.dir);
         uint stack_node[LIFT_BVH_STACK];
         float stack_t[LIFT_BVH_STACK];  // entry distance, to skip nodes behind a closer hit
         int sp = 0;
@@ -104,7 +178,7 @@ bool trace_closest(const Scene* scene, Ray ray, Hit* hit) {
             if (count > 0u) {
                 for (uint i = first; i < first + count; ++i) {
                     float2 bary;
-                    if (intersect_triangle(scene, ray, i, &t, &bary)) {
+                    if (lift_intersect_triangle(scene, ray, shear, i, &t, &bary)) {
                         hit->prim = i;
                         hit->bary = bary;
                     }
@@ -151,6 +225,7 @@ bool trace_occluded(const Scene* scene, Ray ray) {
 #endif
     if (scene->num_triangles == 0u) return false;
     float3 inv = lift_bvh_inv_dir(ray.dir);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
     uint stack_node[LIFT_BVH_STACK];
     int sp = 0;
     float troot;
@@ -162,7 +237,7 @@ bool trace_occluded(const Scene* scene, Ray ray) {
         if (count > 0u) {
             for (uint i = first; i < first + count; ++i) {
                 float2 bary;
-                if (intersect_triangle(scene, ray, i, &t, &bary)) return true;
+                if (lift_intersect_triangle(scene, ray, shear, i, &t, &bary)) return true;
             }
         } else {
             float ta, tb;
