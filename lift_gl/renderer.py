@@ -731,7 +731,9 @@ class Renderer:
         while True:
             if spp is not None and done >= spp:
                 break
-            if seconds is not None and time.perf_counter() - start >= seconds:
+            # a timed render adds at least one frame: a budget shorter than the clock's
+            # first reading must not give a checkpoint with no new sample
+            if seconds is not None and done > 0 and time.perf_counter() - start >= seconds:
                 break
             n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
             self.render_frame(n)

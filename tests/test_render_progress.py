@@ -46,3 +46,14 @@ def test_progress_bar_shows_spp_elapsed_and_estimated_error():
     assert any("6 spp" in u and "est. error" in u and "100%" in u for u in updates), updates[-3:]
     assert any("1 spp" in u and "est. error -" in u for u in updates)  # one frame: no estimate yet
     r.release()
+
+
+def test_a_timed_render_adds_at_least_one_frame():
+    # compare --time asks for the time left to its next checkpoint, which can be shorter than
+    # the clock's first reading: it must still get a new sample, or two checkpoints share an spp.
+    r = Renderer(load_scene(CORNELL), size=(16, 16), seed=1)
+    r.render(seconds=1e-12)
+    assert r.stats.spp == 1 and r.stats.frames == 1
+    r.render(seconds=1e-12)
+    assert r.stats.spp == 2
+    r.release()
