@@ -33,6 +33,7 @@ from ..errors import LiftError
 
 WIDTH_ENV_VAR = "LIFT_GL_BVH_WIDTH"
 ROWS = 8                    # vec4 rows per 4-wide node
+QROWS = 4                   # vec4 rows per 4-wide node with quantized boxes (quantize())
 LEAF_BIT = 0x80000000
 COUNT_SHIFT = 27
 MAX_LEAF_COUNT = 16         # 4 bits of count - 1
@@ -42,15 +43,21 @@ EMPTY = 0xFFFFFFFF
 # children are all hit pushes 3 of them, so the stack the tree needs is its largest sum of
 # (children - 1) along a root path (WideBVH.stack_bound); a tree that needs more stays binary.
 STACK = 64
-# The width GPUs get by default (resolve_width), from the H100 measurements in docs/gpu.md.
-DEFAULT_GPU_WIDTH = 2
+# The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
+# pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
+# 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).
+DEFAULT_GPU_WIDTH = 4
+# On llvmpipe (2 cores here) it made pt 1.10-1.26x faster in CPU time per sample on Lift's
+# scenes, interleaved (benchmarks/cpu_speed.py; benchmarks/results/cpu_speed/wide_bvh_*).
+DEFAULT_CPU_WIDTH = 4
 
 
 @dataclass
 class WideBVH:
-    rows: np.ndarray        # float32 (W, 4 * ROWS): one wide node a row of 32 floats
+    rows: np.ndarray        # float32 (W, 4 * ROWS) (quantized: (W, 4 * QROWS)), one wide node a row
     width: int
     stack_bound: int        # the deepest the traversal stack can get (see STACK)
+    quantized: bool = False
 
     @property
     def num_nodes(self) -> int:
@@ -59,13 +66,13 @@ class WideBVH:
 
 def resolve_width(value: str | int | None, software: bool | None = None) -> int:
     """The BVH width to build: `value` (2, 4, auto), else $LIFT_GL_BVH_WIDTH, else auto.
-    auto: 2 on CPU rasterizers and where the device is not known (software None), else
-    DEFAULT_GPU_WIDTH (docs/gpu.md has the measurements it follows)."""
+    auto: DEFAULT_GPU_WIDTH on GPUs, DEFAULT_CPU_WIDTH on CPU rasterizers (software True),
+    2 where the device is not known (software None: pack_scene called on its own)."""
     if value is None:
         value = os.environ.get(WIDTH_ENV_VAR, "auto")
     text = str(value).strip().lower() or "auto"
     if text == "auto":
-        return DEFAULT_GPU_WIDTH if software is False else 2
+        return 2 if software is None else DEFAULT_CPU_WIDTH if software else DEFAULT_GPU_WIDTH
     if text not in ("2", "4"):
         raise LiftError(f"${WIDTH_ENV_VAR} must be 2, 4 or auto, not {value!r}")
     return int(text)
@@ -74,6 +81,91 @@ def resolve_width(value: str | int | None, software: bool | None = None) -> int:
 def _area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     e = np.maximum(hi.astype(np.float64) - lo, 0.0)
     return e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0]
+
+
+def quantize(wide: WideBVH) -> WideBVH | None:
+    """The same tree with 8-bit child boxes (Ylitie, Karras and Laine 2017): 64 bytes a node,
+    two nodes a 128-byte line. Per node, QROWS vec4 rows:
+        row 0  origin.xyz (float), w: uint bits, the biased exponents of the per-axis scales
+               s = 2^(e - 127) in bytes 0, 1, 2
+        row 1  uint bits: qlo.x, qhi.x, qlo.y, qhi.y   (child i in byte i of each word)
+        row 2  uint bits: qlo.z, qhi.z, 0, 0
+        row 3  the child entries, as row 6 of the float layout
+    A child's plane is origin + q * s: q * s is exact (8 bits times a power of two), so the GPU
+    decodes exactly what numpy checks here, and every decoded box contains the float one
+    (rounded outwards, corrected where the final add rounded inwards): the traversal visits a
+    superset of the float layout's boxes and finds the same hits. Empty slots: qlo 255, qhi 0,
+    and their EMPTY entry, which the GLSL masks out. None where a scale would leave float's
+    exponent range."""
+    r = wide.rows.reshape(-1, ROWS, 4)
+    entry = r[:, 6].view(np.uint32)
+    valid = entry != EMPTY
+    lo = np.stack([r[:, 0], r[:, 2], r[:, 4]], axis=-1)          # (W, 4, 3), +inf where empty
+    hi = np.stack([r[:, 1], r[:, 3], r[:, 5]], axis=-1)
+    origin = np.where(valid[..., None], lo, np.inf).min(axis=1).astype(np.float32)   # (W, 3)
+    top = np.where(valid[..., None], hi, -np.inf).max(axis=1).astype(np.float32)
+    extent = np.maximum(top.astype(np.float64) - origin, 0.0)
+    # the smallest power of two with 253 steps covering the extent (2 steps spare for rounding)
+    with np.errstate(divide="ignore"):
+        e = np.ceil(np.log2(np.maximum(extent / 253.0, 2.0 ** -126)))
+    e = np.maximum(e, -126).astype(np.int64)
+    if (e > 127).any() or not np.isfinite(origin).all():
+        return None
+    scale = np.exp2(e).astype(np.float32)                         # (W, 3), exact powers of two
+    o = origin[:, None, :]
+    s = scale[:, None, :]
+    qlo = np.floor((lo.astype(np.float64) - o) / s)
+    qhi = np.ceil((hi.astype(np.float64) - o) / s)
+    qlo = np.clip(np.where(valid[..., None], qlo, 255), 0, 255)
+    qhi = np.clip(np.where(valid[..., None], qhi, 0), 0, 255)
+
+    def decode(q):   # what the GLSL computes: one float32 add of an exact product
+        return (o + (q.astype(np.float32) * s)).astype(np.float32)
+
+    for _ in range(2):   # where the add rounded inwards, one step outwards
+        qlo = np.where(valid[..., None] & (decode(qlo) > lo), np.maximum(qlo - 1, 0), qlo)
+        qhi = np.where(valid[..., None] & (decode(qhi) < hi), np.minimum(qhi + 1, 255), qhi)
+    v = valid[..., None]
+    if (v & (decode(qlo) > lo)).any() or (v & (decode(qhi) < hi)).any():
+        return None
+    qlo, qhi = qlo.astype(np.uint32), qhi.astype(np.uint32)
+    shifts = np.array([0, 8, 16, 24], np.uint32)
+
+    def pack(q):     # (W, 4) bytes -> (W,) words, child i in byte i
+        return (q << shifts).sum(axis=1).astype(np.uint32)
+
+    w = r.shape[0]
+    out = np.zeros((w, QROWS, 4), np.uint32)
+    out[:, 0, :3] = origin.view(np.uint32)
+    out[:, 0, 3] = ((e[:, 0] + 127) | (e[:, 1] + 127) << 8 | (e[:, 2] + 127) << 16).astype(np.uint32)
+    out[:, 1] = np.stack([pack(qlo[..., 0]), pack(qhi[..., 0]), pack(qlo[..., 1]), pack(qhi[..., 1])], axis=1)
+    out[:, 2, 0], out[:, 2, 1] = pack(qlo[..., 2]), pack(qhi[..., 2])
+    out[:, 3] = entry
+    return WideBVH(rows=out.view(np.float32).reshape(w, QROWS * 4), width=wide.width,
+                   stack_bound=wide.stack_bound, quantized=True)
+
+
+def decoded_boxes(wide: WideBVH) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lo, hi, entries) of every child slot, (W, 4, 3), (W, 4, 3), (W, 4): what the GLSL
+    traversal tests, for either layout (tests and intersect_wide_numpy)."""
+    if not wide.quantized:
+        r = wide.rows.reshape(-1, ROWS, 4)
+        lo = np.stack([r[:, 0], r[:, 2], r[:, 4]], axis=-1)
+        hi = np.stack([r[:, 1], r[:, 3], r[:, 5]], axis=-1)
+        return lo, hi, r[:, 6].view(np.uint32)
+    u = wide.rows.reshape(-1, QROWS, 4).view(np.uint32)
+    origin = u[:, 0, :3].view(np.float32)
+    e = (u[:, 0, 3:4] >> np.array([0, 8, 16], np.uint32)) & 0xFF
+    scale = (e << 23).astype(np.uint32).view(np.float32)          # 2^(e - 127), as the GLSL builds it
+    byte = lambda word: ((word[:, None] >> np.array([0, 8, 16, 24], np.uint32)) & 0xFF).astype(np.float32)
+    qlo = np.stack([byte(u[:, 1, 0]), byte(u[:, 1, 2]), byte(u[:, 2, 0])], axis=-1)
+    qhi = np.stack([byte(u[:, 1, 1]), byte(u[:, 1, 3]), byte(u[:, 2, 1])], axis=-1)
+    lo = (origin[:, None, :] + qlo * scale[:, None, :]).astype(np.float32)
+    hi = (origin[:, None, :] + qhi * scale[:, None, :]).astype(np.float32)
+    entry = u[:, 3]
+    empty = entry == EMPTY     # masked out by the GLSL: shown here as the float layout's (+inf, -inf)
+    lo[empty], hi[empty] = np.inf, -np.inf
+    return lo, hi, entry
 
 
 def collapse(nodes: np.ndarray, width: int = 4) -> WideBVH | None:
@@ -175,10 +267,8 @@ def intersect_wide_numpy(wide: WideBVH, tri_positions_reordered: np.ndarray, ori
     if tris.shape[0] == 0 or n_rays == 0:
         return np.where(best_tri < 0, np.inf, best_t), best_tri
     inv_all = _safe_inv(d_all)
-    r = wide.rows.reshape(-1, ROWS, 4)
-    lo = np.stack([r[:, 0], r[:, 2], r[:, 4]], axis=-1).astype(np.float64)   # (W, 4, 3)
-    hi = np.stack([r[:, 1], r[:, 3], r[:, 5]], axis=-1).astype(np.float64)
-    entry = r[:, 6].view(np.uint32).astype(np.int64)                         # (W, 4)
+    lo, hi, entry = decoded_boxes(wide)
+    lo, hi, entry = lo.astype(np.float64), hi.astype(np.float64), entry.astype(np.int64)  # (W, 4, 3), (W, 4)
     pr = np.arange(n_rays)
     pn = np.zeros(n_rays, np.int64)
     while pr.size:
