@@ -55,7 +55,7 @@ LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakf
 
 RAY_KINDS = ("primary", "shadow", "bounce")
 # The renderer's defines the ray-kind shader takes: spheres, and the BVH's layout (accel/wide.py).
-RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH")
+RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH", "LIFT_BVH_QUANTIZED")
 
 RAY_SHADER = """
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -666,7 +666,7 @@ def main(argv=None) -> int:
     m.add_argument("--out", type=Path)
     m.add_argument("--bvh-splits", help="comma-separated $LIFT_GL_BVH_SPLITS values (off,auto): every case "
                    "measured under each, interleaved; --out FILE.json becomes FILE.splits-VALUE.json per value")
-    m.add_argument("--bvh-width", help="comma-separated $LIFT_GL_BVH_WIDTH values (2,4): as --bvh-splits, "
+    m.add_argument("--bvh-width", help="comma-separated $LIFT_GL_BVH_WIDTH values (2,4,4q): as --bvh-splits, "
                    "--out FILE.json becoming FILE.width-VALUE.json")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)

@@ -165,18 +165,21 @@ class Renderer:
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
 
-    def _bvh_width(self, features) -> int:
-        """Children per BVH node for this device and plugin (accel/wide.py resolve_width):
-        OpenCL plugins and shaders compiled with motion or instances read the binary tree."""
+    def _bvh_width(self, features) -> str:
+        """The BVH layout for this device and plugin (accel/wide.py resolve_width): OpenCL
+        plugins and shaders compiled with motion or instances read the binary tree."""
+        layout = resolve_width(None, software=is_software(self.ctx))   # refuses a bad setting
         if self.plugin.language == "opencl" or features.motion or features.instances:
-            return 2
-        return resolve_width(None, software=is_software(self.ctx))
+            return "2"
+        return layout
 
     def _shader_defines(self) -> dict:
         # features, arrays in uniform blocks (CPU rasterizers), a big scene's split (scene/split.py)
         defines = dict(self.features.defines(), **self.buffers.defines(), **self.buffers.plan.defines())
         if self.packed.bvh_width != 2:  # the tree's layout (accel/wide.py)
             defines["LIFT_BVH_WIDTH"] = self.packed.bvh_width
+            if self.packed.bvh_quantized:
+                defines["LIFT_BVH_QUANTIZED"] = True
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines
@@ -561,7 +564,7 @@ class Renderer:
         p, plan = self.packed, self.buffers.plan
         buffers = self.buffers.memory()
         total = sum(size for _, _, size in buffers)
-        lines = [f"BVH: {p.bvh_nodes.shape[0]:,} {'binary' if p.bvh_width == 2 else f'{p.bvh_width}-wide'} nodes, "
+        lines = [f"BVH: {p.bvh_nodes.shape[0]:,} {'binary' if p.bvh_width == 2 else f'{p.bvh_width}-wide'}{' quantized' if p.bvh_quantized else ''} nodes, "
                  f"depth {p.bvh_depth} (binary), built by {p.bvh_builder} "
                  f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER and $LIFT_GL_BVH_WIDTH choose)",
                  *self._explain_instances(),

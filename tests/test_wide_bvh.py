@@ -11,13 +11,13 @@ import pytest
 from conftest import REPO
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
 from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, LEAF_BIT, MAX_FIRST, ROWS, STACK, WIDTH_ENV_VAR, collapse,
-                                intersect_wide_numpy, resolve_width)
+                                decoded_boxes, intersect_wide_numpy, quantize, resolve_width, wide_layout)
 from lift_gl.errors import LiftError
 from lift_gl.scene.loader import load_scene
 from lift_gl.scene.pack import pack_scene
 from test_bvh import NO_HIT, gl, random_rays, run_glsl, soup  # noqa: F401 (gl: a fixture)
 
-WIDE = {"LIFT_BVH_WIDTH": 4}
+WIDE = {"4": {"LIFT_BVH_WIDTH": 4}, "4q": {"LIFT_BVH_WIDTH": 4, "LIFT_BVH_QUANTIZED": True}}
 
 
 def _entries(wide):
@@ -68,12 +68,30 @@ def test_collapse_refuses_what_the_layout_cannot_hold():
     assert b.num_nodes == 1 and collapse(b.nodes) is None
 
 
-def test_numpy_wide_traversal_matches_binary():
+@pytest.mark.parametrize("offset", [0.0, 1e4])
+def test_quantized_boxes_contain_the_float_boxes(offset):
+    """8-bit boxes, decoded as the GLSL decodes them, hold the float boxes (far from the origin
+    too, where the final add rounds), and stay tight: a few percent larger."""
+    tris = soup(5000, seed=4) * np.float32(30) + np.float32(offset)
+    wide = collapse(build_bvh(tris).nodes)
+    q = quantize(wide)
+    assert q is not None and q.rows.nbytes * 2 == wide.rows.nbytes
+    lo, hi, e = decoded_boxes(wide)
+    qlo, qhi, qe = decoded_boxes(q)
+    np.testing.assert_array_equal(qe, e)
+    v = e != EMPTY
+    assert (qlo[v] <= lo[v]).all() and (qhi[v] >= hi[v]).all()
+    grow = (qhi - qlo)[v].astype(np.float64).sum(axis=-1) / np.maximum((hi - lo)[v].sum(axis=-1), 1e-12)
+    assert np.median(grow) < 1.05
+
+
+@pytest.mark.parametrize("layout", ["4", "4q"])
+def test_numpy_wide_traversal_matches_binary(layout):
     tris = soup(4000, seed=11)
     b = build_bvh(tris)
     o, d = random_rays(4000, seed=12)
     t2, p2 = intersect_numpy(b, tris[b.order], o, d)
-    t4, p4 = intersect_wide_numpy(collapse(b.nodes), tris[b.order], o, d)
+    t4, p4 = intersect_wide_numpy(wide_layout(b.nodes, layout), tris[b.order], o, d)
     np.testing.assert_array_equal(t4, t2)
     assert ((p4 == p2) | (t4 == t2)).all() and (p4 != p2).mean() < 1e-3
 
@@ -113,21 +131,21 @@ def _packed_triangles(name):
 
 
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
-@pytest.mark.parametrize("stack", ["local", "shared"])
-def test_glsl_wide_traversal_matches_binary(gl, case, stack):
+@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
+def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     if case == "soup":
         tris = soup(20000, seed=5, size=0.03)
         b = build_bvh(tris)
         nodes, tris = b.nodes, tris[b.order]
     else:
         nodes, tris = _packed_triangles(case)
-    wide = collapse(nodes)
+    wide = wide_layout(nodes, layout)
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=7)
     extra = {"LIFT_BVH_SHARED_STACK": 64} if stack == "shared" else {}   # the test kernel's 64 invocations
     t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)
-    t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=dict(WIDE, **extra))
+    t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=dict(WIDE[layout], **extra))
     assert found2.mean() > 0.3
     np.testing.assert_array_equal(found4, found2)
     np.testing.assert_array_equal(t4[found2], t2[found2])     # the same nearest distance, bit for bit
@@ -136,7 +154,7 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack):
     # any-hit on bounded intervals (shadow rays): ending before, at and after the nearest hit
     tmax = np.where(found2, t2, 1.0).astype(np.float64) * np.random.default_rng(3).uniform(0.5, 1.5, len(o))
     _, _, occ2, _, _ = run_glsl(gl, nodes, tris, o, d, tmax=tmax.astype(np.float32), defines=extra)
-    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax.astype(np.float32), defines=dict(WIDE, **extra))
+    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax.astype(np.float32), defines=dict(WIDE[layout], **extra))
     assert 0.1 < occ2.mean() < 0.9
     np.testing.assert_array_equal(occ4, occ2)
 
@@ -145,6 +163,8 @@ def test_pack_scene_width_and_fallbacks(monkeypatch):
     cornell = load_scene(REPO / "scenes" / "cornell.toml")
     assert pack_scene(cornell, bvh_width=4).bvh_width == 4
     assert pack_scene(cornell, bvh_width=2).bvh_width == 2
+    packed = pack_scene(cornell, bvh_width="4q")
+    assert (packed.bvh_width, packed.bvh_quantized, packed.bvh_nodes.shape[1]) == (4, True, 16)
     monkeypatch.setenv(WIDTH_ENV_VAR, "4")
     assert pack_scene(cornell).bvh_width == 4
     # motion blur (per-node close boxes) and traced instances (BLAS roots) keep the binary tree
@@ -155,8 +175,8 @@ def test_pack_scene_width_and_fallbacks(monkeypatch):
     with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
         pack_scene(cornell)
     monkeypatch.setenv(WIDTH_ENV_VAR, "auto")
-    assert resolve_width(None, software=True) == 4 and resolve_width(None) == 2
-    assert resolve_width(None, software=False) == 4 and resolve_width("2", software=False) == 2
+    assert resolve_width(None, software=True) == "4" and resolve_width(None) == "2"
+    assert resolve_width(None, software=False) == "4" and resolve_width(2, software=False) == "2"
 
 
 def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, **kw):
@@ -165,7 +185,7 @@ def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, **kw):
     monkeypatch.setenv(WIDTH_ENV_VAR, width)
     r = Renderer(scene, size=size, integrator=integrator, seed=5, **kw)
     try:
-        return r.render(spp=spp), r.packed.bvh_width, r.defines.get("LIFT_BVH_WIDTH")
+        return r.render(spp=spp), r.packed.bvh_width, r.defines.get("LIFT_BVH_WIDTH"), r.defines.get("LIFT_BVH_QUANTIZED")
     finally:
         r.release()
 
@@ -175,13 +195,13 @@ def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, **kw):
     ("showcase.toml", "pt"),         # spheres beside the triangles, textures
     ("cornell.toml", "drt"),         # camera rays through the trace pass
 ])
-@pytest.mark.parametrize("stack", ["local", "shared"])
-def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stack):
+@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
+def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stack, layout):
     monkeypatch.setenv("LIFT_GL_BVH_STACK", stack)
     scene = load_scene(REPO / "scenes" / scene_name)
-    binary, w2, d2 = _render(monkeypatch, "2", scene, integrator)
-    wide, w4, d4 = _render(monkeypatch, "4", scene, integrator)
-    assert (w2, d2, w4, d4) == (2, None, 4, 4)
+    binary, w2, d2, q2 = _render(monkeypatch, "2", scene, integrator)
+    wide, w4, d4, q4 = _render(monkeypatch, layout, scene, integrator)
+    assert (w2, d2, q2, w4, d4, q4) == (2, None, None, 4, 4, True if layout == "4q" else None)
     assert np.isfinite(binary).all() and binary.max() > 0
     np.testing.assert_array_equal(wide, binary)
 
@@ -193,7 +213,7 @@ def test_wide_split_scene_renders_the_same_image(monkeypatch):
     from test_split_buffers import _small_limit
 
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    whole, _, _ = _render(monkeypatch, "4", scene, "pt")
+    whole = _render(monkeypatch, "4", scene, "pt")[0]
     monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(_small_limit(pack_scene(scene, bvh_width=4))))
     r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
     try:

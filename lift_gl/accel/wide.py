@@ -46,10 +46,10 @@ STACK = 64
 # The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
 # pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
 # 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).
-DEFAULT_GPU_WIDTH = 4
+DEFAULT_GPU_WIDTH = "4"
 # On llvmpipe (2 cores here) it made pt 1.10-1.26x faster in CPU time per sample on Lift's
 # scenes, interleaved (benchmarks/cpu_speed.py; benchmarks/results/cpu_speed/wide_bvh_*).
-DEFAULT_CPU_WIDTH = 4
+DEFAULT_CPU_WIDTH = "4"
 
 
 @dataclass
@@ -64,18 +64,31 @@ class WideBVH:
         return int(self.rows.shape[0])
 
 
-def resolve_width(value: str | int | None, software: bool | None = None) -> int:
-    """The BVH width to build: `value` (2, 4, auto), else $LIFT_GL_BVH_WIDTH, else auto.
-    auto: DEFAULT_GPU_WIDTH on GPUs, DEFAULT_CPU_WIDTH on CPU rasterizers (software True),
-    2 where the device is not known (software None: pack_scene called on its own)."""
+LAYOUTS = ("2", "4", "4q")   # binary, 4-wide with float boxes, 4-wide with 8-bit boxes (quantize)
+
+
+def resolve_width(value: str | int | None, software: bool | None = None) -> str:
+    """The BVH layout to build, one of LAYOUTS: `value` (2, 4, 4q, auto), else
+    $LIFT_GL_BVH_WIDTH, else auto. auto: DEFAULT_GPU_WIDTH on GPUs, DEFAULT_CPU_WIDTH on CPU
+    rasterizers (software True), 2 where the device is not known (software None: pack_scene
+    called on its own)."""
     if value is None:
         value = os.environ.get(WIDTH_ENV_VAR, "auto")
     text = str(value).strip().lower() or "auto"
     if text == "auto":
-        return 2 if software is None else DEFAULT_CPU_WIDTH if software else DEFAULT_GPU_WIDTH
-    if text not in ("2", "4"):
-        raise LiftError(f"${WIDTH_ENV_VAR} must be 2, 4 or auto, not {value!r}")
-    return int(text)
+        return "2" if software is None else DEFAULT_CPU_WIDTH if software else DEFAULT_GPU_WIDTH
+    if text not in LAYOUTS:
+        raise LiftError(f"${WIDTH_ENV_VAR} must be 2, 4, 4q or auto, not {value!r}")
+    return text
+
+
+def wide_layout(nodes: np.ndarray, layout: str) -> WideBVH | None:
+    """The binary node array in `layout` ("4" or "4q"), or None where that layout cannot hold
+    the tree (collapse, quantize)."""
+    wide = collapse(nodes)
+    if wide is not None and layout == "4q":
+        wide = quantize(wide)
+    return wide
 
 
 def _area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -161,8 +161,11 @@ uvec3 lift_bvh4_near_rows(vec3 inv) {
     return uvec3(inv.x < 0.0 ? 1u : 0u, inv.y < 0.0 ? 3u : 2u, inv.z < 0.0 ? 5u : 4u);
 }
 
-// Slab tests of node n's four children against (tmin, tmax): entry distances, and which hit.
-bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, float tmax, out vec4 tn) {
+#ifndef LIFT_BVH_QUANTIZED
+// Slab tests of node n's four children against (tmin, tmax): entry distances, which hit, and
+// the children's entries.
+bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, float tmax, out vec4 tn,
+                         out uvec4 e) {
     uint base = 8u * n;
     vec4 nx = (bvh_node_row(base + near.x) - org.x) * inv.x;
     vec4 fx = (bvh_node_row(base + (near.x ^ 1u)) - org.x) * inv.x;
@@ -170,10 +173,43 @@ bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, flo
     vec4 fy = (bvh_node_row(base + (near.y ^ 1u)) - org.y) * inv.y;
     vec4 nz = (bvh_node_row(base + near.z) - org.z) * inv.z;
     vec4 fz = (bvh_node_row(base + (near.z ^ 1u)) - org.z) * inv.z;
+    e = floatBitsToUint(bvh_node_row(base + 6u));
     tn = max(max(nx, ny), max(nz, vec4(tmin)));
     vec4 tf = min(min(fx, fy), min(fz, vec4(tmax)));
     return lessThanEqual(tn, tf);
 }
+#else
+// Quantized child boxes (LIFT_BVH_QUANTIZED, wide.quantize): four rows a node, origin and
+// per-axis power-of-two scales, each child's planes as bytes. A plane is origin + q * s, the
+// product exact; `precise` keeps the compiler from reassociating the add, so the planes are
+// the ones the host checked to contain the float boxes.
+vec4 lift_bvh4_bytes(uint w) { return vec4((uvec4(w) >> uvec4(0u, 8u, 16u, 24u)) & 0xffu); }
+
+bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, float tmax, out vec4 tn,
+                         out uvec4 e) {
+    uint base = 4u * n;
+    vec4 r0 = bvh_node_row(base);
+    uvec4 qxy = floatBitsToUint(bvh_node_row(base + 1u));
+    uvec2 qz = floatBitsToUint(bvh_node_row(base + 2u).xy);
+    e = floatBitsToUint(bvh_node_row(base + 3u));
+    vec3 s = uintBitsToFloat(((uvec3(floatBitsToUint(r0.w)) >> uvec3(0u, 8u, 16u)) & 0xffu) << 23u);
+    bool fx_lo = near.x == 1u, fy_lo = near.y == 3u, fz_lo = near.z == 5u;   // negative directions
+    precise vec4 px_n = r0.x + lift_bvh4_bytes(fx_lo ? qxy.y : qxy.x) * s.x;
+    precise vec4 px_f = r0.x + lift_bvh4_bytes(fx_lo ? qxy.x : qxy.y) * s.x;
+    precise vec4 py_n = r0.y + lift_bvh4_bytes(fy_lo ? qxy.w : qxy.z) * s.y;
+    precise vec4 py_f = r0.y + lift_bvh4_bytes(fy_lo ? qxy.z : qxy.w) * s.y;
+    precise vec4 pz_n = r0.z + lift_bvh4_bytes(fz_lo ? qz.y : qz.x) * s.z;
+    precise vec4 pz_f = r0.z + lift_bvh4_bytes(fz_lo ? qz.x : qz.y) * s.z;
+    vec4 nx = (px_n - org.x) * inv.x, fx = (px_f - org.x) * inv.x;
+    vec4 ny = (py_n - org.y) * inv.y, fy = (py_f - org.y) * inv.y;
+    vec4 nz = (pz_n - org.z) * inv.z, fz = (pz_f - org.z) * inv.z;
+    tn = max(max(nx, ny), max(nz, vec4(tmin)));
+    vec4 tf = min(min(fx, fy), min(fz, vec4(tmax)));
+    // an empty slot (entry 0xffffffff) has qlo 255 > qhi 0, but a tiny scale may round both to
+    // the origin: its entry rules it out
+    return bvec4(uvec4(lessThanEqual(tn, tf)) & uvec4(notEqual(e, uvec4(0xffffffffu))));
+}
+#endif
 
 // One compare-exchange of a sorting network on (distance, entry) pairs.
 #define LIFT_BVH4_ORDER(ta, ea, tb, eb) if (tb < ta) { float t_ = ta; ta = tb; tb = t_; uint e_ = ea; ea = eb; eb = e_; }
@@ -194,8 +230,8 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
     while (live) {
         while ((cur & LIFT_BVH4_LEAF) == 0u) {   // a wide node: test its children
             vec4 tn;
-            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn);
-            uvec4 e = floatBitsToUint(bvh_node_row(8u * cur + 6u));
+            uvec4 e;
+            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
             uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
             if (n == 0u) {
                 if (sp == 0) { live = false; break; }
@@ -244,8 +280,8 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
     while (true) {
         while ((cur & LIFT_BVH4_LEAF) == 0u) {
             vec4 tn;
-            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn);
-            uvec4 e = floatBitsToUint(bvh_node_row(8u * cur + 6u));
+            uvec4 e;
+            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
             bool have = false;
             uint next = 0u;
             if (hit.w) { next = e.w; have = true; }
