@@ -328,6 +328,7 @@ def ab(args) -> int:
     ctx = create_context(args.backend)
     cpu = is_software(ctx)
     query = ctx.query(time=True)
+    previous_width = os.environ.get(WIDTH_VAR)
     print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
     results = []
     record = {"gl": describe(ctx), "variants": [[v[0], v[2]] for v in variants], "reps": args.reps,
@@ -335,8 +336,12 @@ def ab(args) -> int:
     for path in args.scenes:
         scene = load_scene(path)
         for size in [_size(s.strip()) for s in args.sizes.split(",")]:
+            # the versions compared here read the binary tree (or records made from it): no
+            # 4-wide collapse (accel/wide.py) for this renderer's scene
+            _set_splits("2", None, WIDTH_VAR)
             r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
-            defines = {k: v for k, v in r.defines.items() if k in RAY_SHADER_DEFINES}
+            _set_splits(None, previous_width, WIDTH_VAR)
+            defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
             progs, nodes = [], []
             for label, tree, layout in variants:
                 progs.append(compile_compute(ctx, assemble(RAY_SHADER, defines, include_dirs=[tree / "shaders"],

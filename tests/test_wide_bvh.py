@@ -175,7 +175,7 @@ def test_pack_scene_width_and_fallbacks(monkeypatch):
     with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
         pack_scene(cornell)
     monkeypatch.setenv(WIDTH_ENV_VAR, "auto")
-    assert resolve_width(None, software=True) == "4" and resolve_width(None) == "2"
+    assert resolve_width(None, software=True) == "4q" and resolve_width(None) == "2"
     assert resolve_width(None, software=False) == "4" and resolve_width(2, software=False) == "2"
 
 

@@ -47,9 +47,11 @@ STACK = 64
 # pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
 # 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).
 DEFAULT_GPU_WIDTH = "4"
-# On llvmpipe (2 cores here) it made pt 1.10-1.26x faster in CPU time per sample on Lift's
-# scenes, interleaved (benchmarks/cpu_speed.py; benchmarks/results/cpu_speed/wide_bvh_*).
-DEFAULT_CPU_WIDTH = "4"
+# On llvmpipe (2 cores here) the 4-wide tree made pt 1.10-1.26x faster in CPU time per sample
+# than the binary one on Lift's scenes, and its 8-bit boxes (4q) 1.06x more on the classroom
+# and the dining room, interleaved (benchmarks/cpu_speed.py; results/cpu_speed/wide_bvh_*):
+# on a CPU the smaller nodes pay (on the H100 they cost 7-35%).
+DEFAULT_CPU_WIDTH = "4q"
 
 
 @dataclass
