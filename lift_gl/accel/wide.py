@@ -17,7 +17,9 @@ A child entry is the wide node id of an interior child, or for a leaf
 LEAF_BIT | (count - 1) << 27 | first (triangles first .. first + count - 1); an empty
 slot is EMPTY with the box (+inf, -inf), which no ray's slab test ever enters (the GLSL
 takes the near plane by the ray's direction sign, so the planes are never swapped).
-Node 0 is the root; nodes are numbered breadth first.
+Node 0 is the root; nodes are numbered breadth first. quantize() turns the same tree into
+64-byte nodes with 8-bit child boxes ($LIFT_GL_BVH_WIDTH=4q). docs/gpu.md has the
+measurements behind the defaults below.
 
 Not here (the caller keeps the binary tree): motion blur (per-node boxes at shutter close)
 and instances (BLAS roots index the node array); see scene/pack.py.
