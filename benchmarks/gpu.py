@@ -2,7 +2,7 @@
 
     python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
-                                     [--bvh-splits off,auto [--split-rounds 2]]
+                                     [--bvh-splits off,auto | --bvh-width 2,4 [--split-rounds 2]]
     python benchmarks/gpu.py table FILE.json... [--md FILE.md]
 
 `measure`, for each scene, integrator and size: lift-gl bench's numbers
@@ -26,7 +26,9 @@ measure two versions of the renderer, alternately, on the same machine:
     LIFT_GL_TREE=../base python benchmarks/gpu.py measure ... --label base --out base.json
 `table` prints the results of one or more such files side by side (ratios to the first).
 `--bvh-splits off,auto` measures every case with the BVH built under each $LIFT_GL_BVH_SPLITS
-value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md).
+value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md);
+`--bvh-width 2,4` does the same for $LIFT_GL_BVH_WIDTH (the binary or 4-wide tree,
+accel/wide.py).
 """
 from __future__ import annotations
 
@@ -51,6 +53,8 @@ LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakf
                      "classroom": "Japanese Classroom"}
 
 RAY_KINDS = ("primary", "shadow", "bounce")
+# The renderer's defines the ray-kind shader takes: spheres, and the BVH's layout (accel/wide.py).
+RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH", "LIFT_BVH_QUANTIZED")
 
 # Compiled by ray_program, in the trace pass's work-group shape and BVH stack placement.
 RAY_SHADER = """
@@ -202,7 +206,7 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     from lift_gl.passes.common import set_uniforms
 
     ctx = renderer.ctx
-    defines = {k: v for k, v in renderer.defines.items() if k in ("HAS_SPHERES",)}
+    defines = {k: v for k, v in renderer.defines.items() if k in RAY_SHADER_DEFINES}
     program, local = ray_program(ctx, defines)
     w, h = size
     hits = ctx.buffer(reserve=32 * w * h)
@@ -249,7 +253,7 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
     w, h = size
     setups = []
     for r in renderers:
-        defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
+        defines = {k: v for k, v in r.defines.items() if k in RAY_SHADER_DEFINES}
         program, local = ray_program(r.ctx, defines)
         extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
         uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
@@ -343,6 +347,7 @@ def ab(args) -> int:
     ctx = create_context(args.backend)
     cpu = is_software(ctx)
     query = ctx.query(time=True)
+    previous_width = os.environ.get(WIDTH_VAR)
     print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
     results = []
     record = {"gl": describe(ctx), "variants": [[v[0], v[2], sorted(v[3])] for v in variants], "reps": args.reps,
@@ -350,7 +355,11 @@ def ab(args) -> int:
     for path in args.scenes:
         scene = load_scene(path)
         for size in [_size(s.strip()) for s in args.sizes.split(",")]:
+            # the versions compared here read the binary tree (or records made from it): no
+            # 4-wide collapse (accel/wide.py) for this renderer's scene
+            _set_splits("2", None, WIDTH_VAR)
             r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+            _set_splits(None, previous_width, WIDTH_VAR)
             defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
             progs, nodes = [], []
             for label, tree, layout, extra in variants:
@@ -446,16 +455,20 @@ def measure(args) -> int:
     # --bvh-splits A,B: the same cases with the BVH built under each setting (accel/presplit.py),
     # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
     # per setting and round, merged by best_of like repeated runs.
-    splits = [v.strip() for v in (args.bvh_splits or "").split(",") if v.strip()] or [None]
+    # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py).
+    if args.bvh_splits and args.bvh_width:
+        raise SystemExit("--bvh-splits and --bvh-width: one at a time")
+    axis, axis_var = ("width", WIDTH_VAR) if args.bvh_width else ("splits", SPLITS_VAR)
+    splits = [v.strip() for v in (args.bvh_width or args.bvh_splits or "").split(",") if v.strip()] or [None]
     rounds = args.split_rounds if splits[0] is not None else 1
-    runs = {(v, k): {"label": args.label + (f"splits={v}" if v is not None else ""), "machine": machine,
-                     "gl": describe(ctx), "max_depth": args.max_depth, "bvh_splits": v, "round": k, "results": []}
+    runs = {(v, k): {"label": args.label + (f"{axis}={v}" if v is not None else ""), "machine": machine,
+                     "gl": describe(ctx), "max_depth": args.max_depth, f"bvh_{axis}": v, "round": k, "results": []}
             for v in splits for k in range(rounds)}
 
     def out_path(v):
         if v is None or args.out is None:
             return args.out
-        return args.out.with_name(f"{args.out.stem}.splits-{v}{args.out.suffix}")
+        return args.out.with_name(f"{args.out.stem}.{axis}-{v}{args.out.suffix}")
 
     def save():  # after every case: a run cut short by a time limit keeps what it measured
         for v in splits:
@@ -468,7 +481,7 @@ def measure(args) -> int:
         for k in range(rounds):
             yield from ((v, k) for v in (splits if k % 2 == 0 else splits[::-1]))
 
-    previous_splits = os.environ.get("LIFT_GL_BVH_SPLITS")
+    previous_splits = os.environ.get(axis_var)
     for path in args.scenes:
         start = time.perf_counter()
         scene = load_scene(path)
@@ -479,7 +492,7 @@ def measure(args) -> int:
                 # one renderer per setting, their dispatches interleaved (ray_throughput_interleaved)
                 renderers, setup = [], []
                 for v in splits:
-                    _set_splits(v, previous_splits)
+                    _set_splits(v, previous_splits, axis_var)
                     start = time.perf_counter()
                     renderers.append(Renderer(scene, size=size, integrator="pt", backend=args.backend))
                     setup.append(time.perf_counter() - start)
@@ -492,14 +505,14 @@ def measure(args) -> int:
                         "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays,
                         "ray_times": "median of interleaved dispatches: GPU timer query, or on a CPU "
                                      "rasterizer the process's CPU time (all threads)"})
-                    print(f"{name} {size[0]}x{size[1]} rays [splits={v}, {args.ray_repeat} interleaved]: " + ", ".join(
+                    print(f"{name} {size[0]}x{size[1]} rays [{axis}={v}, {args.ray_repeat} interleaved]: " + ", ".join(
                         f"{k_} {x['mrays_per_s']:.2f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()), flush=True)
                 for r in renderers:
                     r.release()
                 save()
             elif args.rays:
                 for v, k in orders():
-                    _set_splits(v, previous_splits)
+                    _set_splits(v, previous_splits, axis_var)
                     start = time.perf_counter()
                     r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
                     setup_s = time.perf_counter() - start
@@ -511,13 +524,13 @@ def measure(args) -> int:
                         "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
                     r.release()
                     save()
-                    tag = f" [splits={v}]" if v is not None else ""
+                    tag = f" [{axis}={v}]" if v is not None else ""
                     print(f"{name} {size[0]}x{size[1]} rays{tag}: " + ", ".join(
                         f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()), flush=True)
             for integrator in integrators:
                 for v, k in orders():
-                    _set_splits(v, previous_splits)
-                    tag = f" [splits={v}]" if v is not None else ""
+                    _set_splits(v, previous_splits, axis_var)
+                    tag = f" [{axis}={v}]" if v is not None else ""
                     try:
                         case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames,
                                           args.repeat, args.backend)
@@ -534,7 +547,7 @@ def measure(args) -> int:
                     save()
                     print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame; passes "
                           "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items()), flush=True)
-    _set_splits(None, previous_splits)
+    _set_splits(None, previous_splits, axis_var)
     save()
     records = [runs[v, 0] if rounds == 1 else best_of([runs[v, k] for k in range(rounds)]) for v in splits]
     print(render_tables(records))
@@ -721,13 +734,16 @@ def wavefront_table(record: dict) -> str:
     return "\n".join(lines)
 
 
-def _set_splits(value, previous) -> None:
-    """$LIFT_GL_BVH_SPLITS for the next renderer (value None: as it was when the run began)."""
+SPLITS_VAR, WIDTH_VAR = "LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH"
+
+
+def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
+    """$LIFT_GL_BVH_SPLITS (or `var`) for the next renderer (value None: as it was when the run began)."""
     value = previous if value is None else value
     if value is None:
-        os.environ.pop("LIFT_GL_BVH_SPLITS", None)
+        os.environ.pop(var, None)
     else:
-        os.environ["LIFT_GL_BVH_SPLITS"] = value
+        os.environ[var] = value
 
 
 def _mrays(value: float) -> str:
@@ -853,7 +869,9 @@ def main(argv=None) -> int:
     m.add_argument("--out", type=Path)
     m.add_argument("--bvh-splits", help="comma-separated $LIFT_GL_BVH_SPLITS values (off,auto): every case "
                    "measured under each, interleaved; --out FILE.json becomes FILE.splits-VALUE.json per value")
-    m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits: rounds, in alternating order")
+    m.add_argument("--bvh-width", help="comma-separated $LIFT_GL_BVH_WIDTH values (2,4,4q): as --bvh-splits, "
+                   "--out FILE.json becoming FILE.width-VALUE.json")
+    m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
     v.add_argument("scenes", nargs="+")

@@ -253,6 +253,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
 
     scene = load_scene(path)
     r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth}, ctx=ctx)
+    if base_tree is not None and r.packed.bvh_width != 2 \
+            and "LIFT_BVH_WIDTH" not in (Path(base_tree) / "shaders" / "lift" / "bvh.glsl").read_text():
+        raise SystemExit(f"{base_tree} traverses only the binary BVH and this scene's is {r.packed.bvh_width}-wide: "
+                         "run with LIFT_GL_BVH_WIDTH=2 (lift_gl/accel/wide.py)")
     r.render(spp=2)  # warm-up; leaves a G-buffer for the variants
     cpu = is_software(ctx)
     base_source = r.trace.source.text

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .accel.wide import resolve_width
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
@@ -139,7 +140,7 @@ class Renderer:
         self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
         self.count_rays = count_rays
-        self.packed = pack_scene(scene)
+        self.packed = pack_scene(scene, bvh_width=self._bvh_width(self.features))
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
         # On a CPU rasterizer the small scene arrays go in uniform blocks, which llvmpipe reads
         # faster than storage buffers (docs/cpu-speed.md); uniform_blocks=False keeps them all SSBOs.
@@ -164,9 +165,21 @@ class Renderer:
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
 
+    def _bvh_width(self, features) -> str:
+        """The BVH layout for this device and plugin (accel/wide.py resolve_width): OpenCL
+        plugins and shaders compiled with motion or instances read the binary tree."""
+        layout = resolve_width(None, software=is_software(self.ctx))   # refuses a bad setting
+        if self.plugin.language == "opencl" or features.motion or features.instances:
+            return "2"
+        return layout
+
     def _shader_defines(self) -> dict:
         # features, arrays in uniform blocks (CPU rasterizers), a big scene's split (scene/split.py)
         defines = dict(self.features.defines(), **self.buffers.defines(), **self.buffers.plan.defines())
+        if self.packed.bvh_width != 2:  # the tree's layout (accel/wide.py)
+            defines["LIFT_BVH_WIDTH"] = self.packed.bvh_width
+            if self.packed.bvh_quantized:
+                defines["LIFT_BVH_QUANTIZED"] = True
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines
@@ -334,7 +347,7 @@ class Renderer:
         if geometry and not emission_changed and only_instances_moved(self.scene, scene):
             packed = repack_instances(self.packed, scene)  # a new TLAS; every BVH below it stays
         elif geometry or emission_changed:
-            packed = pack_scene(scene)
+            packed = pack_scene(scene, bvh_width=self._bvh_width(self._fixed_features or SceneFeatures.of(scene)))
         else:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
@@ -551,8 +564,9 @@ class Renderer:
         p, plan = self.packed, self.buffers.plan
         buffers = self.buffers.memory()
         total = sum(size for _, _, size in buffers)
-        lines = [f"BVH: {p.bvh_nodes.shape[0]:,} nodes, depth {p.bvh_depth}, built by {p.bvh_builder} "
-                 f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER chooses)",
+        lines = [f"BVH: {p.bvh_nodes.shape[0]:,} {'binary' if p.bvh_width == 2 else f'{p.bvh_width}-wide'}{' quantized' if p.bvh_quantized else ''} nodes, "
+                 f"depth {p.bvh_depth} (binary), built by {p.bvh_builder} "
+                 f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER and $LIFT_GL_BVH_WIDTH choose)",
                  *self._explain_instances(),
                  f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
                  f"(limit {self.limits.max_ssbo_bytes / (1 << 20):,.0f} MiB a buffer)"

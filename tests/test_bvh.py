@@ -225,11 +225,12 @@ def gl():
         pytest.skip(f"no OpenGL context: {exc}")
 
 
-def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None):
-    """Trace rays with lift/bvh.glsl; returns (t, prim, occluded, found, bary)."""
+def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None, defines=None):
+    """Trace rays with lift/bvh.glsl; returns (t, prim, occluded, found, bary). `defines`: more
+    (the 4-wide tree's LIFT_BVH_WIDTH, a shared stack: tests/test_wide_bvh.py)."""
     from lift_gl.shaders import assemble, compile_compute
 
-    defines = {"HAS_SPHERES": True} if spheres is not None else {}
+    defines = dict({"HAS_SPHERES": True} if spheres is not None else {}, **(defines or {}))
     prog = compile_compute(ctx, assemble(TEST_SHADER, defines=defines, main_name="test_bvh.comp"))
     n = len(o)
     rays = np.zeros((n, 2, 4), np.float32)

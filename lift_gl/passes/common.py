@@ -134,8 +134,7 @@ class SceneBuffers:
         plan = plan_buffers(packed, self.max_buffer_bytes)
         old_uniform, self.in_uniform_block = self.in_uniform_block, self._uniform_arrays(packed, plan)
         changed = {name for name in SCENE_BINDINGS
-                   if not (_array(packed, name).shape == _array(self.packed, name).shape
-                           and np.array_equal(_array(packed, name), _array(self.packed, name)))}
+                   if not _same_bits(_array(packed, name), _array(self.packed, name))}
         own = self._own_buffers(plan)
         for name in list(self.buffers):
             if name not in own:   # now in the heap
@@ -219,6 +218,13 @@ class SceneBuffers:
         if self.motion is not None:
             self.motion.release()
         self.stats.release()
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two arrays hold the same bytes: uint data stored as float32 (node entries of
+    the 4-wide BVH, accel/wide.py) may read as NaN, which never equals itself as a float."""
+    return a.shape == b.shape and a.dtype == b.dtype and \
+        np.array_equal(np.ascontiguousarray(a).view(np.uint8), np.ascontiguousarray(b).view(np.uint8))
 
 
 def _array(packed: PackedScene, name: str) -> np.ndarray:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached, resolve_builder
+from ..accel.wide import resolve_width, wide_layout
 from .images import pack_images
 from .instances import (InstanceTable, build_blas, instance_table, instance_world_bounds,
                         split_instances)
@@ -38,7 +39,9 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 @dataclass
 class PackedScene:
-    bvh_nodes: np.ndarray  # float32 (N, 8)
+    # float32 (N, 8): the binary tree (accel/bvh.py); with bvh_width 4, (W, 32): the 4-wide
+    # tree collapsed from it (accel/wide.py), what shaders compiled with LIFT_BVH_WIDTH read.
+    bvh_nodes: np.ndarray
     tri_pos: np.ndarray  # float32 (T, 3, 4)
     tri_normal: np.ndarray  # float32 (T, 3, 4)
     tri_uv: np.ndarray  # float32 (T, 3, 4)
@@ -67,6 +70,8 @@ class PackedScene:
     # reordering): temporal reprojection matches triangles across frames with it.
     tri_order: np.ndarray | None = None  # int (T,)
     bvh_builder: str = "sah"  # which builder made the tree (accel/cache.py BUILDERS)
+    bvh_width: int = 2  # children per node of bvh_nodes: 2 (binary) or 4 (accel/wide.py)
+    bvh_quantized: bool = False  # 4-wide nodes with 8-bit child boxes (wide.quantize)
     # Instances (scene/instances.py): the world geometry's triangles and nodes come first,
     # each traced prototype's BLAS after them; `instances` holds the TLAS nodes and then one
     # record per traced instance (None: no instances, nothing compiled for them).
@@ -211,10 +216,14 @@ def still_motion(packed: PackedScene) -> np.ndarray:
 
 
 def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
-               bvh_splits=None) -> PackedScene:
+               bvh_splits=None, bvh_width=None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
     `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
     `bvh_splits`: see accel/presplit.py resolve_splits (None: $LIFT_GL_BVH_SPLITS, else auto).
+    `bvh_width`: 2, 4 or 4q (None: $LIFT_GL_BVH_WIDTH, else 2; the renderer passes its
+    device's choice, accel/wide.py resolve_width). Scenes with motion blur or traced instances keep
+    the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
+    and so does a tree the wide layout cannot hold (wide.collapse returns None).
     Instances: those that must be are flattened into world meshes (scene/instances.py), the
     others traced through their prototypes' BLAS and a TLAS (the BLAS are not split)."""
     instanced, traced = scene, []
@@ -278,6 +287,12 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         motion = np.concatenate([displacement, close_boxes] + [b.reshape(-1, 4) for b in blas_nodes])
     if blas_nodes:
         bvh_nodes = np.concatenate([bvh_nodes] + blas_nodes)
+    layout = resolve_width(bvh_width)
+    wide = None
+    if layout != "2" and not has_motion and not blas_nodes and T_world:
+        wide = wide_layout(bvh_nodes, layout)
+    if wide is not None:
+        bvh_nodes = wide.rows
 
     # Light selection proportional to emitted power (luminance x area); pi is common to all.
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
@@ -365,6 +380,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         origin=origin,
         tri_order=np.asarray(order[:T_world]),
         bvh_builder=bvh_builder,
+        bvh_width=2 if wide is None else wide.width,
+        bvh_quantized=wide is not None and wide.quantized,
         world_triangles=T_world if traced else -1,
         instances=table.rows if table is not None else None,
         instance_table=table,

@@ -35,8 +35,17 @@ vec3 prim_displacement(uint prim) {
 }
 
 // The build limits the tree to 48 levels, so a stack of 48 never overflows: it holds at most
-// one postponed sibling per level of the current path.
+// one postponed sibling per level of the current path. The 4-wide tree (LIFT_BVH_WIDTH 4,
+// lift_gl/accel/wide.py) pushes up to 3 children a level; its collapse keeps the deepest
+// stack a tree can need within 64 (wide.STACK), or the scene keeps the binary tree.
+#if defined(LIFT_BVH_WIDTH) && LIFT_BVH_WIDTH == 4
+#if defined(HAS_MOTION) || defined(HAS_INSTANCES)
+#error "the 4-wide BVH has no motion boxes and no BLAS roots: such scenes keep the binary tree (scene/pack.py)"
+#endif
+#define LIFT_BVH_STACK 64
+#else
 #define LIFT_BVH_STACK 48
+#endif
 
 // Where the traversal stack lives. A per-invocation array indexed at run time is local
 // memory on NVIDIA GPUs (off-chip, one vec4 slot per element in its assembly): on an H100
@@ -225,6 +234,170 @@ bool lift_bvh_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float 
     return tn <= tf;
 }
 
+#if defined(LIFT_BVH_WIDTH) && LIFT_BVH_WIDTH == 4
+// ---- The 4-wide tree (lift_gl/accel/wide.py has the layout) -----------------------------
+// Eight vec4 rows a node: min.x, max.x, min.y, max.y, min.z, max.z of its four children,
+// their entries, one unused row. An entry is a wide node id, or with LIFT_BVH4_LEAF set a
+// leaf: (count - 1) in bits 27-30, its first triangle below.
+#define LIFT_BVH4_LEAF 0x80000000u
+#define LIFT_BVH4_FIRST_MASK 0x07ffffffu
+
+// Rows of a node's near and far planes for this ray, by the sign of each direction
+// component: (near x, near y, near z); a far plane is its near plane's row ^ 1. Taking the
+// planes by sign gives the binary test's min/max of the two slab distances bit for bit,
+// and an empty slot's box (+inf, -inf) is then never entered.
+uvec3 lift_bvh4_near_rows(vec3 inv) {
+    return uvec3(inv.x < 0.0 ? 1u : 0u, inv.y < 0.0 ? 3u : 2u, inv.z < 0.0 ? 5u : 4u);
+}
+
+#ifndef LIFT_BVH_QUANTIZED
+// Slab tests of node n's four children against (tmin, tmax): entry distances, which hit, and
+// the children's entries.
+bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, float tmax, out vec4 tn,
+                         out uvec4 e) {
+    uint base = 8u * n;
+    vec4 nx = (bvh_node_row(base + near.x) - org.x) * inv.x;
+    vec4 fx = (bvh_node_row(base + (near.x ^ 1u)) - org.x) * inv.x;
+    vec4 ny = (bvh_node_row(base + near.y) - org.y) * inv.y;
+    vec4 fy = (bvh_node_row(base + (near.y ^ 1u)) - org.y) * inv.y;
+    vec4 nz = (bvh_node_row(base + near.z) - org.z) * inv.z;
+    vec4 fz = (bvh_node_row(base + (near.z ^ 1u)) - org.z) * inv.z;
+    e = floatBitsToUint(bvh_node_row(base + 6u));
+    tn = max(max(nx, ny), max(nz, vec4(tmin)));
+    vec4 tf = min(min(fx, fy), min(fz, vec4(tmax))) * 1.0000004;   // Ize's bound, as lift_bvh_box
+    return lessThanEqual(tn, tf);
+}
+#else
+// Quantized child boxes (LIFT_BVH_QUANTIZED, wide.quantize): four rows a node, origin and
+// per-axis power-of-two scales, each child's planes as bytes. A plane is origin + q * s, the
+// product exact; `precise` keeps the compiler from reassociating the add, so the planes are
+// the ones the host checked to contain the float boxes.
+vec4 lift_bvh4_bytes(uint w) { return vec4((uvec4(w) >> uvec4(0u, 8u, 16u, 24u)) & 0xffu); }
+
+bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, float tmax, out vec4 tn,
+                         out uvec4 e) {
+    uint base = 4u * n;
+    vec4 r0 = bvh_node_row(base);
+    uvec4 qxy = floatBitsToUint(bvh_node_row(base + 1u));
+    uvec2 qz = floatBitsToUint(bvh_node_row(base + 2u).xy);
+    e = floatBitsToUint(bvh_node_row(base + 3u));
+    vec3 s = uintBitsToFloat(((uvec3(floatBitsToUint(r0.w)) >> uvec3(0u, 8u, 16u)) & 0xffu) << 23u);
+    bool fx_lo = near.x == 1u, fy_lo = near.y == 3u, fz_lo = near.z == 5u;   // negative directions
+    precise vec4 px_n = r0.x + lift_bvh4_bytes(fx_lo ? qxy.y : qxy.x) * s.x;
+    precise vec4 px_f = r0.x + lift_bvh4_bytes(fx_lo ? qxy.x : qxy.y) * s.x;
+    precise vec4 py_n = r0.y + lift_bvh4_bytes(fy_lo ? qxy.w : qxy.z) * s.y;
+    precise vec4 py_f = r0.y + lift_bvh4_bytes(fy_lo ? qxy.z : qxy.w) * s.y;
+    precise vec4 pz_n = r0.z + lift_bvh4_bytes(fz_lo ? qz.y : qz.x) * s.z;
+    precise vec4 pz_f = r0.z + lift_bvh4_bytes(fz_lo ? qz.x : qz.y) * s.z;
+    vec4 nx = (px_n - org.x) * inv.x, fx = (px_f - org.x) * inv.x;
+    vec4 ny = (py_n - org.y) * inv.y, fy = (py_f - org.y) * inv.y;
+    vec4 nz = (pz_n - org.z) * inv.z, fz = (pz_f - org.z) * inv.z;
+    tn = max(max(nx, ny), max(nz, vec4(tmin)));
+    vec4 tf = min(min(fx, fy), min(fz, vec4(tmax))) * 1.0000004;   // Ize's bound, as lift_bvh_box
+    // an empty slot (entry 0xffffffff) has qlo 255 > qhi 0, but a tiny scale may round both to
+    // the origin: its entry rules it out
+    return bvec4(uvec4(lessThanEqual(tn, tf)) & uvec4(notEqual(e, uvec4(0xffffffffu))));
+}
+#endif
+
+// One compare-exchange of a sorting network on (distance, entry) pairs.
+#define LIFT_BVH4_ORDER(ta, ea, tb, eb) if (tb < ta) { float t_ = ta; ta = tb; tb = t_; uint e_ = ea; ea = eb; eb = e_; }
+
+// Closest hit below the root, as lift_bvh_closest for the binary tree: while-while, an inner
+// loop over wide nodes down to the next leaf entry. At each node the hit children are sorted
+// near to far (a 5-exchange network); the nearest is visited next and the others pushed, the
+// farthest first. Leaf entries go on the stack like nodes and are never fetched as nodes.
+bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
+    bool found = false;
+    vec3 inv = lift_bvh_inv_dir(ray.dir);
+    uvec3 near = lift_bvh4_near_rows(inv);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
+    LIFT_BVH_STACK_DECLARE
+    int sp = 0;
+    uint cur = root;
+    bool live = true;
+    const float miss = uintBitsToFloat(0x7f800000u);   // +inf: misses sort last
+    while (live) {
+        while ((cur & LIFT_BVH4_LEAF) == 0u) {   // a wide node: test its children
+            vec4 tn;
+            uvec4 e;
+            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
+            uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
+            if (n == 0u) {
+                if (sp == 0) { live = false; break; }
+                cur = LIFT_BVH_STACK_AT(--sp);
+                continue;
+            }
+            float t0 = hit.x ? tn.x : miss, t1 = hit.y ? tn.y : miss;
+            float t2 = hit.z ? tn.z : miss, t3 = hit.w ? tn.w : miss;
+            uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
+            LIFT_BVH4_ORDER(t0, e0, t1, e1)
+            LIFT_BVH4_ORDER(t2, e2, t3, e3)
+            LIFT_BVH4_ORDER(t0, e0, t2, e2)
+            LIFT_BVH4_ORDER(t1, e1, t3, e3)
+            LIFT_BVH4_ORDER(t1, e1, t2, e2)
+            // the collapse bounds the pushes of any root path by LIFT_BVH_STACK
+            if (n > 3u) LIFT_BVH_STACK_AT(sp++) = e3;
+            if (n > 2u) LIFT_BVH_STACK_AT(sp++) = e2;
+            if (n > 1u) LIFT_BVH_STACK_AT(sp++) = e1;
+            cur = e0;
+        }
+        if (!live) break;
+        uint first = cur & LIFT_BVH4_FIRST_MASK;
+        uint count = ((cur >> 27u) & 15u) + 1u;
+        for (uint i = first; i < first + count; ++i) {
+            vec2 bary;
+            if (lift_intersect_triangle(ray, shear, i, t, bary)) {
+                prim = i;
+                bary_out = bary;
+                found = true;
+            }
+        }
+        if (sp == 0) break;
+        cur = LIFT_BVH_STACK_AT(--sp);
+    }
+    return found;
+}
+
+// Whether any triangle lies in (ray.tmin, t): the same loops, children in slot order (no
+// sorting: the first hit found ends the query).
+bool lift_bvh_any(uint root, Ray ray, float t) {
+    vec3 inv = lift_bvh_inv_dir(ray.dir);
+    uvec3 near = lift_bvh4_near_rows(inv);
+    LiftRayShear shear = lift_ray_shear(ray.dir);
+    LIFT_BVH_STACK_DECLARE
+    int sp = 0;
+    uint cur = root;
+    while (true) {
+        while ((cur & LIFT_BVH4_LEAF) == 0u) {
+            vec4 tn;
+            uvec4 e;
+            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
+            bool have = false;
+            uint next = 0u;
+            if (hit.w) { next = e.w; have = true; }
+            if (hit.z) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e.z; have = true; }
+            if (hit.y) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e.y; have = true; }
+            if (hit.x) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e.x; have = true; }
+            if (have) {
+                cur = next;
+            } else {
+                if (sp == 0) return false;
+                cur = LIFT_BVH_STACK_AT(--sp);
+            }
+        }
+        uint first = cur & LIFT_BVH4_FIRST_MASK;
+        uint count = ((cur >> 27u) & 15u) + 1u;
+        for (uint i = first; i < first + count; ++i) {
+            vec2 bary;
+            if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
+        }
+        if (sp == 0) return false;
+        cur = LIFT_BVH_STACK_AT(--sp);
+    }
+    return false;
+}
+#else
 // Closest triangle hit in the tree under node `root`: the world BVH (root 0), or with
 // HAS_INSTANCES an instance's BLAS, the ray then in that instance's object space; updates t,
 // prim and bary when it finds a hit nearer than t. While-while traversal (Aila and Laine
@@ -318,6 +491,8 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
     }
     return false;
 }
+
+#endif  // LIFT_BVH_WIDTH
 
 #ifdef HAS_INSTANCES
 // ---- Instances: the TLAS over their world boxes, then each one's BLAS -------------------

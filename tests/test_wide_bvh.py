@@ -1,0 +1,232 @@
+"""The 4-wide BVH (lift_gl/accel/wide.py, shaders/lift/bvh.glsl with LIFT_BVH_WIDTH 4): its
+structure, and that its traversals find exactly what the binary tree's find: the same
+closest hit distance for every ray (the primitive may differ only where two hits are at the
+same distance), the same any-hit answer, the same pt images; scenes the wide layout does not
+cover keep the binary tree."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from lift_gl.accel.bvh import build_bvh, intersect_numpy
+from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, LEAF_BIT, MAX_FIRST, ROWS, STACK, WIDTH_ENV_VAR, collapse,
+                                decoded_boxes, intersect_wide_numpy, quantize, resolve_width, wide_layout)
+from lift_gl.errors import LiftError
+from lift_gl.scene.loader import load_scene
+from lift_gl.scene.pack import pack_scene
+from test_bvh import NO_HIT, gl, random_rays, run_glsl, soup  # noqa: F401 (gl: a fixture)
+
+WIDE = {"4": {"LIFT_BVH_WIDTH": 4}, "4q": {"LIFT_BVH_WIDTH": 4, "LIFT_BVH_QUANTIZED": True}}
+
+
+def _entries(wide):
+    r = wide.rows.reshape(-1, ROWS, 4)
+    return r[:, 6].view(np.uint32).astype(np.int64), r
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 3000])
+def test_collapse_structure(n):
+    tris = soup(n, seed=n, degenerate=n >= 100)
+    b = build_bvh(tris)
+    wide = collapse(b.nodes)
+    assert wide is not None and wide.stack_bound <= STACK
+    e, r = _entries(wide)
+    w = e.shape[0]
+    valid = e != EMPTY
+    leaf = valid & ((e & LEAF_BIT) != 0)
+    inner = valid & ~leaf
+    # every wide node but the root is the child of exactly one entry, and comes after it
+    kids = e[inner]
+    assert np.array_equal(np.sort(kids), np.arange(1, w))
+    assert (kids > np.nonzero(inner)[0]).all()
+    # the leaf entries cover every triangle row exactly once, as the binary leaves do
+    first, count = e[leaf] & (MAX_FIRST - 1), ((e[leaf] >> COUNT_SHIFT) & 15) + 1
+    cover = np.zeros(len(tris), np.int64)
+    for f, c in zip(first, count):
+        cover[f:f + c] += 1
+    assert (cover == 1).all()
+    assert leaf.sum() == b.num_leaves
+    # an interior child's box holds its node's children boxes; empty slots are (+inf, -inf)
+    lo = np.stack([r[:, 0], r[:, 2], r[:, 4]], axis=-1)
+    hi = np.stack([r[:, 1], r[:, 3], r[:, 5]], axis=-1)
+    node, slot = np.nonzero(inner)
+    child = e[node, slot]
+    ok = valid[child]
+    assert (lo[child][ok] >= np.repeat(lo[node, slot], 4, axis=0).reshape(-1, 4, 3)[ok]).all()
+    assert (hi[child][ok] <= np.repeat(hi[node, slot], 4, axis=0).reshape(-1, 4, 3)[ok]).all()
+    assert np.isposinf(lo[~valid]).all() and np.isneginf(hi[~valid]).all()
+    # a wide node of k children stands for k - 1 binary interior nodes, each used once
+    assert (valid.sum(axis=1) - 1).sum() == b.num_nodes - b.num_leaves
+    # largest area first only stops early where no interior child is left to open
+    full = valid.sum(axis=1) == 4
+    assert (full | ~inner.any(axis=1) | (valid.sum(axis=1) == 1)).all()
+
+
+def test_collapse_refuses_what_the_layout_cannot_hold():
+    b = build_bvh(soup(64, seed=3), max_depth=1)     # one leaf of 64 triangles: count has 4 bits
+    assert b.num_nodes == 1 and collapse(b.nodes) is None
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e4])
+def test_quantized_boxes_contain_the_float_boxes(offset):
+    """8-bit boxes, decoded as the GLSL decodes them, hold the float boxes (far from the origin
+    too, where the final add rounds), and stay tight: a few percent larger."""
+    tris = soup(5000, seed=4) * np.float32(30) + np.float32(offset)
+    wide = collapse(build_bvh(tris).nodes)
+    q = quantize(wide)
+    assert q is not None and q.rows.nbytes * 2 == wide.rows.nbytes
+    lo, hi, e = decoded_boxes(wide)
+    qlo, qhi, qe = decoded_boxes(q)
+    np.testing.assert_array_equal(qe, e)
+    v = e != EMPTY
+    assert (qlo[v] <= lo[v]).all() and (qhi[v] >= hi[v]).all()
+    grow = (qhi - qlo)[v].astype(np.float64).sum(axis=-1) / np.maximum((hi - lo)[v].sum(axis=-1), 1e-12)
+    assert np.median(grow) < 1.05
+
+
+@pytest.mark.parametrize("layout", ["4", "4q"])
+def test_numpy_wide_traversal_matches_binary(layout):
+    tris = soup(4000, seed=11)
+    b = build_bvh(tris)
+    o, d = random_rays(4000, seed=12)
+    t2, p2 = intersect_numpy(b, tris[b.order], o, d)
+    t4, p4 = intersect_wide_numpy(wide_layout(b.nodes, layout), tris[b.order], o, d)
+    np.testing.assert_array_equal(t4, t2)
+    assert ((p4 == p2) | (t4 == t2)).all() and (p4 != p2).mean() < 1e-3
+
+
+def _camera_rays(lo, hi, n_side, seed):
+    """Coherent rays: a pinhole camera outside the box aimed at its centre, an n x n grid."""
+    rng = np.random.default_rng(seed)
+    centre, radius = (lo + hi) / 2, np.linalg.norm(hi - lo) / 2
+    eye = centre + 1.6 * radius * rng.standard_normal(3) / np.sqrt(3)
+    fwd = (centre - eye) / np.linalg.norm(centre - eye)
+    right = np.cross(fwd, [0.0, 0.0, 1.0] if abs(fwd[2]) < 0.9 else [1.0, 0.0, 0.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    u, v = np.meshgrid(np.linspace(-0.6, 0.6, n_side), np.linspace(-0.6, 0.6, n_side))
+    d = fwd + u.reshape(-1, 1) * right + v.reshape(-1, 1) * up
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return np.repeat(eye[None], len(d), axis=0), d
+
+
+def _scene_rays(lo, hi, seed):
+    """Random rays from inside and around the box, and two coherent camera grids."""
+    rng = np.random.default_rng(seed)
+    ext = hi - lo
+    o = lo + ext * rng.uniform(-0.2, 1.2, (6000, 3))
+    d = lo + ext * rng.random((6000, 3)) - o
+    d[:2000] = rng.standard_normal((2000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    cams = [_camera_rays(lo, hi, 64, seed + k) for k in range(2)]
+    o = np.concatenate([o] + [c[0] for c in cams]).astype(np.float32).astype(np.float64)
+    d = np.concatenate([d] + [c[1] for c in cams]).astype(np.float32).astype(np.float64)
+    return o, d
+
+
+def _packed_triangles(name):
+    packed = pack_scene(load_scene(REPO / "scenes" / name), bvh_width=2, bvh_splits="off")
+    return packed.bvh_nodes, packed.tri_pos[:packed.num_triangles, :, :3]
+
+
+@pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
+@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
+def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
+    if case == "soup":
+        tris = soup(20000, seed=5, size=0.03)
+        b = build_bvh(tris)
+        nodes, tris = b.nodes, tris[b.order]
+    else:
+        nodes, tris = _packed_triangles(case)
+    wide = wide_layout(nodes, layout)
+    assert wide is not None
+    lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
+    o, d = _scene_rays(lo, hi, seed=7)
+    extra = {"LIFT_BVH_SHARED_STACK": 64} if stack == "shared" else {}   # the test kernel's 64 invocations
+    t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)
+    t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=dict(WIDE[layout], **extra))
+    assert found2.mean() > 0.3
+    np.testing.assert_array_equal(found4, found2)
+    np.testing.assert_array_equal(t4[found2], t2[found2])     # the same nearest distance, bit for bit
+    assert (p4 != p2).mean() < 1e-3                           # another primitive only at a tie
+    np.testing.assert_array_equal(occ4, occ2)
+    # any-hit on bounded intervals (shadow rays): ending before, at and after the nearest hit
+    tmax = np.where(found2, t2, 1.0).astype(np.float64) * np.random.default_rng(3).uniform(0.5, 1.5, len(o))
+    _, _, occ2, _, _ = run_glsl(gl, nodes, tris, o, d, tmax=tmax.astype(np.float32), defines=extra)
+    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax.astype(np.float32), defines=dict(WIDE[layout], **extra))
+    assert 0.1 < occ2.mean() < 0.9
+    np.testing.assert_array_equal(occ4, occ2)
+
+
+def test_pack_scene_width_and_fallbacks(monkeypatch):
+    cornell = load_scene(REPO / "scenes" / "cornell.toml")
+    assert pack_scene(cornell, bvh_width=4).bvh_width == 4
+    assert pack_scene(cornell, bvh_width=2).bvh_width == 2
+    packed = pack_scene(cornell, bvh_width="4q")
+    assert (packed.bvh_width, packed.bvh_quantized, packed.bvh_nodes.shape[1]) == (4, True, 16)
+    monkeypatch.setenv(WIDTH_ENV_VAR, "4")
+    assert pack_scene(cornell).bvh_width == 4
+    # motion blur (per-node close boxes) and traced instances (BLAS roots) keep the binary tree
+    for name in ("motion_blur.toml", "instances.toml"):
+        packed = pack_scene(load_scene(REPO / "scenes" / name), bvh_width=4)
+        assert packed.bvh_width == 2 and packed.bvh_nodes.shape[1] == 8
+    monkeypatch.setenv(WIDTH_ENV_VAR, "8")
+    with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
+        pack_scene(cornell)
+    monkeypatch.setenv(WIDTH_ENV_VAR, "auto")
+    assert resolve_width(None, software=True) == "4q" and resolve_width(None) == "2"
+    assert resolve_width(None, software=False) == "4" and resolve_width(2, software=False) == "2"
+
+
+def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, **kw):
+    from lift_gl.renderer import Renderer
+
+    monkeypatch.setenv(WIDTH_ENV_VAR, width)
+    r = Renderer(scene, size=size, integrator=integrator, seed=5, **kw)
+    try:
+        return r.render(spp=spp), r.packed.bvh_width, r.defines.get("LIFT_BVH_WIDTH"), r.defines.get("LIFT_BVH_QUANTIZED")
+    finally:
+        r.release()
+
+
+@pytest.mark.parametrize("scene_name, integrator", [
+    ("cornell.toml", "pt"),          # closest hits and shadow rays
+    ("showcase.toml", "pt"),         # spheres beside the triangles, textures
+    ("cornell.toml", "drt"),         # camera rays through the trace pass
+])
+@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
+def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stack, layout):
+    monkeypatch.setenv("LIFT_GL_BVH_STACK", stack)
+    scene = load_scene(REPO / "scenes" / scene_name)
+    binary, w2, d2, q2 = _render(monkeypatch, "2", scene, integrator)
+    wide, w4, d4, q4 = _render(monkeypatch, layout, scene, integrator)
+    assert (w2, d2, q2, w4, d4, q4) == (2, None, None, 4, 4, True if layout == "4q" else None)
+    assert np.isfinite(binary).all() and binary.max() > 0
+    np.testing.assert_array_equal(wide, binary)
+
+
+def test_wide_split_scene_renders_the_same_image(monkeypatch):
+    """A scene split across buffers (scene/split.py) reads the wide nodes through the heap."""
+    from lift_gl import limits
+    from lift_gl.renderer import Renderer
+    from test_split_buffers import _small_limit
+
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    whole = _render(monkeypatch, "4", scene, "pt")[0]
+    monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(_small_limit(pack_scene(scene, bvh_width=4))))
+    r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+    try:
+        assert r.buffers.plan.split and r.buffers.plan.chunks >= 2 and r.packed.bvh_width == 4
+        split = r.render(spp=4)
+    finally:
+        r.release()
+    np.testing.assert_array_equal(split, whole)
+
+
+def test_bad_width_setting_is_refused(monkeypatch):
+    from lift_gl.renderer import Renderer
+
+    monkeypatch.setenv(WIDTH_ENV_VAR, "3")
+    with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
+        Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
