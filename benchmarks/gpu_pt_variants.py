@@ -83,6 +83,92 @@ def bdpt_unpacked(text: str) -> str:
     return text.replace("\n", "\n#define BDPT_PACK_NORMALS 0\n", 1)  # after #version
 
 
+# ---- bdpt diagnostics (issue 10: where bdpt's GPU time goes) ----
+# Each removes or replaces one part of bdpt's work; none keeps the image (except bdpt_unpacked's
+# rounding). Anchors are bdpt's source as of this script; an edit whose anchor is gone raises.
+
+def bdpt_no_light_tracing(text: str) -> str:
+    """Diagnostic: no t = 1 strategy (the light subpath still traced and stored)."""
+    return _sub(text, "if (strategy_kept(s, 1)) strategy_light_tracing(s);", "")
+
+
+def bdpt_no_connect(text: str) -> str:
+    """Diagnostic: no s >= 2, t >= 2 joins (light tracing, s = 0 and s = 1 kept)."""
+    return _sub(text, "L += strategy_connect(s, z, z_prev);", "")
+
+
+def bdpt_light_only(text: str) -> str:
+    """Diagnostic: only the light subpath, traced and stored (its last vertex read back so that
+    the stores stay), no joins, no camera subpath."""
+    text = bdpt_no_light_tracing(text)
+    return _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
+                "return 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
+
+
+def bdpt_camera_only(text: str) -> str:
+    """Diagnostic: no light subpath: the camera subpath with s = 0 and s = 1 only (pt's work)."""
+    return _sub(text, "int light_vertices = light_subpath(depth_limit, rng);", "int light_vertices = 0;")
+
+
+def bdpt_splat_plain(text: str) -> str:
+    """Diagnostic: splats as plain read-add-writes instead of atomics (races: wrong sums)."""
+    return _sub(text, "atomicAdd(lift_splats[index], value);", "lift_splats[index] += value;")
+
+
+def _counting(text: str, edits) -> str:
+    """The image becomes three per-pixel counts (diag_r/g/b, incremented by `edits`: (anchor,
+    code put after it)); splats are off so nothing else lands in the frame."""
+    text = _sub(text, "#line 200001\n", "float diag_r = 0.0, diag_g = 0.0, diag_b = 0.0;\n#line 200001\n")
+    text = _sub(text, "imageStore(u_frame_out, pixel, vec4(sum, valid));",
+                "imageStore(u_frame_out, pixel, vec4(diag_r, diag_g, diag_b, valid));")
+    if "void splat(vec2 pixel_pos, vec3 value) {" in text:
+        text = _sub(text, "void splat(vec2 pixel_pos, vec3 value) {", "void splat(vec2 pixel_pos, vec3 value) { return;", 0)
+    for anchor, code in edits:
+        text = _sub(text, anchor, anchor + " " + code, 0)
+    return text
+
+
+def count_rays(text: str) -> str:
+    """Counts per pixel: closest-hit rays (r), shadow rays (g), and for bdpt attempted splats (b)."""
+    edits = [("bool trace_closest(Ray ray, out Hit hit) {", "diag_r += 1.0;"),
+             ("bool trace_occluded(Ray ray) {", "diag_g += 1.0;")]
+    if "void strategy_light_tracing(int s) {" in text:
+        edits.append(("void strategy_light_tracing(int s) {", "diag_b += 1.0;"))
+    return _counting(text, edits)
+
+
+def bdpt_count_paths(text: str) -> str:
+    """Counts per pixel: light subpath vertices (r, y0 included), camera vertices joined (g, z1
+    on), s >= 2 joins attempted (b). The image of this variant is the counts."""
+    return _counting(text, [
+        ("int light_vertices = light_subpath(depth_limit, rng);", "diag_r += float(light_vertices);"),
+        ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
+         "                         inout Rng rng) {", "diag_g += 1.0;"),
+        ("vec3 strategy_connect(int s, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
+
+
+def warp_costs(light: np.ndarray, camera: np.ndarray, depth: int, local=(8, 4)) -> dict:
+    """From per-pixel light-vertex and camera-vertex counts (bdpt_count_paths), the iterations
+    of bdpt's loops per lane and per warp (a warp runs a loop as long as its longest lane):
+    camera vertex t = 2.. joins s = 0..min(max(L, 1), depth + 2 - t). Returns means per pixel."""
+    h, w = light.shape
+    lx, ly = local
+    h2, w2 = h - h % ly, w - w % lx
+    L = light[:h2, :w2].reshape(h2 // ly, ly, w2 // lx, lx).transpose(0, 2, 1, 3).reshape(-1, lx * ly)
+    C = camera[:h2, :w2].reshape(h2 // ly, ly, w2 // lx, lx).transpose(0, 2, 1, 3).reshape(-1, lx * ly)
+    lane_joins = np.zeros_like(L)
+    warp_joins = np.zeros(L.shape[0])
+    for t in range(2, int(C.max()) + 2):
+        alive = C >= t - 1
+        iters = np.where(alive, np.minimum(np.maximum(L, 1), depth + 2 - t) + 1, 0)
+        lane_joins += iters
+        warp_joins += iters.max(axis=1)
+    return {"join_iterations_lane": float(lane_joins.mean()), "join_iterations_warp": float(warp_joins.mean()),
+            "camera_steps_lane": float(C.mean()), "camera_steps_warp": float(C.max(axis=1).mean()),
+            "light_steps_lane": float(L.mean()), "light_steps_warp": float(L.max(axis=1).mean()),
+            "light_max": float(L.max()), "camera_max": float(C.max())}
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -112,7 +198,16 @@ VARIANTS = {
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
+    "bdpt_no_lt": (bdpt_no_light_tracing, {}, False),
+    "bdpt_no_connect": (bdpt_no_connect, {}, False),
+    "bdpt_light_only": (bdpt_light_only, {}, False),
+    "bdpt_camera_only": (bdpt_camera_only, {}, False),
+    "bdpt_splat_plain": (bdpt_splat_plain, {}, False),
+    "rr1": (None, {"rr_depth": 1}, False),
+    "count_rays": (count_rays, {}, False),
+    "bdpt_count_paths": (bdpt_count_paths, {}, False),
 }
+COUNTING = ("count_rays", "bdpt_count_paths")
 
 
 def tree_plugin_source(renderer, tree: Path) -> str:
@@ -199,11 +294,15 @@ def binary_summary(blob: bytes | None) -> dict:
 
 def trace_uniforms(renderer) -> dict:
     from lift_gl.passes.camera import frame_jitter
+    from lift_gl.passes.pixel_filter import filter_uniforms
     from lift_gl.passes.trace import param_uniforms
 
+    # The pixel filter's uniforms too: without them (this script before issue 10's bdpt work)
+    # bdpt's splats covered no pixel, so its light tracing added nothing and no atomics ran.
     return dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
                 u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
-                u_jitter=frame_jitter(7, renderer.seed))
+                u_jitter=frame_jitter(7, renderer.seed),
+                **filter_uniforms(renderer._compiled_pixel_filter(), renderer.scene.film_size, renderer.size))
 
 
 def camera_source(renderer):
@@ -357,6 +456,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         result["variants"][name] = dict(info[name], ms=times[name], median_ms=float(np.median(times[name])),
                                         mean_rgb=float(np.mean(img)), max_abs_diff_vs_first=float(np.max(np.abs(img - base))),
                                         finite=bool(np.isfinite(img).all()))
+        if name in COUNTING:  # the image is per-pixel counts
+            result["variants"][name]["mean_counts_rgb"] = [float(v) for v in img.reshape(-1, 3).mean(axis=0)]
+            if name == "bdpt_count_paths":
+                result["variants"][name]["warp"] = warp_costs(img[..., 0], img[..., 1], max_depth)
     result["gbuffer"] = {name: {"ms": t, "median_ms": float(np.median(t))} for name, t in gb_times.items()}
     result["gbuffer_kind"] = type(r.gbuffer).__name__ if r.gbuffer is not None else None
     for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
