@@ -59,50 +59,45 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
 }
 
 // Private to each invocation: the light subpath, y0 first. Stored with its three directions
-// in one word each (lift/octahedral.glsl, about 5e-5 rad): 12 words a vertex rather than 18,
-// since on a GPU this array is local memory, read by every join. BDPT_PACK_NORMALS 0 keeps
-// them as floats (benchmarks/gpu_pt_variants.py times both).
+// in one word each (lift/octahedral.glsl, about 5e-5 rad), 12 words a vertex rather than 18,
+// since on a GPU this array is local memory, read by every join. The words are laid out as
+// uvec4s by hand: NVIDIA's compiler gives each member of a struct in a local array a 16-byte
+// slot of its own (the program binary's `TEMP lmem0[264]` for 33 vertices of 8 members, 4,224
+// bytes an invocation), where 3 uvec4s (4 with textures) a vertex take 1,584 (docs/gpu.md).
+// BDPT_PACK_NORMALS 0 keeps the directions as floats, in a struct (benchmarks/gpu_pt_variants.py
+// times both).
 #ifndef BDPT_PACK_NORMALS
 #define BDPT_PACK_NORMALS 1
 #endif
 #if BDPT_PACK_NORMALS
 #include "lift/octahedral.glsl"
-struct StoredVertex {
-    vec3 p;
-    uint ng, ns, wo;    // pack_unit_vector
-    vec3 beta;
-    float pdf_fwd;
-    float mis_sum;
-    uint tag;
 #ifdef HAS_TEXTURES
-    vec3 tint;
+#define BDPT_STORED_WORDS 4  // uvec4s a vertex: (p, pdf_fwd), (beta, mis_sum), (ng, ns, wo, tag), tint
+#else
+#define BDPT_STORED_WORDS 3
 #endif
-};
-StoredVertex bdpt_light[BDPT_LIGHT_VERTICES];
+uvec4 bdpt_light[BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS];
 
 void store_light_vertex(int i, PathVertex v) {
-    StoredVertex s;
-    s.p = v.p;
-    s.ng = pack_unit_vector(v.ng);
-    s.ns = pack_unit_vector(v.ns);
-    s.wo = pack_unit_vector(v.wo);
-    s.beta = v.beta;
-    s.pdf_fwd = v.pdf_fwd;
-    s.mis_sum = v.mis_sum;
-    s.tag = v.tag;
+    int k = i * BDPT_STORED_WORDS;
+    bdpt_light[k] = floatBitsToUint(vec4(v.p, v.pdf_fwd));
+    bdpt_light[k + 1] = floatBitsToUint(vec4(v.beta, v.mis_sum));
+    bdpt_light[k + 2] = uvec4(pack_unit_vector(v.ng), pack_unit_vector(v.ns), pack_unit_vector(v.wo), v.tag);
 #ifdef HAS_TEXTURES
-    s.tint = v.tint;
+    bdpt_light[k + 3] = floatBitsToUint(vec4(v.tint, 0.0));
 #endif
-    bdpt_light[i] = s;
 }
 
 PathVertex light_vertex(int i) {
-    StoredVertex s = bdpt_light[i];
-    PathVertex v = path_vertex(s.p, unpack_unit_vector(s.ng), unpack_unit_vector(s.ns), unpack_unit_vector(s.wo),
-                               s.beta, s.pdf_fwd, s.tag);
-    v.mis_sum = s.mis_sum;
+    int k = i * BDPT_STORED_WORDS;
+    vec4 p_pdf = uintBitsToFloat(bdpt_light[k]);
+    vec4 beta_mis = uintBitsToFloat(bdpt_light[k + 1]);
+    uvec4 words = bdpt_light[k + 2];
+    PathVertex v = path_vertex(p_pdf.xyz, unpack_unit_vector(words.x), unpack_unit_vector(words.y),
+                               unpack_unit_vector(words.z), beta_mis.xyz, p_pdf.w, words.w);
+    v.mis_sum = beta_mis.w;
 #ifdef HAS_TEXTURES
-    v.tint = s.tint;
+    v.tint = uintBitsToFloat(bdpt_light[k + 3]).xyz;
 #endif
     return v;
 }
