@@ -89,12 +89,12 @@ def bdpt_unpacked(text: str) -> str:
 
 def bdpt_no_light_tracing(text: str) -> str:
     """Diagnostic: no t = 1 strategy (the light subpath still traced and stored)."""
-    return _sub(text, "if (strategy_kept(s, 1)) strategy_light_tracing(s);", "")
+    return _sub(text, "if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);", "")
 
 
 def bdpt_no_connect(text: str) -> str:
     """Diagnostic: no s >= 2, t >= 2 joins (light tracing, s = 0 and s = 1 kept)."""
-    return _sub(text, "L += strategy_connect(s, z, z_prev);", "")
+    return _sub(text, "if (strategy_kept(s, t)) L += strategy_connect(y, y_prev, z, z_prev);", "")
 
 
 def bdpt_light_only(text: str) -> str:
@@ -132,8 +132,8 @@ def count_rays(text: str) -> str:
     """Counts per pixel: closest-hit rays (r), shadow rays (g), and for bdpt attempted splats (b)."""
     edits = [("bool trace_closest(Ray ray, out Hit hit) {", "diag_r += 1.0;"),
              ("bool trace_occluded(Ray ray) {", "diag_g += 1.0;")]
-    if "void strategy_light_tracing(int s) {" in text:
-        edits.append(("void strategy_light_tracing(int s) {", "diag_b += 1.0;"))
+    if "void strategy_light_tracing(PathVertex y, PathVertex y_prev) {" in text:
+        edits.append(("void strategy_light_tracing(PathVertex y, PathVertex y_prev) {", "diag_b += 1.0;"))
     return _counting(text, edits)
 
 
@@ -144,7 +144,7 @@ def bdpt_count_paths(text: str) -> str:
         ("int light_vertices = light_subpath(depth_limit, rng);", "diag_r += float(light_vertices);"),
         ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
          "                         inout Rng rng) {", "diag_g += 1.0;"),
-        ("vec3 strategy_connect(int s, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
+        ("vec3 strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
 
 
 def warp_costs(light: np.ndarray, camera: np.ndarray, depth: int, local=(8, 4)) -> dict:
@@ -167,6 +167,14 @@ def warp_costs(light: np.ndarray, camera: np.ndarray, depth: int, local=(8, 4)) 
             "camera_steps_lane": float(C.mean()), "camera_steps_warp": float(C.max(axis=1).mean()),
             "light_steps_lane": float(L.mean()), "light_steps_warp": float(L.max(axis=1).mean()),
             "light_max": float(L.max()), "camera_max": float(C.max())}
+
+
+def bdpt_shared_vertices(n: int):
+    """bdpt with the first n stored light vertices in shared memory (BDPT_SHARED_VERTICES; GPUs
+    only, where the BVH stack is shared too), the rest in the local array."""
+    def edit(text):
+        return text.replace("\n", f"\n#define BDPT_SHARED_VERTICES {n}\n", 1)  # after #version
+    return edit
 
 
 def compose(*edits):
@@ -198,6 +206,9 @@ VARIANTS = {
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
+    "bdpt_shared0": (bdpt_shared_vertices(0), {}, False),
+    "bdpt_shared2": (bdpt_shared_vertices(2), {}, False),
+    "bdpt_shared8": (bdpt_shared_vertices(8), {}, False),
     "bdpt_no_lt": (bdpt_no_light_tracing, {}, False),
     "bdpt_no_connect": (bdpt_no_connect, {}, False),
     "bdpt_light_only": (bdpt_light_only, {}, False),

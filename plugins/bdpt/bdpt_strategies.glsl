@@ -65,9 +65,8 @@ vec3 strategy_light_sample(PathVertex z, PathVertex z_prev, inout Rng rng) {
     return contribution * mis_weight(camera_side, light_side);
 }
 
-// ---- t = 1: light vertex s-1 seen by the pinhole, splatted to its pixel ----
-void strategy_light_tracing(int s) {
-    PathVertex y = light_vertex(s - 1);
+// ---- t = 1: light vertex y = y_{s-1} (predecessor y_prev) seen by the pinhole, splatted to its pixel ----
+void strategy_light_tracing(PathVertex y, PathVertex y_prev) {
     if (!vertex_connectible(y)) return;
     vec2 pixel_pos;
     if (!camera_project(y.p, pixel_pos)) return;
@@ -81,16 +80,14 @@ void strategy_light_tracing(int s) {
     vec3 contribution = y.beta * at_y.f * importance;
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(y, wi, dist)) return;
 
-    PathVertex y_prev = light_vertex(s - 2);
     float qs_rev = camera_pdf_dir(-wi) * abs(dot(y.ng, wi)) / dist2;  // a camera ray reaching y
     float qs_minus_rev = area_density(at_y.pdf_back, y.p, y_prev);
     float light_side = mis_side(qs_rev, y.pdf_fwd, y.mis_sum, vertex_delta(y_prev), qs_minus_rev, y_prev.pdf_fwd);
     splat(pixel_pos, contribution * mis_weight(0.0, light_side));
 }
 
-// ---- s >= 2, t >= 2: light vertex s-1 and camera vertex z joined by a shadow ray ----
-vec3 strategy_connect(int s, PathVertex z, PathVertex z_prev) {
-    PathVertex y = light_vertex(s - 1);
+// ---- s >= 2, t >= 2: light vertex y = y_{s-1} (predecessor y_prev) and camera vertex z joined by a shadow ray ----
+vec3 strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {
     if (!vertex_connectible(y) || !vertex_connectible(z)) return vec3(0.0);
     vec3 d = y.p - z.p;
     float dist2 = dot(d, d);
@@ -102,7 +99,6 @@ vec3 strategy_connect(int s, PathVertex z, PathVertex z_prev) {
     vec3 contribution = z.beta * at_z.f * at_y.f * y.beta / dist2;
     if (all(equal(contribution, vec3(0.0))) || !vertex_sees(z, wi, dist)) return vec3(0.0);
 
-    PathVertex y_prev = light_vertex(s - 2);
     float pt_rev = area_density(at_y.pdf_out, y.p, z);
     float pt_minus_rev = area_density(at_z.pdf_back, z.p, z_prev);
     float qs_rev = area_density(at_z.pdf_out, z.p, y);
@@ -117,14 +113,17 @@ vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int
                          inout Rng rng) {
     vec3 L = vec3(0.0);
     int last_s = min(max(light_vertices, 1), bdpt_depth_limit() + 2 - t);
+    PathVertex y_prev;  // y_{s-2}: the vertex the join before read (each join reads one stored vertex)
     for (int s = 0; s <= last_s; ++s) {
-        if (!strategy_kept(s, t)) continue;
         if (s == 0) {
-            L += strategy_emitted(z, z_prev, emitter_pdf, t);
+            if (strategy_kept(s, t)) L += strategy_emitted(z, z_prev, emitter_pdf, t);
         } else if (s == 1) {
-            L += strategy_light_sample(z, z_prev, rng);
+            if (strategy_kept(s, t)) L += strategy_light_sample(z, z_prev, rng);
         } else {
-            L += strategy_connect(s, z, z_prev);
+            if (s == 2) y_prev = light_vertex(0);
+            PathVertex y = light_vertex(s - 1);
+            if (strategy_kept(s, t)) L += strategy_connect(y, y_prev, z, z_prev);
+            y_prev = y;
         }
     }
     return L;

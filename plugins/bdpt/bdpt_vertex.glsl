@@ -76,28 +76,74 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
 #else
 #define BDPT_STORED_WORDS 3
 #endif
-uvec4 bdpt_light[BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS];
+
+// On GPUs (the host defines LIFT_BVH_SHARED_STACK to the work group's size, one warp) the first
+// BDPT_SHARED_VERTICES vertices live in shared memory, one column per invocation as the BVH
+// stack does (lift/bvh.glsl), and only the rest in the local array: most light subpaths are
+// short (3.8 vertices on average on Lift's cornell-box, y0 included; docs/bdpt.md).
+#ifndef BDPT_SHARED_VERTICES
+#define BDPT_SHARED_VERTICES 4
+#endif
+#if !defined(LIFT_BVH_SHARED_STACK) || BDPT_SHARED_VERTICES <= 0
+#define BDPT_SHARED_WORDS 0
+#elif BDPT_SHARED_VERTICES >= BDPT_LIGHT_VERTICES
+#define BDPT_SHARED_WORDS (BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS)
+#else
+#define BDPT_SHARED_WORDS (BDPT_SHARED_VERTICES * BDPT_STORED_WORDS)
+#endif
+#define BDPT_LOCAL_WORDS (BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS - BDPT_SHARED_WORDS)
+#if BDPT_SHARED_WORDS > 0
+shared uvec4 bdpt_light_shared[BDPT_SHARED_WORDS * LIFT_BVH_SHARED_STACK];
+#endif
+#if BDPT_LOCAL_WORDS > 0
+uvec4 bdpt_light[BDPT_LOCAL_WORDS];
+#endif
+
+// Word k of the stored subpath (vertex k / BDPT_STORED_WORDS). k is the same in every lane of
+// a warp (the joins loop over s in step), so the branch does not diverge.
+void store_light_word(int k, uvec4 word) {
+#if BDPT_SHARED_WORDS > 0
+    if (k < BDPT_SHARED_WORDS) {
+        bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex] = word;
+        return;
+    }
+#endif
+#if BDPT_LOCAL_WORDS > 0
+    bdpt_light[k - BDPT_SHARED_WORDS] = word;
+#endif
+}
+
+uvec4 light_word(int k) {
+#if BDPT_SHARED_WORDS > 0
+    if (k < BDPT_SHARED_WORDS) return bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex];
+#endif
+#if BDPT_LOCAL_WORDS > 0
+    return bdpt_light[k - BDPT_SHARED_WORDS];
+#else
+    return uvec4(0u);
+#endif
+}
 
 void store_light_vertex(int i, PathVertex v) {
     int k = i * BDPT_STORED_WORDS;
-    bdpt_light[k] = floatBitsToUint(vec4(v.p, v.pdf_fwd));
-    bdpt_light[k + 1] = floatBitsToUint(vec4(v.beta, v.mis_sum));
-    bdpt_light[k + 2] = uvec4(pack_unit_vector(v.ng), pack_unit_vector(v.ns), pack_unit_vector(v.wo), v.tag);
+    store_light_word(k, floatBitsToUint(vec4(v.p, v.pdf_fwd)));
+    store_light_word(k + 1, floatBitsToUint(vec4(v.beta, v.mis_sum)));
+    store_light_word(k + 2, uvec4(pack_unit_vector(v.ng), pack_unit_vector(v.ns), pack_unit_vector(v.wo), v.tag));
 #ifdef HAS_TEXTURES
-    bdpt_light[k + 3] = floatBitsToUint(vec4(v.tint, 0.0));
+    store_light_word(k + 3, floatBitsToUint(vec4(v.tint, 0.0)));
 #endif
 }
 
 PathVertex light_vertex(int i) {
     int k = i * BDPT_STORED_WORDS;
-    vec4 p_pdf = uintBitsToFloat(bdpt_light[k]);
-    vec4 beta_mis = uintBitsToFloat(bdpt_light[k + 1]);
-    uvec4 words = bdpt_light[k + 2];
+    vec4 p_pdf = uintBitsToFloat(light_word(k));
+    vec4 beta_mis = uintBitsToFloat(light_word(k + 1));
+    uvec4 words = light_word(k + 2);
     PathVertex v = path_vertex(p_pdf.xyz, unpack_unit_vector(words.x), unpack_unit_vector(words.y),
                                unpack_unit_vector(words.z), beta_mis.xyz, p_pdf.w, words.w);
     v.mis_sum = beta_mis.w;
 #ifdef HAS_TEXTURES
-    v.tint = uintBitsToFloat(bdpt_light[k + 3]).xyz;
+    v.tint = uintBitsToFloat(light_word(k + 3)).xyz;
 #endif
     return v;
 }
