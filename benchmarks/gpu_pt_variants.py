@@ -343,7 +343,7 @@ def gbuffer_variants(renderer) -> dict:
     return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
 
 
-def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt"):
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt", trees=None):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
@@ -363,8 +363,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
         elif name == "main":
             src, over, exact, local = tree_source(r, base_tree), {}, True, (8, 8)
-        elif name == "tree":
-            src, over, exact, local = tree_plugin_source(r, base_tree), {}, integrator == "pt", r.trace.local_size
+        elif name == "tree" or name in (trees or {}):
+            tree = base_tree if name == "tree" else trees[name]
+            src, over, exact, local = tree_plugin_source(r, tree), {}, integrator == "pt", r.trace.local_size
         else:
             edit, over, exact = VARIANTS[name]
             src = edit(base_source) if edit else base_source
@@ -515,13 +516,17 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path)
     ap.add_argument("--dump-binaries", type=Path)
     ap.add_argument("--base-tree", type=Path, help="another checkout: variant `main` is its trace program")
+    ap.add_argument("--tree", action="append", default=[], metavar="NAME=CHECKOUT",
+                    help="variant NAME is the plugin of that checkout, as `tree` is of --base-tree (repeatable)")
     ap.add_argument("--backend", default="auto")
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
+    trees = dict(t.split("=", 1) for t in args.tree)
+    trees = {k: Path(v) for k, v in trees.items()}
     for n in names:
         if n in ("main", "tree") and args.base_tree is None:
             raise SystemExit(f"--variants {n} needs --base-tree")
-        if n not in VARIANTS and n not in ("camera", "main", "tree"):
+        if n not in VARIANTS and n not in ("camera", "main", "tree") and n not in trees:
             raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
     ctx = create_context(args.backend)
     record = {"gl": describe(ctx), "integrator": args.integrator, "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
@@ -529,7 +534,7 @@ def main(argv=None) -> int:
     for path in args.scenes:
         start = time.perf_counter()
         res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree,
-                        args.integrator)
+                        args.integrator, trees)
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())
