@@ -94,7 +94,7 @@ def bdpt_no_light_tracing(text: str) -> str:
 
 def bdpt_no_connect(text: str) -> str:
     """Diagnostic: no s >= 2, t >= 2 joins (light tracing, s = 0 and s = 1 kept)."""
-    return _sub(text, "if (strategy_kept(s, t)) L += strategy_connect(y, y_prev, z, z_prev);", "")
+    return _sub(text, "if (strategy_kept(s, t)) join = strategy_connect(y, y_prev, z, z_prev);", "")
 
 
 def bdpt_light_only(text: str) -> str:
@@ -144,7 +144,7 @@ def bdpt_count_paths(text: str) -> str:
         ("int light_vertices = light_subpath(depth_limit, rng);", "diag_r += float(light_vertices);"),
         ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
          "                         inout Rng rng) {", "diag_g += 1.0;"),
-        ("vec3 strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
+        ("Join strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
 
 
 def warp_costs(light: np.ndarray, camera: np.ndarray, depth: int, local=(8, 4)) -> dict:
