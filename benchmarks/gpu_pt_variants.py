@@ -294,6 +294,12 @@ def binary_summary(blob: bytes | None) -> dict:
     lmem = re.findall(r"TEMP lmem\d*\[(\d+)\]", text)
     if lmem:
         out["lmem_vec4"] = [int(v) for v in lmem]
+    temps = re.search(r"\nTEMP (R\d+(?:, R\d+)*);", text)
+    if temps:  # vec4 temporaries before register allocation: a hint of register pressure
+        out["temps_vec4"] = temps.group(1).count("R")
+    shared = re.search(r"SHARED_MEMORY (\d+);", text)
+    if shared:
+        out["shared_bytes"] = int(shared.group(1))
     for key in ("REG", "reg", "NumRegs", "numRegs"):
         m = re.search(rf"{key}\D{{0,4}}(\d+)", text)
         if m:
