@@ -25,16 +25,25 @@
 
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     int depth_limit = bdpt_depth_limit();
-    int light_vertices = light_subpath(depth_limit, rng);
-
-    // ---- t = 1: every light vertex seen by the pinhole, splatted ----
-    PathVertex y_prev = light_vertex(0);  // each join reads one stored vertex: y_{s-2} is kept from the last
-    for (int s = 2; s <= light_vertices && s - 1 <= depth_limit; ++s) {
-        PathVertex y = light_vertex(s - 1);
-        if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);
-        y_prev = y;
+    // The light subpath (y0 stored, then its walk, each vertex splatted through the pinhole as
+    // it is stored: t = 1), then the camera subpath (each vertex joined to every light prefix:
+    // t >= 2). One loop around one call of extend_subpath, whose code is then compiled once; its
+    // trip count depends on the light sample, so the compiler cannot unroll it into two copies.
+    SubpathStart start;
+    bool has_light = light_subpath_start(rng, start);
+    int light_vertices = 0;
+    vec3 L = vec3(0.0);
+    for (int phase = has_light ? 0 : 1; phase < 2; ++phase) {
+        bool importance = phase == 0;
+        if (importance) {
+            store_light_vertex(0, start.vertex);
+        } else {
+            start = camera_subpath_start(ray);
+        }
+        int vertices = extend_subpath(start.vertex, depth_limit + (importance ? 1 : 2), start.ray, hit, start.beta,
+                                      start.pdf_dir, start.first_pdf_pos, start.mis_sum, importance, light_vertices,
+                                      L, rng);
+        if (importance) light_vertices = vertices;
     }
-
-    // ---- t >= 2: each camera vertex joined to every light prefix as the camera subpath is traced ----
-    return camera_subpath(ray, hit, depth_limit, light_vertices, rng);
+    return L;
 }

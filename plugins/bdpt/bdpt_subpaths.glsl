@@ -5,17 +5,24 @@
 // vertex is joined to them when it is made (camera_vertex_joins), then only it and its
 // predecessor are kept.
 
-// Extends the subpath whose last vertex is `prev` (vertex 0) along `ray`, whose closest hit is
-// `hit`, up to vertex end - 1; returns the number of vertices the subpath has, vertex 0
-// included. `beta` is the throughput the ray carries, `pdf_dir` the solid-angle density of its
+// Extends the subpath whose last vertex is `prev` (vertex 0) along `ray` (traced here first),
+// up to vertex end - 1; returns the number of vertices the subpath has, vertex 0 included.
+// `beta` is the throughput the ray carries, `pdf_dir` the solid-angle density of its
 // direction; `first_pdf_pos` > 0 means the ray came from the environment's disk, so the first
 // vertex has the disk's density times |cos| there instead; `mis_sum` is vertex 1's.
-// `importance`: a light subpath, stored in bdpt_light; otherwise a camera subpath, whose
-// vertices are joined to the light subpath's first light_vertices vertices and add to L.
-int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir, float first_pdf_pos,
+// `importance`: a light subpath, stored in bdpt_light, each vertex joined to the pinhole (t = 1)
+// as it is stored; otherwise a camera subpath, whose vertices are joined to the light subpath's
+// first light_vertices vertices and add to L. `camera_hit` is the camera ray's first hit
+// (G-buffer), not traced again. radiance() calls this once for both subpaths, so that the
+// walk's code (traversal, surfaces, textures, BSDF sampling) is compiled once, not twice.
+int extend_subpath(PathVertex prev, int end, Ray ray, Hit camera_hit, vec3 beta, float pdf_dir, float first_pdf_pos,
                    float mis_sum, bool importance, int light_vertices, inout vec3 L, inout Rng rng) {
     vec3 roulette_weight = vec3(1.0);  // throughput relative to the subpath's start
+    PathVertex stored_prev = prev;     // light subpaths: the last vertex read back from bdpt_light
+    if (importance) stored_prev = light_vertex(0);
+    Hit hit = camera_hit;
     for (int i = 1; i < end; ++i) {
+        if (importance || i > 1) trace_closest(ray, hit);
         // ---- Escaped: an environment vertex (camera subpaths only) ----
         if (hit.prim == NO_HIT) {
 #ifdef HAS_ENVIRONMENT
@@ -58,7 +65,11 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
         if (goes_on && bs.is_delta) v.tag |= 1u;  // delta: never joined
 
         if (importance) {
+            // y_i joined to the pinhole (t = 1, s = i + 1), as stored (its directions packed)
             store_light_vertex(i, v);
+            PathVertex y = light_vertex(i);
+            if (strategy_kept(i + 1, 1)) strategy_light_tracing(y, stored_prev);
+            stored_prev = y;
         } else {
             L += camera_vertex_joins(v, prev, pdf_light_point(s), i + 1, light_vertices, rng);
         }
@@ -84,43 +95,46 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
         }
         prev = v;
         ray = spawn_ray(s, wi);
-        trace_closest(ray, hit);
     }
     return end;
 }
 
-// ---- The light subpath: y0 on a light, chosen as next event estimation would ----
+// ---- The light subpath's start: y0 on a light, chosen as next event estimation would ----
 // From a light at infinity, y0 is the direction and y1 is where the ray from the disk lands;
 // y1's density is then the disk's times |cos| there (pbrt-v3 does the same).
-// Returns the number of light vertices (0: no light to start from).
-int light_subpath(int depth, inout Rng rng) {
+// Returns false if there is no light to start from (then the subpath has no vertex).
+struct SubpathStart {
+    PathVertex vertex;   // vertex 0 (y0 or z0)
+    Ray ray;             // the ray towards vertex 1
+    vec3 beta;           // the throughput it carries
+    float pdf_dir;       // the solid-angle density of its direction
+    float first_pdf_pos; // > 0: from the environment's disk (the disk's density)
+    float mis_sum;       // vertex 1's
+};
+
+bool light_subpath_start(inout Rng rng, out SubpathStart start) {
     EmissionSample es;
     vec3 u_point = rng_next3(rng);
-    if (!sample_emission(u_point, rng_next2(rng), es)) return 0;
+    if (!sample_emission(u_point, rng_next2(rng), es)) return false;
     LightPoint light = es.light;
-    PathVertex y0 = path_vertex(light.p, light.n, light.n, vec3(0.0), light.radiance / light.pdf, light.pdf,
-                                vertex_tag(0u, light.delta ? VERTEX_DISTANT
-                                               : light.infinite ? VERTEX_ENV : VERTEX_EMITTER));
-    store_light_vertex(0, y0);
+    start.vertex = path_vertex(light.p, light.n, light.n, vec3(0.0), light.radiance / light.pdf, light.pdf,
+                               vertex_tag(0u, light.delta ? VERTEX_DISTANT
+                                                : light.infinite ? VERTEX_ENV : VERTEX_EMITTER));
+    start.ray = es.ray;
     // Radiance times the cosine at the light, over the density of the ray (origin and direction).
     float cos_light = light.infinite ? 1.0 : dot(light.n, es.ray.dir);
-    vec3 beta = light.radiance * (cos_light / (es.pdf_pos * es.pdf_dir));
-    Hit hit;
-    trace_closest(es.ray, hit);
-    vec3 unused = vec3(0.0);
+    start.beta = light.radiance * (cos_light / (es.pdf_pos * es.pdf_dir));
+    start.pdf_dir = es.pdf_dir;
+    start.first_pdf_pos = light.infinite ? es.pdf_pos : 0.0;
     // y1's mis_sum: the camera subpath (s = 0) could have hit y0 unless the light is a delta
-    return extend_subpath(y0, depth + 1, es.ray, hit, beta, es.pdf_dir, light.infinite ? es.pdf_pos : 0.0,
-                          light.delta ? 0.0 : 1.0, true, 0, unused, rng);
+    start.mis_sum = light.delta ? 0.0 : 1.0;
+    return true;
 }
 
-// ---- The camera subpath: z0 the pinhole, z1 the G-buffer's hit, then BSDF sampling ----
-// Each camera vertex is joined to the light subpath's light_vertices vertices as it is made;
-// returns the radiance of all those joins (light tracing, t = 1, excepted).
-vec3 camera_subpath(Ray ray, Hit hit, int depth, int light_vertices, inout Rng rng) {
-    PathVertex z0 = path_vertex(ray.origin, u_cam_forward, u_cam_forward, vec3(0.0), vec3(1.0), 1.0,
-                                vertex_tag(0u, VERTEX_CAMERA));
-    vec3 L = vec3(0.0);
+// ---- The camera subpath's start: z0 the pinhole, z1 the G-buffer's hit (not traced again) ----
+SubpathStart camera_subpath_start(Ray ray) {
     // z1's mis_sum is 0: no strategy has the light subpath reach the pinhole
-    extend_subpath(z0, depth + 2, ray, hit, vec3(1.0), camera_pdf_dir(ray.dir), 0.0, 0.0, false, light_vertices, L, rng);
-    return L;
+    return SubpathStart(path_vertex(ray.origin, u_cam_forward, u_cam_forward, vec3(0.0), vec3(1.0), 1.0,
+                                    vertex_tag(0u, VERTEX_CAMERA)),
+                        ray, vec3(1.0), camera_pdf_dir(ray.dir), 0.0, 0.0);
 }
