@@ -89,7 +89,7 @@ def bdpt_unpacked(text: str) -> str:
 
 def bdpt_no_light_tracing(text: str) -> str:
     """Diagnostic: no t = 1 strategy (the light subpath still traced and stored)."""
-    return _sub(text, "if (strategy_kept(i + 1, 1)) strategy_light_tracing(y, stored_prev);", "")
+    return _sub(text, "if (strategy_kept(i + 1, 1)) strategy_light_tracing(y, w.stored_prev);", "")
 
 
 def bdpt_no_connect(text: str) -> str:
@@ -101,10 +101,9 @@ def bdpt_light_only(text: str) -> str:
     """Diagnostic: only the light subpath, traced and stored (its last vertex read back so that
     the stores stay), no joins, no camera subpath."""
     text = bdpt_no_light_tracing(text)
-    text = _sub(text, "for (int phase = has_light ? 0 : 1; phase < 2; ++phase) {",
-                "for (int phase = has_light ? 0 : 1; phase < 1; ++phase) {")
-    return _sub(text, "if (importance) light_vertices = vertices;\n    }\n    return L;",
-                "if (importance) light_vertices = vertices;\n    }\n    return L + 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
+    text = _sub(text, "light_vertices = vertices;  // the light subpath is done: the camera subpath starts", "light_vertices = vertices; break;")
+    return _sub(text, "hit, depth_limit + 2, false);\n    }\n    return L;",
+                "hit, depth_limit + 2, false);\n    }\n    return L + 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
 
 
 def bdpt_camera_only(text: str) -> str:
@@ -143,7 +142,7 @@ def bdpt_count_paths(text: str) -> str:
     """Counts per pixel: light subpath vertices (r, y0 included), camera vertices joined (g, z1
     on), s >= 2 joins attempted (b). The image of this variant is the counts."""
     return _counting(text, [
-        ("if (importance) light_vertices = vertices;", "if (importance) diag_r += float(vertices);"),
+        ("light_vertices = vertices;  // the light subpath is done: the camera subpath starts", "\n        diag_r += float(vertices);"),
         ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
          "                         inout Rng rng) {", "diag_g += 1.0;"),
         ("Join strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])

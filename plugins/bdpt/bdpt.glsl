@@ -25,25 +25,27 @@
 
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     int depth_limit = bdpt_depth_limit();
-    // The light subpath (y0 stored, then its walk, each vertex splatted through the pinhole as
+    // The light subpath (y0 stored, then a vertex a step, each splatted through the pinhole as
     // it is stored: t = 1), then the camera subpath (each vertex joined to every light prefix:
-    // t >= 2). One loop around one call of extend_subpath, whose code is then compiled once; its
-    // trip count depends on the light sample, so the compiler cannot unroll it into two copies.
+    // t >= 2), by one loop (bdpt_subpaths.glsl).
     SubpathStart start;
     bool has_light = light_subpath_start(rng, start);
+    Walk w;
+    if (has_light) {
+        store_light_vertex(0, start.vertex);
+        w = walk_start(start, hit, depth_limit + 1, true);
+        w.stored_prev = light_vertex(0);  // as the joins read it (directions packed)
+    } else {
+        w = walk_start(camera_subpath_start(ray), hit, depth_limit + 2, false);
+    }
     int light_vertices = 0;
     vec3 L = vec3(0.0);
-    for (int phase = has_light ? 0 : 1; phase < 2; ++phase) {
-        bool importance = phase == 0;
-        if (importance) {
-            store_light_vertex(0, start.vertex);
-        } else {
-            start = camera_subpath_start(ray);
-        }
-        int vertices = extend_subpath(start.vertex, depth_limit + (importance ? 1 : 2), start.ray, hit, start.beta,
-                                      start.pdf_dir, start.first_pdf_pos, start.mis_sum, importance, light_vertices,
-                                      L, rng);
-        if (importance) light_vertices = vertices;
+    while (true) {
+        int vertices = walk_step(w, light_vertices, L, rng);
+        if (vertices == 0) continue;
+        if (!w.importance) break;
+        light_vertices = vertices;  // the light subpath is done: the camera subpath starts
+        w = walk_start(camera_subpath_start(ray), hit, depth_limit + 2, false);
     }
     return L;
 }
