@@ -49,6 +49,7 @@ Walk walk_start(SubpathStart start, Hit hit, int end, bool importance) {
 // number of vertices it has, vertex 0 included.
 int walk_step(inout Walk w, int light_vertices, inout vec3 L, inout Rng rng) {
     int i = w.i;
+    if (i >= w.end) return w.end;  // path length 0: the light subpath is y0 alone
     if (w.importance || i > 1) trace_closest(w.ray, w.hit);
     // ---- Escaped: an environment vertex (camera subpaths only) ----
     if (w.hit.prim == NO_HIT) {
