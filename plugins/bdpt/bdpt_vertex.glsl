@@ -77,12 +77,13 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
 #define BDPT_STORED_WORDS 3
 #endif
 
-// On GPUs (the host defines LIFT_BVH_SHARED_STACK to the work group's size, one warp) the first
-// BDPT_SHARED_VERTICES vertices live in shared memory, one column per invocation as the BVH
-// stack does (lift/bvh.glsl), and only the rest in the local array: most light subpaths are
-// short (3.8 vertices on average on Lift's cornell-box, y0 included; docs/bdpt.md).
+// With BDPT_SHARED_VERTICES n > 0, on GPUs (where the host defines LIFT_BVH_SHARED_STACK to
+// the work group's size, one warp) the first n vertices live in shared memory, one column per
+// invocation as the BVH stack does (lift/bvh.glsl), and only the rest in the local array: most
+// light subpaths are short (3.8 vertices on average on Lift's cornell-box, y0 included). Off by
+// default: not yet timed on a GPU (docs/bdpt.md, benchmarks/bdpt_gpu_final.sh times it).
 #ifndef BDPT_SHARED_VERTICES
-#define BDPT_SHARED_VERTICES 4
+#define BDPT_SHARED_VERTICES 0
 #endif
 #if !defined(LIFT_BVH_SHARED_STACK) || BDPT_SHARED_VERTICES <= 0
 #define BDPT_SHARED_WORDS 0
@@ -100,7 +101,9 @@ uvec4 bdpt_light[BDPT_LOCAL_WORDS];
 #endif
 
 // Word k of the stored subpath (vertex k / BDPT_STORED_WORDS). k is the same in every lane of
-// a warp (the joins loop over s in step), so the branch does not diverge.
+// a warp (the joins loop over s in step), so the branch does not diverge. The local index is
+// clamped at 0: NVIDIA's compiler rejects a constant index out of bounds even in a branch that
+// cannot run (light_vertex(0) inlined: error C1068).
 void store_light_word(int k, uvec4 word) {
 #if BDPT_SHARED_WORDS > 0
     if (k < BDPT_SHARED_WORDS) {
@@ -109,7 +112,7 @@ void store_light_word(int k, uvec4 word) {
     }
 #endif
 #if BDPT_LOCAL_WORDS > 0
-    bdpt_light[k - BDPT_SHARED_WORDS] = word;
+    bdpt_light[max(k - BDPT_SHARED_WORDS, 0)] = word;
 #endif
 }
 
@@ -118,7 +121,7 @@ uvec4 light_word(int k) {
     if (k < BDPT_SHARED_WORDS) return bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex];
 #endif
 #if BDPT_LOCAL_WORDS > 0
-    return bdpt_light[k - BDPT_SHARED_WORDS];
+    return bdpt_light[max(k - BDPT_SHARED_WORDS, 0)];
 #else
     return uvec4(0u);
 #endif
