@@ -20,6 +20,14 @@ and shaders/) built as this renderer builds its own (work-group shape, stack pla
 manifest's defines): an A/B of a plugin's code on today's host, e.g. bdpt against a commit:
     python benchmarks/gpu_pt_variants.py SCENE --integrator bdpt --variants base,tree --base-tree ../base
 For bdpt the two images differ by their random numbers (mean_rgb tells whether they agree).
+`--tree NAME=CHECKOUT` (repeatable) adds more checkouts' plugins as variants named NAME.
+
+bdpt diagnostics (issue 10; docs/bdpt.md "On the GPU"): bdpt_no_lt, bdpt_no_connect,
+bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one part of its work;
+bdpt_shared2/4/8 keep that many light vertices in shared memory; the counting variants'
+images are per-pixel counts (count_rays: closest-hit and shadow rays, and for bdpt light-tracing
+joins; bdpt_count_paths: light vertices, camera vertices, s >= 2 joins, with the loop
+iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
 
 The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
 one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
