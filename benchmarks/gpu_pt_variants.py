@@ -97,7 +97,7 @@ def bdpt_unpacked(text: str) -> str:
 
 def bdpt_no_light_tracing(text: str) -> str:
     """Diagnostic: no t = 1 strategy (the light subpath still traced and stored)."""
-    return _sub(text, "if (strategy_kept(i + 1, 1)) strategy_light_tracing(y, w.stored_prev);", "")
+    return _sub(text, "if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);", "")
 
 
 def bdpt_no_connect(text: str) -> str:
@@ -109,14 +109,13 @@ def bdpt_light_only(text: str) -> str:
     """Diagnostic: only the light subpath, traced and stored (its last vertex read back so that
     the stores stay), no joins, no camera subpath."""
     text = bdpt_no_light_tracing(text)
-    text = _sub(text, "light_vertices = vertices;  // the light subpath is done: the camera subpath starts", "light_vertices = vertices; break;")
-    return _sub(text, "hit, depth_limit + 2, false);\n    }\n    return L;",
-                "hit, depth_limit + 2, false);\n    }\n    return L + 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
+    return _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
+                "return 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
 
 
 def bdpt_camera_only(text: str) -> str:
     """Diagnostic: no light subpath: the camera subpath with s = 0 and s = 1 only (pt's work)."""
-    return _sub(text, "bool has_light = light_subpath_start(rng, start);", "bool has_light = false;")
+    return _sub(text, "int light_vertices = light_subpath(depth_limit, rng);", "int light_vertices = 0;")
 
 
 def bdpt_splat_plain(text: str) -> str:
@@ -150,7 +149,7 @@ def bdpt_count_paths(text: str) -> str:
     """Counts per pixel: light subpath vertices (r, y0 included), camera vertices joined (g, z1
     on), s >= 2 joins attempted (b). The image of this variant is the counts."""
     return _counting(text, [
-        ("light_vertices = vertices;  // the light subpath is done: the camera subpath starts", "\n        diag_r += float(vertices);"),
+        ("int light_vertices = light_subpath(depth_limit, rng);", "diag_r += float(light_vertices);"),
         ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
          "                         inout Rng rng) {", "diag_g += 1.0;"),
         ("Join strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])

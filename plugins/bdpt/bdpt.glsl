@@ -25,27 +25,16 @@
 
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     int depth_limit = bdpt_depth_limit();
-    // The light subpath (y0 stored, then a vertex a step, each splatted through the pinhole as
-    // it is stored: t = 1), then the camera subpath (each vertex joined to every light prefix:
-    // t >= 2), by one loop (bdpt_subpaths.glsl).
-    SubpathStart start;
-    bool has_light = light_subpath_start(rng, start);
-    Walk w;
-    if (has_light) {
-        store_light_vertex(0, start.vertex);
-        w = walk_start(start, hit, depth_limit + 1, true);
-        w.stored_prev = light_vertex(0);  // as the joins read it (directions packed)
-    } else {
-        w = walk_start(camera_subpath_start(ray), hit, depth_limit + 2, false);
+    int light_vertices = light_subpath(depth_limit, rng);
+
+    // ---- t = 1: every light vertex seen by the pinhole, splatted ----
+    PathVertex y_prev = light_vertex(0);  // each join reads one stored vertex: y_{s-2} is kept from the last
+    for (int s = 2; s <= light_vertices && s - 1 <= depth_limit; ++s) {
+        PathVertex y = light_vertex(s - 1);
+        if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);
+        y_prev = y;
     }
-    int light_vertices = 0;
-    vec3 L = vec3(0.0);
-    while (true) {
-        int vertices = walk_step(w, light_vertices, L, rng);
-        if (vertices == 0) continue;
-        if (!w.importance) break;
-        light_vertices = vertices;  // the light subpath is done: the camera subpath starts
-        w = walk_start(camera_subpath_start(ray), hit, depth_limit + 2, false);
-    }
-    return L;
+
+    // ---- t >= 2: each camera vertex joined to every light prefix as the camera subpath is traced ----
+    return camera_subpath(ray, hit, depth_limit, light_vertices, rng);
 }
