@@ -20,6 +20,14 @@ and shaders/) built as this renderer builds its own (work-group shape, stack pla
 manifest's defines): an A/B of a plugin's code on today's host, e.g. bdpt against a commit:
     python benchmarks/gpu_pt_variants.py SCENE --integrator bdpt --variants base,tree --base-tree ../base
 For bdpt the two images differ by their random numbers (mean_rgb tells whether they agree).
+`--tree NAME=CHECKOUT` (repeatable) adds more checkouts' plugins as variants named NAME.
+
+bdpt diagnostics (issue 10; docs/bdpt.md "On the GPU"): bdpt_no_lt, bdpt_no_connect,
+bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one part of its work;
+bdpt_shared2/4/8 keep that many light vertices in shared memory; the counting variants'
+images are per-pixel counts (count_rays: closest-hit and shadow rays, and for bdpt light-tracing
+joins; bdpt_count_paths: light vertices, camera vertices, s >= 2 joins, with the loop
+iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
 
 The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
 one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
@@ -91,6 +99,100 @@ def define(name: str):
     return edit
 
 
+# ---- bdpt diagnostics (issue 10: where bdpt's GPU time goes) ----
+# Each removes or replaces one part of bdpt's work; none keeps the image (except bdpt_unpacked's
+# rounding). Anchors are bdpt's source as of this script; an edit whose anchor is gone raises.
+
+def bdpt_no_light_tracing(text: str) -> str:
+    """Diagnostic: no t = 1 strategy (the light subpath still traced and stored)."""
+    return _sub(text, "if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);", "")
+
+
+def bdpt_no_connect(text: str) -> str:
+    """Diagnostic: no s >= 2, t >= 2 joins (light tracing, s = 0 and s = 1 kept)."""
+    return _sub(text, "if (strategy_kept(s, t)) join = strategy_connect(y, y_prev, z, z_prev);", "")
+
+
+def bdpt_light_only(text: str) -> str:
+    """Diagnostic: only the light subpath, traced and stored (its last vertex read back so that
+    the stores stay), no joins, no camera subpath."""
+    text = bdpt_no_light_tracing(text)
+    return _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
+                "return 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
+
+
+def bdpt_camera_only(text: str) -> str:
+    """Diagnostic: no light subpath: the camera subpath with s = 0 and s = 1 only (pt's work)."""
+    return _sub(text, "int light_vertices = light_subpath(depth_limit, rng);", "int light_vertices = 0;")
+
+
+def bdpt_splat_plain(text: str) -> str:
+    """Diagnostic: splats as plain read-add-writes instead of atomics (races: wrong sums)."""
+    return _sub(text, "atomicAdd(lift_splats[index], value);", "lift_splats[index] += value;")
+
+
+def _counting(text: str, edits) -> str:
+    """The image becomes three per-pixel counts (diag_r/g/b, incremented by `edits`: (anchor,
+    code put after it)); splats are off so nothing else lands in the frame."""
+    text = _sub(text, "#line 200001\n", "float diag_r = 0.0, diag_g = 0.0, diag_b = 0.0;\n#line 200001\n")
+    text = _sub(text, "imageStore(u_frame_out, pixel, vec4(sum, valid));",
+                "imageStore(u_frame_out, pixel, vec4(diag_r, diag_g, diag_b, valid));")
+    if "void splat(vec2 pixel_pos, vec3 value) {" in text:
+        text = _sub(text, "void splat(vec2 pixel_pos, vec3 value) {", "void splat(vec2 pixel_pos, vec3 value) { return;", 0)
+    for anchor, code in edits:
+        text = _sub(text, anchor, anchor + " " + code, 0)
+    return text
+
+
+def count_rays(text: str) -> str:
+    """Counts per pixel: closest-hit rays (r), shadow rays (g), and for bdpt attempted splats (b)."""
+    edits = [("bool trace_closest(Ray ray, out Hit hit) {", "diag_r += 1.0;"),
+             ("bool trace_occluded(Ray ray) {", "diag_g += 1.0;")]
+    if "void strategy_light_tracing(PathVertex y, PathVertex y_prev) {" in text:
+        edits.append(("void strategy_light_tracing(PathVertex y, PathVertex y_prev) {", "diag_b += 1.0;"))
+    return _counting(text, edits)
+
+
+def bdpt_count_paths(text: str) -> str:
+    """Counts per pixel: light subpath vertices (r, y0 included), camera vertices joined (g, z1
+    on), s >= 2 joins attempted (b). The image of this variant is the counts."""
+    return _counting(text, [
+        ("int light_vertices = light_subpath(depth_limit, rng);", "diag_r += float(light_vertices);"),
+        ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
+         "                         inout Rng rng) {", "diag_g += 1.0;"),
+        ("Join strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
+
+
+def warp_costs(light: np.ndarray, camera: np.ndarray, depth: int, local=(8, 4)) -> dict:
+    """From per-pixel light-vertex and camera-vertex counts (bdpt_count_paths), the iterations
+    of bdpt's loops per lane and per warp (a warp runs a loop as long as its longest lane):
+    camera vertex t = 2.. joins s = 0..min(max(L, 1), depth + 2 - t). Returns means per pixel."""
+    h, w = light.shape
+    lx, ly = local
+    h2, w2 = h - h % ly, w - w % lx
+    L = light[:h2, :w2].reshape(h2 // ly, ly, w2 // lx, lx).transpose(0, 2, 1, 3).reshape(-1, lx * ly)
+    C = camera[:h2, :w2].reshape(h2 // ly, ly, w2 // lx, lx).transpose(0, 2, 1, 3).reshape(-1, lx * ly)
+    lane_joins = np.zeros_like(L)
+    warp_joins = np.zeros(L.shape[0])
+    for t in range(2, int(C.max()) + 2):
+        alive = C >= t - 1
+        iters = np.where(alive, np.minimum(np.maximum(L, 1), depth + 2 - t) + 1, 0)
+        lane_joins += iters
+        warp_joins += iters.max(axis=1)
+    return {"join_iterations_lane": float(lane_joins.mean()), "join_iterations_warp": float(warp_joins.mean()),
+            "camera_steps_lane": float(C.mean()), "camera_steps_warp": float(C.max(axis=1).mean()),
+            "light_steps_lane": float(L.mean()), "light_steps_warp": float(L.max(axis=1).mean()),
+            "light_max": float(L.max()), "camera_max": float(C.max())}
+
+
+def bdpt_shared_vertices(n: int):
+    """bdpt with the first n stored light vertices in shared memory (BDPT_SHARED_VERTICES; GPUs
+    only, where the BVH stack is shared too), the rest in the local array."""
+    def edit(text):
+        return text.replace("\n", f"\n#define BDPT_SHARED_VERTICES {n}\n", 1)  # after #version
+    return edit
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -122,7 +224,19 @@ VARIANTS = {
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
     "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
     "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
+    "bdpt_shared2": (bdpt_shared_vertices(2), {}, False),
+    "bdpt_shared4": (bdpt_shared_vertices(4), {}, False),
+    "bdpt_shared8": (bdpt_shared_vertices(8), {}, False),
+    "bdpt_no_lt": (bdpt_no_light_tracing, {}, False),
+    "bdpt_no_connect": (bdpt_no_connect, {}, False),
+    "bdpt_light_only": (bdpt_light_only, {}, False),
+    "bdpt_camera_only": (bdpt_camera_only, {}, False),
+    "bdpt_splat_plain": (bdpt_splat_plain, {}, False),
+    "rr1": (None, {"rr_depth": 1}, False),
+    "count_rays": (count_rays, {}, False),
+    "bdpt_count_paths": (bdpt_count_paths, {}, False),
 }
+COUNTING = ("count_rays", "bdpt_count_paths")
 
 
 def tree_plugin_source(renderer, tree: Path) -> str:
@@ -198,6 +312,12 @@ def binary_summary(blob: bytes | None) -> dict:
     lmem = re.findall(r"TEMP lmem\d*\[(\d+)\]", text)
     if lmem:
         out["lmem_vec4"] = [int(v) for v in lmem]
+    temps = re.search(r"\nTEMP (R\d+(?:, R\d+)*);", text)
+    if temps:  # vec4 temporaries before register allocation: a hint of register pressure
+        out["temps_vec4"] = temps.group(1).count("R")
+    shared = re.search(r"SHARED_MEMORY (\d+);", text)
+    if shared:
+        out["shared_bytes"] = int(shared.group(1))
     for key in ("REG", "reg", "NumRegs", "numRegs"):
         m = re.search(rf"{key}\D{{0,4}}(\d+)", text)
         if m:
@@ -209,11 +329,15 @@ def binary_summary(blob: bytes | None) -> dict:
 
 def trace_uniforms(renderer) -> dict:
     from lift_gl.passes.camera import frame_jitter
+    from lift_gl.passes.pixel_filter import filter_uniforms
     from lift_gl.passes.trace import param_uniforms
 
+    # The pixel filter's uniforms too: without them (this script before issue 10's bdpt work)
+    # bdpt's splats covered no pixel, so its light tracing added nothing and no atomics ran.
     return dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
                 u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
-                u_jitter=frame_jitter(7, renderer.seed))
+                u_jitter=frame_jitter(7, renderer.seed),
+                **filter_uniforms(renderer._compiled_pixel_filter(), renderer.scene.film_size, renderer.size))
 
 
 def camera_source(renderer):
@@ -243,7 +367,7 @@ def gbuffer_variants(renderer) -> dict:
     return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
 
 
-def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt"):
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt", trees=None):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
@@ -267,8 +391,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
         elif name == "main":
             src, over, exact, local = tree_source(r, base_tree), {}, True, (8, 8)
-        elif name == "tree":
-            src, over, exact, local = tree_plugin_source(r, base_tree), {}, integrator == "pt", r.trace.local_size
+        elif name == "tree" or name in (trees or {}):
+            tree = base_tree if name == "tree" else trees[name]
+            src, over, exact, local = tree_plugin_source(r, tree), {}, integrator == "pt", r.trace.local_size
         else:
             edit, over, exact = VARIANTS[name]
             src = edit(base_source) if edit else base_source
@@ -371,6 +496,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         result["variants"][name] = dict(info[name], ms=times[name], median_ms=float(np.median(times[name])),
                                         mean_rgb=float(np.mean(img)), max_abs_diff_vs_first=float(np.max(np.abs(img - base))),
                                         finite=bool(np.isfinite(img).all()))
+        if name in COUNTING:  # the image is per-pixel counts
+            result["variants"][name]["mean_counts_rgb"] = [float(v) for v in img.reshape(-1, 3).mean(axis=0)]
+            if name == "bdpt_count_paths":
+                result["variants"][name]["warp"] = warp_costs(img[..., 0], img[..., 1], max_depth)
     result["gbuffer"] = {name: {"ms": t, "median_ms": float(np.median(t))} for name, t in gb_times.items()}
     result["gbuffer_kind"] = type(r.gbuffer).__name__ if r.gbuffer is not None else None
     for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
@@ -415,13 +544,17 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path)
     ap.add_argument("--dump-binaries", type=Path)
     ap.add_argument("--base-tree", type=Path, help="another checkout: variant `main` is its trace program")
+    ap.add_argument("--tree", action="append", default=[], metavar="NAME=CHECKOUT",
+                    help="variant NAME is the plugin of that checkout, as `tree` is of --base-tree (repeatable)")
     ap.add_argument("--backend", default="auto")
     args = ap.parse_args(argv)
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
+    trees = dict(t.split("=", 1) for t in args.tree)
+    trees = {k: Path(v) for k, v in trees.items()}
     for n in names:
         if n in ("main", "tree") and args.base_tree is None:
             raise SystemExit(f"--variants {n} needs --base-tree")
-        if n not in VARIANTS and n not in ("camera", "main", "tree"):
+        if n not in VARIANTS and n not in ("camera", "main", "tree") and n not in trees:
             raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
     ctx = create_context(args.backend)
     record = {"gl": describe(ctx), "integrator": args.integrator, "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
@@ -429,7 +562,7 @@ def main(argv=None) -> int:
     for path in args.scenes:
         start = time.perf_counter()
         res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree,
-                        args.integrator)
+                        args.integrator, trees)
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())

@@ -28,8 +28,11 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     int light_vertices = light_subpath(depth_limit, rng);
 
     // ---- t = 1: every light vertex seen by the pinhole, splatted ----
+    PathVertex y_prev = light_vertex(0);  // each join reads one stored vertex: y_{s-2} is kept from the last
     for (int s = 2; s <= light_vertices && s - 1 <= depth_limit; ++s) {
-        if (strategy_kept(s, 1)) strategy_light_tracing(s);
+        PathVertex y = light_vertex(s - 1);
+        if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);
+        y_prev = y;
     }
 
     // ---- t >= 2: each camera vertex joined to every light prefix as the camera subpath is traced ----

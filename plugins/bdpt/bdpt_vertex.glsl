@@ -59,50 +59,94 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
 }
 
 // Private to each invocation: the light subpath, y0 first. Stored with its three directions
-// in one word each (lift/octahedral.glsl, about 5e-5 rad): 12 words a vertex rather than 18,
-// since on a GPU this array is local memory, read by every join. BDPT_PACK_NORMALS 0 keeps
-// them as floats (benchmarks/gpu_pt_variants.py times both).
+// in one word each (lift/octahedral.glsl, about 5e-5 rad), 12 words a vertex rather than 18,
+// since on a GPU this array is local memory, read by every join. The words are laid out as
+// uvec4s by hand: NVIDIA's compiler gives each member of a struct in a local array a 16-byte
+// slot of its own (the program binary's `TEMP lmem0[264]` for 33 vertices of 8 members, 4,224
+// bytes an invocation), where 3 uvec4s (4 with textures) a vertex take 1,584 (docs/gpu.md).
+// BDPT_PACK_NORMALS 0 keeps the directions as floats, in a struct (benchmarks/gpu_pt_variants.py
+// times both).
 #ifndef BDPT_PACK_NORMALS
 #define BDPT_PACK_NORMALS 1
 #endif
 #if BDPT_PACK_NORMALS
 #include "lift/octahedral.glsl"
-struct StoredVertex {
-    vec3 p;
-    uint ng, ns, wo;    // pack_unit_vector
-    vec3 beta;
-    float pdf_fwd;
-    float mis_sum;
-    uint tag;
 #ifdef HAS_TEXTURES
-    vec3 tint;
+#define BDPT_STORED_WORDS 4  // uvec4s a vertex: (p, pdf_fwd), (beta, mis_sum), (ng, ns, wo, tag), tint
+#else
+#define BDPT_STORED_WORDS 3
 #endif
-};
-StoredVertex bdpt_light[BDPT_LIGHT_VERTICES];
+
+// With BDPT_SHARED_VERTICES n > 0, on GPUs (where the host defines LIFT_BVH_SHARED_STACK to
+// the work group's size, one warp) the first n vertices live in shared memory, one column per
+// invocation as the BVH stack does (lift/bvh.glsl), and only the rest in the local array: most
+// light subpaths are short (3.8 vertices on average on Lift's cornell-box, y0 included). Off by
+// default: not yet timed on a GPU (docs/bdpt.md, benchmarks/bdpt_gpu_final.sh times it).
+#ifndef BDPT_SHARED_VERTICES
+#define BDPT_SHARED_VERTICES 0
+#endif
+#if !defined(LIFT_BVH_SHARED_STACK) || BDPT_SHARED_VERTICES <= 0
+#define BDPT_SHARED_WORDS 0
+#elif BDPT_SHARED_VERTICES >= BDPT_LIGHT_VERTICES
+#define BDPT_SHARED_WORDS (BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS)
+#else
+#define BDPT_SHARED_WORDS (BDPT_SHARED_VERTICES * BDPT_STORED_WORDS)
+#endif
+#define BDPT_LOCAL_WORDS (BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS - BDPT_SHARED_WORDS)
+#if BDPT_SHARED_WORDS > 0
+shared uvec4 bdpt_light_shared[BDPT_SHARED_WORDS * LIFT_BVH_SHARED_STACK];
+#endif
+#if BDPT_LOCAL_WORDS > 0
+uvec4 bdpt_light[BDPT_LOCAL_WORDS];
+#endif
+
+// Word k of the stored subpath (vertex k / BDPT_STORED_WORDS). k is the same in every lane of
+// a warp (the joins loop over s in step), so the branch does not diverge. The local index is
+// clamped at 0: NVIDIA's compiler rejects a constant index out of bounds even in a branch that
+// cannot run (light_vertex(0) inlined: error C1068).
+void store_light_word(int k, uvec4 word) {
+#if BDPT_SHARED_WORDS > 0
+    if (k < BDPT_SHARED_WORDS) {
+        bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex] = word;
+        return;
+    }
+#endif
+#if BDPT_LOCAL_WORDS > 0
+    bdpt_light[max(k - BDPT_SHARED_WORDS, 0)] = word;
+#endif
+}
+
+uvec4 light_word(int k) {
+#if BDPT_SHARED_WORDS > 0
+    if (k < BDPT_SHARED_WORDS) return bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex];
+#endif
+#if BDPT_LOCAL_WORDS > 0
+    return bdpt_light[max(k - BDPT_SHARED_WORDS, 0)];
+#else
+    return uvec4(0u);
+#endif
+}
 
 void store_light_vertex(int i, PathVertex v) {
-    StoredVertex s;
-    s.p = v.p;
-    s.ng = pack_unit_vector(v.ng);
-    s.ns = pack_unit_vector(v.ns);
-    s.wo = pack_unit_vector(v.wo);
-    s.beta = v.beta;
-    s.pdf_fwd = v.pdf_fwd;
-    s.mis_sum = v.mis_sum;
-    s.tag = v.tag;
+    int k = i * BDPT_STORED_WORDS;
+    store_light_word(k, floatBitsToUint(vec4(v.p, v.pdf_fwd)));
+    store_light_word(k + 1, floatBitsToUint(vec4(v.beta, v.mis_sum)));
+    store_light_word(k + 2, uvec4(pack_unit_vector(v.ng), pack_unit_vector(v.ns), pack_unit_vector(v.wo), v.tag));
 #ifdef HAS_TEXTURES
-    s.tint = v.tint;
+    store_light_word(k + 3, floatBitsToUint(vec4(v.tint, 0.0)));
 #endif
-    bdpt_light[i] = s;
 }
 
 PathVertex light_vertex(int i) {
-    StoredVertex s = bdpt_light[i];
-    PathVertex v = path_vertex(s.p, unpack_unit_vector(s.ng), unpack_unit_vector(s.ns), unpack_unit_vector(s.wo),
-                               s.beta, s.pdf_fwd, s.tag);
-    v.mis_sum = s.mis_sum;
+    int k = i * BDPT_STORED_WORDS;
+    vec4 p_pdf = uintBitsToFloat(light_word(k));
+    vec4 beta_mis = uintBitsToFloat(light_word(k + 1));
+    uvec4 words = light_word(k + 2);
+    PathVertex v = path_vertex(p_pdf.xyz, unpack_unit_vector(words.x), unpack_unit_vector(words.y),
+                               unpack_unit_vector(words.z), beta_mis.xyz, p_pdf.w, words.w);
+    v.mis_sum = beta_mis.w;
 #ifdef HAS_TEXTURES
-    v.tint = s.tint;
+    v.tint = uintBitsToFloat(light_word(k + 3)).xyz;
 #endif
     return v;
 }

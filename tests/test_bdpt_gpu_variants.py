@@ -1,0 +1,92 @@
+"""benchmarks/gpu_pt_variants.py's bdpt diagnostics (docs/bdpt.md "On the GPU"): every edit still
+finds its place in today's bdpt, the counting variant counts what the host's own ray counter
+counts, and the warp estimate matches a lane-by-lane walk of bdpt's loops."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lift_gl import load_scene
+from lift_gl.renderer import Renderer
+
+REPO = Path(__file__).resolve().parent.parent
+_SPEC = importlib.util.spec_from_file_location("gpu_pt_variants", REPO / "benchmarks" / "gpu_pt_variants.py")
+variants = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(variants)
+
+CORNELL = REPO / "scenes" / "cornell.toml"
+BDPT_EDITS = ["bdpt_no_lt", "bdpt_no_connect", "bdpt_light_only", "bdpt_camera_only", "bdpt_splat_plain",
+              "bdpt_shared4", "bdpt_unpacked", "count_rays", "bdpt_count_paths"]
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    r = Renderer(load_scene(CORNELL), size=(24, 16), integrator="bdpt", seed=3, params={"max_depth": 6})
+    yield r
+    r.release()
+
+
+@pytest.mark.parametrize("name", BDPT_EDITS)
+def test_each_bdpt_edit_finds_its_place(renderer, name):
+    source = renderer.trace.source.text
+    edit = variants.VARIANTS[name][0]
+    assert edit(source) != source  # _sub raises where an anchor is gone
+
+
+def test_counted_rays_are_the_rays_the_host_counts():
+    """count_rays' per-pixel closest-hit and shadow rays, summed, against the host's own counter
+    (LIFT_COUNT_RAYS, lift/bvh.glsl) of the same dispatches."""
+    r = Renderer(load_scene(CORNELL), size=(24, 16), integrator="bdpt", seed=3, params={"max_depth": 6},
+                 count_rays=True)
+    r.trace.program.release()
+    r.trace.program = r.ctx.compute_shader(variants.count_rays(r.trace.source.text))
+    counts = r.render(spp=2)  # per pixel, the mean over the samples of the counts
+    w, h = r.size
+    closest, shadow = counts[..., 0].sum() * 2, counts[..., 1].sum() * 2
+    assert closest > w * h * 2 and shadow > 0.0  # bounces and shadow rays happen
+    assert closest + shadow == pytest.approx(r.stats.rays, rel=1e-6)
+    r.release()
+
+
+def _warp_walk(L, C, depth):
+    """bdpt's loops run by one warp, iteration by iteration: camera vertex t = 2.. (lanes whose
+    camera subpath has at least t - 1 vertices take part) joins s = 0..last_s of each lane."""
+    lane = np.zeros(len(L))
+    warp = 0
+    t = 2
+    while True:
+        alive = [k for k in range(len(L)) if C[k] >= t - 1]
+        if not alive:
+            return lane, warp
+        s = 0
+        while True:
+            busy = [k for k in alive if s <= min(max(L[k], 1), depth + 2 - t)]
+            if not busy:
+                break
+            for k in busy:
+                lane[k] += 1
+            warp += 1
+            s += 1
+        t += 1
+
+
+def test_warp_costs_match_a_lane_by_lane_walk():
+    rng = np.random.default_rng(5)
+    depth = 6
+    light = rng.geometric(0.35, size=(8, 16)).astype(np.float32)  # 8 rows x 16 columns: 4 warps of 8x4
+    camera = rng.geometric(0.45, size=(8, 16)).astype(np.float32)
+    got = variants.warp_costs(light, camera, depth)
+    lanes, warps = [], []
+    for wy in range(2):
+        for wx in range(2):
+            L = light[4 * wy:4 * wy + 4, 8 * wx:8 * wx + 8].ravel()
+            C = camera[4 * wy:4 * wy + 4, 8 * wx:8 * wx + 8].ravel()
+            lane, warp = _warp_walk(L, C, depth)
+            lanes.append(lane)
+            warps.append(warp)
+    assert got["join_iterations_lane"] == pytest.approx(np.concatenate(lanes).mean())
+    assert got["join_iterations_warp"] == pytest.approx(np.mean(warps))
+    assert got["join_iterations_warp"] > got["join_iterations_lane"]
