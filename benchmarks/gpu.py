@@ -324,9 +324,12 @@ def ab(args) -> int:
     cores) the load then hits every version alike, and the ratio of the medians holds even
     where single timings scatter by 2x. --variant LABEL=TREE:LAYOUT[:NAME,...] takes TREE/shaders/
     lift/bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, what lift-gl's bvh.glsl
-    reads) or records (benchmarks/bvh_records.py, what the gpu-speed experiments read), and
-    the NAMEs #defined (e.g. LIFT_MOLLER_TRUMBORE: the same tree with its other triangle test).
-    Every version runs in the trace pass's work-group shape and stack placement (ray_program)."""
+    reads), records (benchmarks/bvh_records.py, what the gpu-speed experiments read), or 4 / 4q
+    (that binary tree collapsed to the 4-wide layout, float or 8-bit child boxes: accel/wide.py,
+    compiled with LIFT_BVH_WIDTH 4), and the NAMEs #defined (e.g. LIFT_MOLLER_TRUMBORE: the
+    same tree with its other triangle test; LIFT_BVH4_ANY_NEAREST: the 4-wide any-hit order).
+    Every version runs in the trace pass's work-group shape and stack placement (ray_program).
+    Every version must find the same primary hits and block the same shadow rays."""
     from lift_gl.cli import _size
     from lift_gl.gl.context import create_context, describe, is_software
     from lift_gl.passes.camera import camera_uniforms
@@ -335,13 +338,14 @@ def ab(args) -> int:
     from lift_gl.scene.loader import load_scene
 
     from bvh_records import gpu_nodes  # benchmarks/: the records experiment
+    from lift_gl.accel.wide import wide_layout
 
     variants = []
     for text in args.variant:
         label, rest = text.split("=", 1)
         tree, layout, *names = rest.split(":")
-        if layout not in ("binary", "records") or len(names) > 1:
-            raise SystemExit(f"--variant {text}: expected LABEL=TREE:binary|records[:NAME,...]")
+        if layout not in ("binary", "records", "4", "4q") or len(names) > 1:
+            raise SystemExit(f"--variant {text}: expected LABEL=TREE:binary|records|4|4q[:NAME,...]")
         extra = {n.strip(): True for n in (names[0].split(",") if names else []) if n.strip()}
         variants.append((label, Path(tree), layout, extra))
     ctx = create_context(args.backend)
@@ -363,10 +367,20 @@ def ab(args) -> int:
             defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
             progs, nodes = [], []
             for label, tree, layout, extra in variants:
-                prog, local = ray_program(ctx, dict(defines, **extra), include_dirs=[tree / "shaders"],
+                layout_defines = {}
+                if layout == "binary":
+                    data = r.packed.bvh_nodes
+                elif layout == "records":
+                    data = gpu_nodes(r.packed.bvh_nodes)
+                else:  # the 4-wide layouts of the same tree (the triangles keep their order)
+                    wide = wide_layout(r.packed.bvh_nodes, layout)
+                    if wide is None:
+                        raise SystemExit(f"{path}: its tree has no {layout} layout (accel/wide.py)")
+                    data = wide.rows
+                    layout_defines = {"LIFT_BVH_WIDTH": 4, **({"LIFT_BVH_QUANTIZED": True} if wide.quantized else {})}
+                prog, local = ray_program(ctx, dict(defines, **layout_defines, **extra), include_dirs=[tree / "shaders"],
                                           label=f"gpu.py ray kinds, {label}")
                 progs.append(prog)
-                data = r.packed.bvh_nodes if layout == "binary" else gpu_nodes(r.packed.bvh_nodes)
                 nodes.append(ctx.buffer(np.ascontiguousarray(data).tobytes()))
 
             w, h = size
@@ -398,11 +412,23 @@ def ab(args) -> int:
                         prog.run(*dispatch_groups(size, local))
                         rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
                         case["primary_hits"][label] = int((rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF).sum())
+                if kind == "shadow":
+                    # and block the same shadow rays, cast from the same primary hits (those of
+                    # the primary check's last version: the shadow kind writes only the outcome)
+                    case["shadow_blocked"] = {}
+                    for (label, *_), prog, buf in zip(variants, progs, nodes):
+                        buf.bind_to_storage_buffer(0)
+                        set_uniforms(prog, dict(uniforms, u_kind=kind_index, u_seed=0))
+                        prog.run(*dispatch_groups(size, local))
+                        rows = np.frombuffer(hits.read(), np.float32).reshape(-1, 2, 4)
+                        hit = rows[:, 0, 3].view(np.uint32) != 0xFFFFFFFF
+                        case["shadow_blocked"][label] = int((rows[hit, 1, 3] > 0.5).sum())
                 med = [float(np.median(t)) for t in times]
                 case["kinds"][kind] = {"ms": times, "median_ms": med,
                                        "speedup_vs_first": [med[0] / m for m in med]}
             results.append(case)
-            print(f"{case['scene_name']} {w}x{h}: primary hits {case['primary_hits']}", flush=True)
+            print(f"{case['scene_name']} {w}x{h}: primary hits {case['primary_hits']}; "
+                  f"shadow rays blocked {case.get('shadow_blocked')}", flush=True)
             print(f"{case['scene_name']} {w}x{h}: " + "; ".join(
                 f"{k} " + ", ".join(f"{v[0]} {m:.3f} ms" for v, m in zip(variants, c["median_ms"]))
                 for k, c in case["kinds"].items()), flush=True)
@@ -875,7 +901,7 @@ def main(argv=None) -> int:
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
     v.add_argument("scenes", nargs="+")
-    v.add_argument("--variant", action="append", required=True, metavar="LABEL=TREE:binary|records")
+    v.add_argument("--variant", action="append", required=True, metavar="LABEL=TREE:binary|records|4|4q[:NAME,...]")
     v.add_argument("--sizes", default="160x90")
     v.add_argument("--reps", type=int, default=15)
     v.add_argument("--backend", default="auto")

@@ -224,6 +224,10 @@ VARIANTS = {
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
     "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
     "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
+    # the 4-wide tree's any-hit child orders (lift/bvh.glsl): the same shadow rays blocked
+    "any_nearest": (define("LIFT_BVH4_ANY_NEAREST"), {}, True),
+    "any_leaves": (define("LIFT_BVH4_ANY_LEAVES_FIRST"), {}, True),
+    "any_both": (compose(define("LIFT_BVH4_ANY_NEAREST"), define("LIFT_BVH4_ANY_LEAVES_FIRST")), {}, True),
     "bdpt_shared2": (bdpt_shared_vertices(2), {}, False),
     "bdpt_shared4": (bdpt_shared_vertices(4), {}, False),
     "bdpt_shared8": (bdpt_shared_vertices(8), {}, False),

@@ -76,3 +76,21 @@ def test_ray_kinds_run_in_the_trace_pass_layout(monkeypatch):
         hits[mode] = [rays[k]["hits"] for k in gpu.RAY_KINDS]
     r.release()
     assert hits["shared"] == hits["local"] and hits["shared"][0] > 0.5 * size[0] * size[1]
+
+
+def test_ab_compares_defines_on_the_wide_tree(tmp_path, monkeypatch):
+    """`gpu.py ab` with 4-wide layouts: the binary tree and its 4-wide collapses (float and
+    8-bit boxes, with and without an any-hit order #defined) find the same primary hits and
+    block the same shadow rays."""
+    repo = Path(__file__).resolve().parent.parent
+    monkeypatch.syspath_prepend(str(repo / "benchmarks"))   # ab's bvh_records, as when run as a script
+    out = tmp_path / "ab.json"
+    assert gpu.main(["ab", str(repo / "scenes" / "covered_dragon.toml"), "--sizes", "40x24", "--reps", "1",
+                     "--variant", f"bin={repo}:binary", "--variant", f"w4={repo}:4",
+                     "--variant", f"near={repo}:4q:LIFT_BVH4_ANY_NEAREST,LIFT_BVH4_ANY_LEAVES_FIRST",
+                     "--out", str(out)]) == 0
+    import json
+    case = json.loads(out.read_text())["results"][0]
+    assert len(set(case["primary_hits"].values())) == 1 and case["primary_hits"]["bin"] > 0.5 * 40 * 24
+    blocked = case["shadow_blocked"]
+    assert len(set(blocked.values())) == 1 and 0 < blocked["bin"] < case["primary_hits"]["bin"]

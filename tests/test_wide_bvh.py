@@ -159,6 +159,39 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     np.testing.assert_array_equal(occ4, occ2)
 
 
+# lift_bvh_any's other child orders (shaders/lift/bvh.glsl): benchmark variants that must give
+# exactly the default's answers
+ANY_HIT_ORDERS = {"nearest": ["LIFT_BVH4_ANY_NEAREST"], "leaves_first": ["LIFT_BVH4_ANY_LEAVES_FIRST"],
+                  "both": ["LIFT_BVH4_ANY_NEAREST", "LIFT_BVH4_ANY_LEAVES_FIRST"]}
+
+
+@pytest.mark.parametrize("case", ["soup", "covered_dragon.toml"])
+@pytest.mark.parametrize("layout", ["4", "4q"])
+@pytest.mark.parametrize("order", list(ANY_HIT_ORDERS))
+def test_glsl_any_hit_orders_agree(gl, case, layout, order):
+    """Every order of the 4-wide any-hit traversal answers as the binary tree does, on
+    unbounded rays and on shadow-ray intervals ending before, at and after the nearest hit."""
+    if case == "soup":
+        tris = soup(20000, seed=5, size=0.03)
+        b = build_bvh(tris)
+        nodes, tris = b.nodes, tris[b.order]
+    else:
+        nodes, tris = _packed_triangles(case)
+    wide = wide_layout(nodes, layout)
+    lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
+    o, d = _scene_rays(lo, hi, seed=9)
+    defines = dict(WIDE[layout], LIFT_BVH_SHARED_STACK=64, **{name: True for name in ANY_HIT_ORDERS[order]})
+    t2, _, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d)
+    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, defines=defines)
+    assert 0.3 < occ2.mean() < 1.0
+    np.testing.assert_array_equal(occ4, occ2)
+    tmax = (np.where(found2, t2, 1.0).astype(np.float64) * np.random.default_rng(4).uniform(0.5, 1.5, len(o))).astype(np.float32)
+    _, _, occ2, _, _ = run_glsl(gl, nodes, tris, o, d, tmax=tmax)
+    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax, defines=defines)
+    assert 0.1 < occ2.mean() < 0.9
+    np.testing.assert_array_equal(occ4, occ2)
+
+
 def test_pack_scene_width_and_fallbacks(monkeypatch):
     cornell = load_scene(REPO / "scenes" / "cornell.toml")
     assert pack_scene(cornell, bvh_width=4).bvh_width == 4

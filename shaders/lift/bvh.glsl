@@ -359,8 +359,29 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
     return found;
 }
 
-// Whether any triangle lies in (ray.tmin, t): the same loops, children in slot order (no
-// sorting: the first hit found ends the query).
+// Tests the triangles of leaf entry `leaf` against (ray.tmin, t): true at the first hit.
+bool lift_bvh4_any_leaf(uint leaf, Ray ray, LiftRayShear shear, float t) {
+    uint first = leaf & LIFT_BVH4_FIRST_MASK;
+    uint count = ((leaf >> 27u) & 15u) + 1u;
+    for (uint i = first; i < first + count; ++i) {
+        vec2 bary;
+        if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
+    }
+    return false;
+}
+
+// Whether any triangle lies in (ray.tmin, t): the same loops; the first hit found ends the
+// query, so the order is free and the answer the same in every order. By default the hit
+// children are taken in slot order (no sorting). Two other orders, for benchmarks/gpu.py ab
+// and gpu_pt_variants.py (docs/gpu.md "Shadow rays in the 4-wide tree"):
+// LIFT_BVH4_ANY_NEAREST sorts them near to far as lift_bvh_closest does (an occluder near
+// the shading point is met first); LIFT_BVH4_ANY_LEAVES_FIRST tests a node's hit leaf
+// children at once, before descending into its interior children (leaves never go on the
+// stack). Either pushes at most as many entries a level as lift_bvh_closest: STACK holds.
+#ifdef LIFT_BVH4_ANY_LEAVES_FIRST
+// a hit leaf child: tested now, then dropped from the children to visit
+#define LIFT_BVH4_ANY_LEAF(h, en) if (h && (en & LIFT_BVH4_LEAF) != 0u) { if (lift_bvh4_any_leaf(en, ray, shear, t)) return true; h = false; }
+#endif
 bool lift_bvh_any(uint root, Ray ray, float t) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
     uvec3 near = lift_bvh4_near_rows(inv);
@@ -373,12 +394,33 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
             vec4 tn;
             uvec4 e;
             bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
+            bool h0 = hit.x, h1 = hit.y, h2 = hit.z, h3 = hit.w;
+            uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
+#ifdef LIFT_BVH4_ANY_NEAREST
+            const float miss = uintBitsToFloat(0x7f800000u);   // +inf: misses sort last
+            float t0 = h0 ? tn.x : miss, t1 = h1 ? tn.y : miss;
+            float t2 = h2 ? tn.z : miss, t3 = h3 ? tn.w : miss;
+            LIFT_BVH4_ORDER(t0, e0, t1, e1)
+            LIFT_BVH4_ORDER(t2, e2, t3, e3)
+            LIFT_BVH4_ORDER(t0, e0, t2, e2)
+            LIFT_BVH4_ORDER(t1, e1, t3, e3)
+            LIFT_BVH4_ORDER(t1, e1, t2, e2)
+            uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
+            h0 = n > 0u; h1 = n > 1u; h2 = n > 2u; h3 = n > 3u;
+#endif
+#ifdef LIFT_BVH4_ANY_LEAVES_FIRST
+            LIFT_BVH4_ANY_LEAF(h0, e0)
+            LIFT_BVH4_ANY_LEAF(h1, e1)
+            LIFT_BVH4_ANY_LEAF(h2, e2)
+            LIFT_BVH4_ANY_LEAF(h3, e3)
+#endif
+            // visit the first child left next, push the others (the last first)
             bool have = false;
             uint next = 0u;
-            if (hit.w) { next = e.w; have = true; }
-            if (hit.z) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e.z; have = true; }
-            if (hit.y) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e.y; have = true; }
-            if (hit.x) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e.x; have = true; }
+            if (h3) { next = e3; have = true; }
+            if (h2) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e2; have = true; }
+            if (h1) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e1; have = true; }
+            if (h0) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e0; have = true; }
             if (have) {
                 cur = next;
             } else {
@@ -386,12 +428,7 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
                 cur = LIFT_BVH_STACK_AT(--sp);
             }
         }
-        uint first = cur & LIFT_BVH4_FIRST_MASK;
-        uint count = ((cur >> 27u) & 15u) + 1u;
-        for (uint i = first; i < first + count; ++i) {
-            vec2 bary;
-            if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
-        }
+        if (lift_bvh4_any_leaf(cur, ray, shear, t)) return true;
         if (sp == 0) return false;
         cur = LIFT_BVH_STACK_AT(--sp);
     }
