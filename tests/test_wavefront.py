@@ -82,7 +82,8 @@ def test_few_steps_and_no_ballot_leave_the_rest_to_the_tail(monkeypatch):
     try:
         mega = r.render(spp=2)
         defines = r._plugin_defines(r.plugin, r.params)
-        for options in ({"steps": 1, "ballot": False}, {"steps": 0}, {"steps": 2, "split": True}):
+        for options in ({"steps": 1, "ballot": False, "prefix": 1}, {"steps": 0},
+                        {"steps": 2, "split": True, "prefix": 2}):
             wave = TracePass(r.ctx, SIZE, r.plugin, defines, wavefront=True, wavefront_options=options)
             assert wave.wavefront is not None and wave.wavefront.steps == options["steps"]
             megakernel, r.trace = r.trace, wave
@@ -98,8 +99,8 @@ def test_few_steps_and_no_ballot_leave_the_rest_to_the_tail(monkeypatch):
 def test_start_kernel_prefix_runs_the_first_vertices_before_compacting(monkeypatch):
     """prefix K: the start kernel runs each path's first K vertices as the megakernel's loop
     does, so its queue holds the paths that the plain start (K = 1) and K - 1 step dispatches
-    leave alive (pt's paths take up to
-    max_depth + 1 vertices: some live on after max_depth, none after that), and the image is still the megakernel's, bit for bit."""
+    leave alive (pt's paths take up to max_depth + 1 vertices: some live on after max_depth,
+    none after that), and the image is still the megakernel's, bit for bit."""
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
     scene = load_scene(REPO / "scenes" / "showcase.toml")
     depth = 4

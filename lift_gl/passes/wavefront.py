@@ -23,9 +23,10 @@ images agree (bit for bit on llvmpipe, tests/test_wavefront.py, and on the H100)
 The megakernel runs instead (TracePass keeps it) for plugins without LIFT_PATH_STEPS, with
 primary = "camera" (their random numbers start before the path), with splats, and where the
 slots would not fit one storage buffer (llvmpipe: 128 MiB, about 840k pixels for pt).
-$LIFT_GL_WAVEFRONT = on | off | auto picks; auto is off: on an H100 the wavefront was 1.17x
-faster on Lift's classroom but 0.85-0.99x on the dining room, cornell-box and Covered Dragon,
-and 0.97x in CPU time on llvmpipe (docs/gpu.md, "A wavefront trace pass").
+$LIFT_GL_WAVEFRONT = on | off | auto picks; auto is off: on an H100 the wavefront (4 vertices in
+the start kernel, 4 step dispatches) was 1.13-1.27x faster on Lift's cornell-box and classroom
+and the Covered Dragon but 0.94x on the dining room, where 95% of the paths end together at
+the first Russian roulette (docs/gpu.md, "A wavefront trace pass").
 """
 from __future__ import annotations
 
@@ -40,8 +41,11 @@ from ..errors import LiftError
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
 MODE_START, MODE_STEP, MODE_TAIL, MODE_PROBE = 0, 1, 2, 3
-DEFAULT_STEPS = 4  # step dispatches before the tail: 4 did best over the four scenes measured on the H100 (docs/gpu.md)
-DEFAULT_PREFIX = 1  # path vertices the start kernel runs before the first compaction
+# Measured on the H100 over Lift's three scenes and the Covered Dragon (docs/gpu.md): 4 vertices
+# in the start kernel (through pt's first Russian roulette) then 4 step dispatches did best
+# (frame x 1.24 / 0.94 / 1.27 / 1.13; wave8p4 1.22 / 0.90 / 1.28 / 1.09; no prefix 1.00 / 0.86 / 1.13 / 1.05).
+DEFAULT_STEPS = 4  # step dispatches before the tail
+DEFAULT_PREFIX = 4  # path vertices the start kernel runs before the first compaction
 MAX_GROUPS_X = 32768  # an indirect dispatch's groups, split over y beyond this (GL's minimum limit: 65535)
 _PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.M)
 
@@ -242,7 +246,7 @@ class WavefrontTrace:
     def __init__(self, ctx: moderngl.Context, size, plugin, defines: dict, params: str, local_size, steps=None,
                  ballot: bool | None = None, split: bool = False, prefix: int | None = None):
         """steps: step dispatches before the tail; prefix: path vertices (path_steps) the start
-        kernel runs before its paths are compacted (1: only the first); ballot: one atomic a
+        kernel runs before its paths are compacted (at least 1); ballot: one atomic a
         subgroup for the queue (None: where the driver has ARB_shader_ballot and 64-bit
         integers); split: a program
         for each mode (start, step, tail) instead of one with the mode a uniform."""
