@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -585,14 +586,17 @@ WAVEFRONT_VARIANTS = "mega,wave32,wave8,wave4,wave32-noballot"
 
 def _wave_variant(label: str) -> dict | None:
     """mega: the megakernel; waveN: the wavefront with N step dispatches before its tail;
+    waveNpK: its start kernel runs the first K path vertices (default 1) before compacting;
     suffixes -noballot: one queue atomic an invocation instead of one a subgroup; -split: a
     program for each of the start, step and tail modes."""
     if label == "mega":
         return None
     body, *suffixes = label.split("-")
-    if not body.startswith("wave") or not body[4:].isdigit() or not set(suffixes) <= {"noballot", "split"}:
-        raise SystemExit(f"--variants: {label!r} is not mega or waveN[-noballot][-split]")
-    return {"steps": int(body[4:]), "ballot": False if "noballot" in suffixes else None, "split": "split" in suffixes}
+    match = re.fullmatch(r"wave(\d+)(?:p(\d+))?", body)
+    if not match or not set(suffixes) <= {"noballot", "split"} or match[2] == "0":
+        raise SystemExit(f"--variants: {label!r} is not mega or waveN[pK][-noballot][-split] (K >= 1)")
+    return {"steps": int(match[1]), "prefix": int(match[2] or 1), "ballot": False if "noballot" in suffixes else None,
+            "split": "split" in suffixes}
 
 
 def wavefront_cmd(args) -> int:
@@ -912,7 +916,7 @@ def main(argv=None) -> int:
     wf.add_argument("scenes", nargs="+")
     wf.add_argument("--sizes", default="1920x1080")
     wf.add_argument("--variants", default=WAVEFRONT_VARIANTS,
-                    help="comma-separated: mega first, then waveN[-noballot][-split]")
+                    help="comma-separated: mega first, then waveN[pK][-noballot][-split]")
     wf.add_argument("--max-depth", type=int, default=32)
     wf.add_argument("--frames", type=int, default=8)
     wf.add_argument("--rounds", type=int, default=5)

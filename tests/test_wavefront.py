@@ -82,7 +82,8 @@ def test_few_steps_and_no_ballot_leave_the_rest_to_the_tail(monkeypatch):
     try:
         mega = r.render(spp=2)
         defines = r._plugin_defines(r.plugin, r.params)
-        for options in ({"steps": 1, "ballot": False}, {"steps": 0}, {"steps": 2, "split": True}):
+        for options in ({"steps": 1, "ballot": False, "prefix": 1}, {"steps": 0},
+                        {"steps": 2, "split": True, "prefix": 2}):
             wave = TracePass(r.ctx, SIZE, r.plugin, defines, wavefront=True, wavefront_options=options)
             assert wave.wavefront is not None and wave.wavefront.steps == options["steps"]
             megakernel, r.trace = r.trace, wave
@@ -91,6 +92,58 @@ def test_few_steps_and_no_ballot_leave_the_rest_to_the_tail(monkeypatch):
             r.trace = megakernel
             wave.release()
             np.testing.assert_array_equal(image, mega)
+    finally:
+        r.release()
+
+
+def test_start_kernel_prefix_runs_the_first_vertices_before_compacting(monkeypatch):
+    """prefix K: the start kernel runs each path's first K vertices as the megakernel's loop
+    does, so its queue holds the paths that the plain start (K = 1) and K - 1 step dispatches
+    leave alive (pt's paths take up to max_depth + 1 vertices: some live on after max_depth,
+    none after that), and the image is still the megakernel's, bit for bit."""
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
+    scene = load_scene(REPO / "scenes" / "showcase.toml")
+    depth = 4
+    r = Renderer(scene, size=SIZE, integrator="pt", seed=5, params={"max_depth": depth})
+    try:
+        mega = r.render(spp=2)
+        defines = r._plugin_defines(r.plugin, r.params)
+        queue_lengths = {}
+        for steps, prefix in ((3, 1), (2, 3), (1, 2), (0, depth), (3, depth + 1)):
+            wave = TracePass(r.ctx, SIZE, r.plugin, defines, wavefront=True,
+                             wavefront_options={"steps": steps, "prefix": prefix})
+            assert wave.wavefront is not None and wave.wavefront.prefix == prefix
+            queues = []
+
+            def hook(what, sample, step, go, w=wave.wavefront, queues=queues):
+                go()
+                if what == "args" and sample == 0:  # the paths the last dispatch left alive
+                    queues.append(int(np.frombuffer(w.control.read(), np.uint32)[0]))
+
+            megakernel, r.trace = r.trace, wave
+            w = wave.wavefront
+            w.run = lambda frame, samples, w=w, hook=hook: type(w).run(w, frame, samples, hook=hook)
+            r.reset(seed=5)
+            image = r.render(spp=2)
+            r.trace = megakernel
+            wave.release()
+            np.testing.assert_array_equal(image, mega, err_msg=f"steps {steps}, prefix {prefix}")
+            queue_lengths[prefix] = queues[:steps + 1]  # the first frame's
+        plain = queue_lengths[1]  # after the start kernel, step 1, 2, 3
+        assert SIZE[0] * SIZE[1] > plain[0] > plain[1] > plain[2] > plain[3] > 0
+        assert [queue_lengths[k][0] for k in (2, 3, depth)] == plain[1:]
+        assert queue_lengths[depth + 1] == [0] * 4
+    finally:
+        r.release()
+
+
+def test_start_kernel_runs_at_least_one_vertex(monkeypatch):
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+    try:
+        with pytest.raises(LiftError, match="at least one path vertex"):
+            TracePass(r.ctx, (8, 8), r.plugin, r._plugin_defines(r.plugin, r.params), wavefront=True,
+                      wavefront_options={"prefix": 0})
     finally:
         r.release()
 
@@ -132,3 +185,15 @@ def test_bad_wavefront_setting_is_refused(monkeypatch):
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "sometimes")
     with pytest.raises(LiftError, match=WAVEFRONT_ENV_VAR):
         Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+
+
+@pytest.mark.parametrize("software, expected", [(True, False), (False, True)])
+def test_auto_is_the_wavefront_on_gpus_and_the_megakernel_on_cpu_rasterizers(monkeypatch, software, expected):
+    import lift_gl.gl.context as context
+    from lift_gl.passes.wavefront import wavefront_wanted
+
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setattr(context, "is_software", lambda ctx: software)
+    assert wavefront_wanted(object()) is expected
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
+    assert wavefront_wanted(object()) is False

@@ -5,7 +5,9 @@ runs until the longest of its 32 paths ends. A plugin that defines LIFT_PATH_STE
 PathState, path_start, path_step, path_radiance) can instead be run a vertex at a time: its
 own functions, unchanged, in one program with three modes:
   start - per pixel (tiles of the megakernel's work-group shape): the G-buffer's primary hit,
-          the sample's Rng, path_start and the first path_step;
+          the sample's Rng, path_start and the first `prefix` path_steps (the megakernel's
+          loop, for the vertices before Russian roulette thins the paths: compacting there
+          gains nothing and costs a slot's write and read a path);
   step  - one path_step for each path in the live queue;
   tail  - each path left in the queue run to its end (the megakernel's loop), so that a
           plugin's paths of any length finish after a fixed number of dispatches.
@@ -21,9 +23,12 @@ images agree (bit for bit on llvmpipe, tests/test_wavefront.py, and on the H100)
 The megakernel runs instead (TracePass keeps it) for plugins without LIFT_PATH_STEPS, with
 primary = "camera" (their random numbers start before the path), with splats, and where the
 slots would not fit one storage buffer (llvmpipe: 128 MiB, about 840k pixels for pt).
-$LIFT_GL_WAVEFRONT = on | off | auto picks; auto is off: on an H100 the wavefront was 1.17x
-faster on Lift's classroom but 0.85-0.99x on the dining room, cornell-box and Covered Dragon,
-and 0.97x in CPU time on llvmpipe (docs/gpu.md, "A wavefront trace pass").
+$LIFT_GL_WAVEFRONT = on | off | auto picks; auto is on for GPUs and off for CPU rasterizers: on
+an H100 the wavefront (4 vertices in the start kernel, 4 step dispatches) was 1.13-1.27x faster
+on Lift's cornell-box and classroom and the Covered Dragon and 0.94x on the dining room, where
+95% of the paths end together at the first Russian roulette (geometric mean 1.12x; docs/gpu.md,
+"A wavefront trace pass"); on llvmpipe it won by 1.03-1.10x on three small scenes, too little
+to change every CPU render's code path.
 """
 from __future__ import annotations
 
@@ -38,7 +43,11 @@ from ..errors import LiftError
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
 MODE_START, MODE_STEP, MODE_TAIL, MODE_PROBE = 0, 1, 2, 3
-DEFAULT_STEPS = 4  # step dispatches before the tail: 4 did best over the four scenes measured on the H100 (docs/gpu.md)
+# Measured on the H100 over Lift's three scenes and the Covered Dragon (docs/gpu.md): 4 vertices
+# in the start kernel (through pt's first Russian roulette) then 4 step dispatches did best
+# (frame x 1.24 / 0.94 / 1.27 / 1.13; wave8p4 1.22 / 0.90 / 1.28 / 1.09; no prefix 1.00 / 0.86 / 1.13 / 1.05).
+DEFAULT_STEPS = 4  # step dispatches before the tail
+DEFAULT_PREFIX = 4  # path vertices the start kernel runs before the first compaction
 MAX_GROUPS_X = 32768  # an indirect dispatch's groups, split over y beyond this (GL's minimum limit: 65535)
 _PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.M)
 
@@ -73,6 +82,7 @@ uniform uint u_wave_sample;  // which sample of this frame the wave runs
 #else
 #define WAVE_MODE u_wave_mode
 #endif
+#define WAVE_PREFIX {prefix}u  // path_steps of the start kernel (a constant: prefix 1 is the plain start)
 
 // ---- plugin parameters ----
 {params}
@@ -148,9 +158,11 @@ void main() {{
     }}
     bool alive = false;
     if (running) {{
+        uint vertices = 0u;
         do {{
             alive = path_step(path, rng);
-        }} while (alive && WAVE_MODE == 2u);
+            ++vertices;
+        }} while (alive && (WAVE_MODE == 2u || (WAVE_MODE == 0u && vertices < WAVE_PREFIX)));
         // ---- the driver's loop budget (see lift_gl/passes/trace.py) ----
         uint probe = 0u;
         for (uint i = 0u; i < 2u; ++i) probe += 1u;
@@ -212,11 +224,13 @@ class SlotsTooBig(LiftError):
 
 
 def wavefront_wanted(ctx: moderngl.Context) -> bool:
-    """$LIFT_GL_WAVEFRONT: on, off, or auto (off: the megakernel won on the H100, docs/gpu.md)."""
+    """$LIFT_GL_WAVEFRONT: on, off, or auto (on for GPUs, off for CPU rasterizers; see above)."""
+    from ..gl.context import is_software
+
     mode = os.environ.get(WAVEFRONT_ENV_VAR, "auto").strip().lower() or "auto"
     if mode not in ("auto", "on", "off"):
         raise LiftError(f"${WAVEFRONT_ENV_VAR} must be on, off or auto, not {mode!r}")
-    return mode == "on"
+    return mode == "on" or (mode == "auto" and not is_software(ctx))
 
 
 def fallback_reason(plugin, source_text: str, defines: dict) -> str | None:
@@ -234,22 +248,27 @@ class WavefrontTrace:
     """The wavefront executor of one trace program: fills `frame` as the megakernel would."""
 
     def __init__(self, ctx: moderngl.Context, size, plugin, defines: dict, params: str, local_size, steps=None,
-                 ballot: bool | None = None, split: bool = False):
-        """steps: step dispatches before the tail; ballot: one atomic a subgroup for the queue
-        (None: where the driver has ARB_shader_ballot and 64-bit integers); split: a program
+                 ballot: bool | None = None, split: bool = False, prefix: int | None = None):
+        """steps: step dispatches before the tail; prefix: path vertices (path_steps) the start
+        kernel runs before its paths are compacted (at least 1); ballot: one atomic a
+        subgroup for the queue (None: where the driver has ARB_shader_ballot and 64-bit
+        integers); split: a program
         for each mode (start, step, tail) instead of one with the mode a uniform."""
         self.ctx = ctx
         self.size = size
         self.tile = local_size
         self.group = local_size[0] * local_size[1]
         self.steps = DEFAULT_STEPS if steps is None else int(steps)
+        self.prefix = DEFAULT_PREFIX if prefix is None else int(prefix)
+        if self.prefix < 1:
+            raise LiftError(f"the wavefront's start kernel runs at least one path vertex, not {self.prefix}")
         defines = dict(defines)
         has_ballot = "GL_ARB_shader_ballot" in ctx.extensions and "GL_ARB_gpu_shader_int64" in ctx.extensions
         self.ballot = has_ballot if ballot is None else ballot and has_ballot
         if self.ballot:
             defines["LIFT_WAVE_BALLOT"] = True
         text = WAVE_TEMPLATE.format(group=self.group, tile_x=local_size[0], tile_y=local_size[1], params=params,
-                                    entry=plugin.entry_path.as_posix(), slots=SLOTS_BINDING,
+                                    prefix=self.prefix, entry=plugin.entry_path.as_posix(), slots=SLOTS_BINDING,
                                     queues=QUEUES_BINDING, control=CONTROL_BINDING)
         self.source = shaders.assemble(text, defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} wavefront>")
