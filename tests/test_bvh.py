@@ -201,6 +201,7 @@ layout(std430, binding = 10) readonly buffer Rays { vec4 rays[]; };
 // two vec4 per ray: (t, prim bits, occluded, hit), (bary, 0, 0)
 layout(std430, binding = 11) writeonly buffer Results { vec4 results[]; };
 uniform uint u_num_rays;
+uniform int u_mode;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= u_num_rays) return;
@@ -208,8 +209,17 @@ void main() {
     vec4 b = rays[2u * i + 1u];
     Ray ray = Ray(a.xyz, b.xyz, a.w, b.w);
     Hit hit;
-    bool found = trace_closest(ray, hit);
-    bool occluded = trace_occluded(ray);
+    bool found, occluded = false;
+    if (u_mode == 0) {   // through the BVH
+        found = trace_closest(ray, hit);
+        occluded = trace_occluded(ray);
+    } else {             // ray i against triangle i alone (the single-triangle entry point)
+        hit.t = ray.tmax;
+        hit.prim = NO_HIT;
+        hit.bary = vec2(0.0);
+        found = intersect_triangle(ray, i, hit.t, hit.bary);
+        if (found) hit.prim = i;
+    }
     results[2u * i] = vec4(hit.t, uintBitsToFloat(hit.prim), occluded ? 1.0 : 0.0, found ? 1.0 : 0.0);
     results[2u * i + 1u] = vec4(hit.bary, 0.0, 0.0);
 }
@@ -225,9 +235,11 @@ def gl():
         pytest.skip(f"no OpenGL context: {exc}")
 
 
-def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None, defines=None):
+def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None, defines=None,
+             single_triangles=False):
     """Trace rays with lift/bvh.glsl; returns (t, prim, occluded, found, bary). `defines`: more
-    (the 4-wide tree's LIFT_BVH_WIDTH, a shared stack: tests/test_wide_bvh.py)."""
+    (the 4-wide tree's LIFT_BVH_WIDTH, a shared stack: tests/test_wide_bvh.py).
+    `single_triangles`: ray i against triangle i alone, no BVH (tests/test_watertight.py)."""
     from lift_gl.shaders import assemble, compile_compute
 
     defines = dict({"HAS_SPHERES": True} if spheres is not None else {}, **(defines or {}))
@@ -252,7 +264,7 @@ def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=No
     out.bind_to_storage_buffer(11)
     buffers.append(out)
     values = {"u_num_triangles": len(tris_reordered), "u_num_spheres": 0 if spheres is None else len(spheres),
-              "u_num_rays": n}
+              "u_num_rays": n, "u_mode": 1 if single_triangles else 0}
     for name, value in values.items():
         if prog.get(name, None) is not None:
             prog[name].value = value

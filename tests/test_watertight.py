@@ -9,40 +9,7 @@ import pytest
 
 from lift_gl.accel import bvh as bvh_mod
 from lift_gl.accel.bvh import build_bvh
-
-NO_HIT = 0xFFFFFFFF
-
-# mode 0: trace_closest and trace_occluded through the BVH; mode 1: intersect_triangle of
-# triangle i alone against ray i (the single-triangle entry point, its own ray shear)
-GLSL_KERNEL = """
-#include "lift/bvh.glsl"
-layout(local_size_x = 64) in;
-// two vec4 per ray: (origin, tmin), (dir, tmax)
-layout(std430, binding = 10) readonly buffer Rays { vec4 rays[]; };
-// two vec4 per ray: (t, prim bits, occluded, hit), (bary, 0, 0)
-layout(std430, binding = 11) writeonly buffer Results { vec4 results[]; };
-uniform uint u_num_rays;
-uniform int u_mode;
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= u_num_rays) return;
-    Ray ray = Ray(rays[2u * i].xyz, rays[2u * i + 1u].xyz, rays[2u * i].w, rays[2u * i + 1u].w);
-    Hit hit;
-    hit.t = ray.tmax;
-    hit.prim = NO_HIT;
-    hit.bary = vec2(0.0);
-    bool found, occluded = false;
-    if (u_mode == 0) {
-        found = trace_closest(ray, hit);
-        occluded = trace_occluded(ray);
-    } else {
-        found = intersect_triangle(ray, i, hit.t, hit.bary);
-        if (found) hit.prim = i;
-    }
-    results[2u * i] = vec4(hit.t, uintBitsToFloat(hit.prim), occluded ? 1.0 : 0.0, found ? 1.0 : 0.0);
-    results[2u * i + 1u] = vec4(hit.bary, 0.0, 0.0);
-}
-"""
+from test_bvh import NO_HIT, gl  # noqa: F401 (gl: a fixture, the headless GL context)
 
 CL_KERNEL = """
 #include "lift/bvh.h"
@@ -81,15 +48,6 @@ __kernel void run(__global const float4* nodes, __global const float4* tri_pos, 
 """
 
 
-@pytest.fixture(scope="module")
-def gl():
-    from lift_gl.gl.context import create_context
-    try:
-        return create_context()
-    except Exception as exc:  # no headless GL on this machine
-        pytest.skip(f"no OpenGL context: {exc}")
-
-
 def _ray_rows(o, d, tmin, tmax) -> np.ndarray:
     rays = np.zeros((len(o), 2, 4), np.float32)
     rays[:, 0, :3], rays[:, 0, 3] = o, tmin
@@ -109,32 +67,12 @@ def _results(res: np.ndarray):
 
 
 def run_glsl(ctx, tris, o, d, nodes=None, tmin=0.0, tmax=np.inf, defines=None):
-    """Rays through lift/bvh.glsl: with `nodes` (a BVH over `tris`, in its order) by
-    trace_closest/trace_occluded, without them ray i against triangle i alone."""
-    from lift_gl.shaders import assemble, compile_compute
+    """Rays through lift/bvh.glsl (tests/test_bvh.py's kernel): with `nodes` (a BVH over `tris`,
+    in its order) by trace_closest/trace_occluded, without them ray i against triangle i alone."""
+    from test_bvh import run_glsl as trace
 
-    prog = compile_compute(ctx, assemble(GLSL_KERNEL, defines=defines or {}, main_name="test_watertight.comp"))
-    n = len(o)
-    dummy = np.zeros(16, np.float32)
-    data = {0: dummy if nodes is None else nodes, 1: _tri_rows(tris), 10: _ray_rows(o, d, tmin, tmax)}
-    buffers = []
-    for binding in list(range(9)) + [10]:
-        buf = ctx.buffer(np.ascontiguousarray(data.get(binding, dummy)).tobytes())
-        buf.bind_to_storage_buffer(binding)
-        buffers.append(buf)
-    out = ctx.buffer(reserve=n * 32)
-    out.bind_to_storage_buffer(11)
-    buffers.append(out)
-    for name, value in {"u_num_triangles": len(tris), "u_num_spheres": 0, "u_num_rays": n,
-                        "u_mode": 1 if nodes is None else 0}.items():
-        if prog.get(name, None) is not None:
-            prog[name].value = value
-    prog.run(group_x=(n + 63) // 64)
-    res = np.frombuffer(out.read(), np.float32).reshape(n, 2, 4).copy()
-    for buf in buffers:
-        buf.release()
-    prog.release()
-    return _results(res)
+    return trace(ctx, np.zeros(16, np.float32) if nodes is None else nodes, tris, o, d, tmin, tmax,
+                 defines=defines, single_triangles=nodes is None)
 
 
 def run_opencl(tris, o, d, nodes=None, tmin=0.0, tmax=np.inf, defines=None):

@@ -130,15 +130,20 @@ def _packed_triangles(name):
     return packed.bvh_nodes, packed.tri_pos[:packed.num_triangles, :, :3]
 
 
-@pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
-@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
-def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
+def _case_triangles(case: str):
+    """A test case's binary BVH nodes and its triangles in the tree's order: a random soup, or a
+    scene of scenes/ as the renderer packs it."""
     if case == "soup":
         tris = soup(20000, seed=5, size=0.03)
         b = build_bvh(tris)
-        nodes, tris = b.nodes, tris[b.order]
-    else:
-        nodes, tris = _packed_triangles(case)
+        return b.nodes, tris[b.order]
+    return _packed_triangles(case)
+
+
+@pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
+@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
+def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
+    nodes, tris = _case_triangles(case)
     wide = wide_layout(nodes, layout)
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
@@ -171,12 +176,7 @@ ANY_HIT_ORDERS = {"nearest": ["LIFT_BVH4_ANY_NEAREST"], "leaves_first": ["LIFT_B
 def test_glsl_any_hit_orders_agree(gl, case, layout, order):
     """Every order of the 4-wide any-hit traversal answers as the binary tree does, on
     unbounded rays and on shadow-ray intervals ending before, at and after the nearest hit."""
-    if case == "soup":
-        tris = soup(20000, seed=5, size=0.03)
-        b = build_bvh(tris)
-        nodes, tris = b.nodes, tris[b.order]
-    else:
-        nodes, tris = _packed_triangles(case)
+    nodes, tris = _case_triangles(case)
     wide = wide_layout(nodes, layout)
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=9)
