@@ -579,8 +579,10 @@ class Renderer:
         if self.plugin.language != "opencl":
             wave = getattr(self.trace, "wavefront", None)
             if wave is not None:
-                return (f" as a wavefront ($LIFT_GL_WAVEFRONT): a dispatch per path vertex over the live paths, "
-                        f"{wave.memory_bytes / 2**20:.1f} MiB of path slots and queues")
+                timing = (" or the megakernel, whichever is faster on the first frames"
+                          if getattr(self.trace, "tuning", None) is not None else "")
+                return (f" as a wavefront ($LIFT_GL_WAVEFRONT){timing}: a dispatch per path vertex over the live "
+                        f"paths, {wave.memory_bytes / 2**20:.1f} MiB of path slots and queues")
             why = getattr(self.trace, "wavefront_fallback", None)
             return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why})" if why else ""
         from .opencl import describe_device

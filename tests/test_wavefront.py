@@ -197,3 +197,38 @@ def test_auto_is_the_wavefront_on_gpus_and_the_megakernel_on_cpu_rasterizers(mon
     assert wavefront_wanted(object()) is expected
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
     assert wavefront_wanted(object()) is False
+
+
+def test_auto_on_a_gpu_times_both_ways_and_keeps_the_faster(monkeypatch):
+    """auto on a GPU: the first frames alternate between the megakernel and the wavefront (the
+    same samples either way), then the faster is kept; a megakernel kept frees the wavefront."""
+    import lift_gl.gl.context as context
+    from lift_gl.passes.trace import TUNING_FRAMES
+
+    monkeypatch.setattr(context, "is_software", lambda ctx: False)   # wavefront_mode's view only
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    reference, _, _, _ = _render(monkeypatch, "off", scene, spp=2 * TUNING_FRAMES + 2)
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    r = Renderer(scene, size=SIZE, integrator="pt", seed=7)
+    try:
+        assert r.trace.tuning is not None and r.trace.wavefront is not None
+        image = r.render(spp=2 * TUNING_FRAMES + 2)
+        assert r.trace.tuning is None and set(r.trace.tuned_ms) == {"megakernel", "wavefront"}
+        kept_wavefront = r.trace.tuned_ms["wavefront"] < r.trace.tuned_ms["megakernel"]
+        assert (r.trace.wavefront is not None) == kept_wavefront
+        np.testing.assert_array_equal(image, reference)
+        # the decision itself, from given timings
+        for wave_s, kept in ((0.002, False), (0.0005, True)):
+            r.trace.wavefront = r.trace.wavefront or _StubWavefront()
+            r.trace.tuning = {"megakernel": [0.001] * TUNING_FRAMES, "wavefront": [wave_s] * TUNING_FRAMES}
+            r.trace._keep_the_faster()
+            assert (r.trace.wavefront is not None) == kept
+            assert ("megakernel was faster" in (r.trace.wavefront_fallback or "")) == (not kept)
+            r.trace.wavefront_fallback = None
+    finally:
+        r.release()
+
+
+class _StubWavefront:
+    def release(self):
+        pass

@@ -37,8 +37,10 @@ off by default, as it won only on one of four scenes on an H100 (docs/gpu.md).
 from __future__ import annotations
 
 import os
+import time
 
 import moderngl
+import numpy as np
 
 from .. import shaders
 from ..errors import LiftError
@@ -46,7 +48,11 @@ from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from .common import LOCAL_SIZE, set_uniforms
 from .splat import SplatBuffer, splat_defines
-from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_wanted
+from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_mode
+
+# Frames each way ($LIFT_GL_WAVEFRONT auto on a GPU) before the trace pass keeps the faster:
+# medians of 4 frames of 2-30 ms told the H100's ways apart by 6-27% (docs/gpu.md).
+TUNING_FRAMES = 4
 
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
@@ -220,7 +226,11 @@ class TracePass:
         self.frame = ctx.texture(size, 4, dtype="f4")
         self.wavefront = None
         self.wavefront_fallback = None  # why a wavefront asked for runs as the megakernel
-        if wavefront_wanted(ctx) if wavefront is None else wavefront:
+        mode = wavefront_mode(ctx) if wavefront is None else ("on" if wavefront else "off")
+        # "faster": both ways timed on the first frames, alternately, then the faster kept
+        self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
+        self.tuned_ms = None  # once chosen: each way's median frame ms
+        if mode != "off":
             self.wavefront_fallback = fallback_reason(plugin, self.source.text, defines)
             if self.wavefront_fallback is None:
                 try:
@@ -228,13 +238,41 @@ class TracePass:
                                                     self.local_size, **(wavefront_options or {}))
                 except SlotsTooBig as exc:  # known once the plugin's slot size is
                     self.wavefront_fallback = str(exc)
+        if self.wavefront is None:
+            self.tuning = None
 
     def run(self, uniforms: dict, visibility=None) -> None:
+        if self.tuning is None:
+            self._run(uniforms, visibility, self.wavefront is not None)
+            return
+        # Choosing: this frame the way timed fewer times so far, its wall time between two
+        # finishes (a timer query could not nest in the renderer's per-pass one)
+        way = min(self.tuning, key=lambda k: len(self.tuning[k]))
+        self.ctx.finish()
+        start = time.perf_counter()
+        self._run(uniforms, visibility, way == "wavefront")
+        self.ctx.finish()
+        self.tuning[way].append(time.perf_counter() - start)
+        if min(len(t) for t in self.tuning.values()) >= TUNING_FRAMES:
+            self._keep_the_faster()
+
+    def _keep_the_faster(self) -> None:
+        """The median of each way's timed frames decides; a megakernel kept frees the wavefront's slots."""
+        ms = {k: 1e3 * float(np.median(t)) for k, t in self.tuning.items()}
+        self.tuning = None
+        self.tuned_ms = ms
+        if ms["wavefront"] >= ms["megakernel"]:
+            self.wavefront.release()
+            self.wavefront = None
+            self.wavefront_fallback = (f"the megakernel was faster on this scene's first frames "
+                                       f"({ms['megakernel']:.2f} against {ms['wavefront']:.2f} ms)")
+
+    def _run(self, uniforms: dict, visibility, as_wavefront: bool) -> None:
         set_uniforms(self.program, uniforms)
         if visibility is not None and "u_visibility" in self.program:
             visibility.use(location=0)
             self.program["u_visibility"].value = 0
-        if self.wavefront is not None:
+        if as_wavefront:
             for program in self.wavefront.programs:
                 set_uniforms(program, uniforms)
                 if "u_visibility" in program:

@@ -23,12 +23,13 @@ images agree (bit for bit on llvmpipe, tests/test_wavefront.py, and on the H100)
 The megakernel runs instead (TracePass keeps it) for plugins without LIFT_PATH_STEPS, with
 primary = "camera" (their random numbers start before the path), with splats, and where the
 slots would not fit one storage buffer (llvmpipe: 128 MiB, about 840k pixels for pt).
-$LIFT_GL_WAVEFRONT = on | off | auto picks; auto is on for GPUs and off for CPU rasterizers: on
-an H100 the wavefront (4 vertices in the start kernel, 4 step dispatches) was 1.13-1.27x faster
-on Lift's cornell-box and classroom and the Covered Dragon and 0.94x on the dining room, where
-95% of the paths end together at the first Russian roulette (geometric mean 1.12x; docs/gpu.md,
-"A wavefront trace pass"); on llvmpipe it won by 1.03-1.10x on three small scenes, too little
-to change every CPU render's code path.
+$LIFT_GL_WAVEFRONT = on | off | auto picks. On a GPU auto times both on the first frames and
+keeps the faster for the scene (TracePass): on an H100 the wavefront (4 vertices in the start
+kernel, 4 step dispatches) was 1.13-1.27x faster on Lift's cornell-box and classroom and the
+Covered Dragon and 0.94x on the dining room, where 95% of the paths end together at the first
+Russian roulette (docs/gpu.md, "A wavefront trace pass"); the images are the same either way.
+On CPU rasterizers auto is off: on llvmpipe it won by 1.03-1.10x on three small scenes, too
+little to change every CPU render's code path.
 """
 from __future__ import annotations
 
@@ -223,14 +224,22 @@ class SlotsTooBig(LiftError):
     """The frame's path slots would not fit one storage buffer: the megakernel runs instead."""
 
 
-def wavefront_wanted(ctx: moderngl.Context) -> bool:
-    """$LIFT_GL_WAVEFRONT: on, off, or auto (on for GPUs, off for CPU rasterizers; see above)."""
+def wavefront_mode(ctx: moderngl.Context) -> str:
+    """$LIFT_GL_WAVEFRONT resolved for this GL: "on", "off", or "faster" (auto on a GPU: the
+    trace pass times both ways on its first frames and keeps the faster, TracePass)."""
     from ..gl.context import is_software
 
     mode = os.environ.get(WAVEFRONT_ENV_VAR, "auto").strip().lower() or "auto"
     if mode not in ("auto", "on", "off"):
         raise LiftError(f"${WAVEFRONT_ENV_VAR} must be on, off or auto, not {mode!r}")
-    return mode == "on" or (mode == "auto" and not is_software(ctx))
+    if mode == "auto":
+        return "off" if is_software(ctx) else "faster"
+    return mode
+
+
+def wavefront_wanted(ctx: moderngl.Context) -> bool:
+    """Whether a wavefront is built at all ($LIFT_GL_WAVEFRONT on, or auto on a GPU)."""
+    return wavefront_mode(ctx) != "off"
 
 
 def fallback_reason(plugin, source_text: str, defines: dict) -> str | None:
