@@ -572,7 +572,8 @@ def measure(args) -> int:
                                 triangles=scene.triangle_count, load_seconds=load_s)
                     runs[v, k]["results"].append(case)
                     save()
-                    print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame; passes "
+                    print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame "
+                          f"({case.get('trace_way')}, tuned {case.get('wavefront_tuned_ms')}); passes "
                           "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items()), flush=True)
     _set_splits(None, previous_splits, axis_var)
     save()

@@ -121,6 +121,10 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     renderer.render(spp=frames * spf)
     pass_sync = {name: t.mean_ms for name, t in renderer.timers.items() if t.count}
     pass_query = {name: t.query.mean_ms for name, t in renderer.timers.items() if t.count}
+    # how the trace pass ran: the megakernel or a wavefront ($LIFT_GL_WAVEFRONT; auto's timings)
+    trace = getattr(renderer, "trace", None)
+    trace_way = "wavefront" if getattr(trace, "wavefront", None) is not None else "megakernel"
+    tuned_ms = getattr(trace, "tuned_ms", None)
     renderer.release()
 
     counting = make(count_rays=True)
@@ -147,7 +151,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             # every storage buffer of the scene: name, binding, bytes (split scenes: heap[k])
             "gpu_buffers": [{"name": n, "binding": b, "bytes": int(size)} for n, b, size in buffers],
             "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
-            "bvh_builder": renderer.packed.bvh_builder}
+            "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms}
 
 
 def table(results: list[dict]) -> str:
