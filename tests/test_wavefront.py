@@ -187,16 +187,16 @@ def test_bad_wavefront_setting_is_refused(monkeypatch):
         Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
 
 
-@pytest.mark.parametrize("software, expected", [(True, False), (False, True)])
-def test_auto_is_the_wavefront_on_gpus_and_the_megakernel_on_cpu_rasterizers(monkeypatch, software, expected):
+@pytest.mark.parametrize("software, expected", [(True, "off"), (False, "faster")])
+def test_auto_is_the_faster_way_on_gpus_and_the_megakernel_on_cpu_rasterizers(monkeypatch, software, expected):
     import lift_gl.gl.context as context
-    from lift_gl.passes.wavefront import wavefront_wanted
+    from lift_gl.passes.wavefront import wavefront_mode
 
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
     monkeypatch.setattr(context, "is_software", lambda ctx: software)
-    assert wavefront_wanted(object()) is expected
+    assert wavefront_mode(object()) == expected
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
-    assert wavefront_wanted(object()) is False
+    assert wavefront_mode(object()) == "off"
 
 
 def test_auto_on_a_gpu_times_both_ways_and_keeps_the_faster(monkeypatch):

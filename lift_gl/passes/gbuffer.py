@@ -17,14 +17,12 @@ scene needs cannot tell a wall from the back of the same wall (tests/test_stress
 """
 from __future__ import annotations
 
-import os
-
 import moderngl
 import numpy as np
 
 from .. import shaders
 from .camera import near_far, view_projection
-from .common import set_uniforms
+from .common import env_choice, groups, set_uniforms
 
 SHADER_DIR = shaders.SHADER_DIR / "passes"
 
@@ -150,12 +148,9 @@ RASTER_POOR_GPUS = ("h100", "h200", "h800", "gh200", "a100", "a800")
 def traced_gbuffer_wanted(ctx: moderngl.Context) -> bool:
     """Whether the G-buffer is ray cast (TracedGBufferPass) rather than rasterized: on the
     GPUs of RASTER_POOR_GPUS; $LIFT_GL_GBUFFER (raster, traced, auto) overrides."""
-    from ..errors import LiftError
     from ..gl.context import is_software
 
-    mode = os.environ.get(GBUFFER_ENV_VAR, "auto").strip().lower() or "auto"
-    if mode not in ("auto", "raster", "traced"):
-        raise LiftError(f"${GBUFFER_ENV_VAR} must be raster, traced or auto, not {mode!r}")
+    mode = env_choice(GBUFFER_ENV_VAR, ("raster", "traced"))
     if mode != "auto":
         return mode == "traced"
     renderer = ctx.info["GL_RENDERER"].lower()
@@ -197,8 +192,7 @@ class TracedGBufferPass:
         self.visibility.bind_to_image(0, read=False, write=True)
         self.normal_depth.bind_to_image(1, read=False, write=True)
         self.albedo.bind_to_image(2, read=False, write=True)
-        (lx, ly), (w, h) = self.local_size, self.size
-        self.program.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+        self.program.run(*groups(*self.size, self.local_size))
 
     def release(self) -> None:
         for obj in (self.visibility, self.normal_depth, self.albedo, self.program):

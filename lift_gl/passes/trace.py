@@ -30,23 +30,22 @@ memory there, and on an H100 the two together made pt's trace pass 2.6-3.6x fast
 groups with local stacks (docs/gpu.md). CPU rasterizers keep 8x8 groups and local stacks.
 $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways).
 
-With $LIFT_GL_WAVEFRONT = on, a plugin with LIFT_PATH_STEPS runs as a wavefront instead (a
-dispatch per path vertex over the paths still alive, passes/wavefront.py): the same image;
-off by default, as it won only on one of four scenes on an H100 (docs/gpu.md).
+A plugin with LIFT_PATH_STEPS may run as a wavefront instead (a dispatch per path vertex over
+the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
+forces it; auto (the default) on a GPU times both ways on the first frames and keeps the
+faster (on an H100 each won on some scenes, docs/gpu.md), on a CPU rasterizer stays off.
 """
 from __future__ import annotations
 
-import os
 import time
 
 import moderngl
 import numpy as np
 
 from .. import shaders
-from ..errors import LiftError
 from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
-from .common import LOCAL_SIZE, set_uniforms
+from .common import LOCAL_SIZE, env_choice, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_mode
 
@@ -172,9 +171,7 @@ def trace_layout(ctx: moderngl.Context) -> tuple[tuple[int, int], bool]:
     """The trace program's work-group shape and whether its BVH stack is in shared memory:
     GPUs 8x4 and shared, CPU rasterizers 8x8 and local; $LIFT_GL_BVH_STACK (shared, local,
     auto) overrides the stack's place, and the shape follows it."""
-    mode = os.environ.get(BVH_STACK_ENV_VAR, "auto").strip().lower() or "auto"
-    if mode not in ("auto", "shared", "local"):
-        raise LiftError(f"${BVH_STACK_ENV_VAR} must be shared, local or auto, not {mode!r}")
+    mode = env_choice(BVH_STACK_ENV_VAR, ("shared", "local"))
     shared = not is_software(ctx) if mode == "auto" else mode == "shared"
     return (GPU_LOCAL_SIZE if shared else (LOCAL_SIZE, LOCAL_SIZE)), shared
 
@@ -268,23 +265,18 @@ class TracePass:
                                        f"({ms['megakernel']:.2f} against {ms['wavefront']:.2f} ms)")
 
     def _run(self, uniforms: dict, visibility, as_wavefront: bool) -> None:
-        set_uniforms(self.program, uniforms)
-        if visibility is not None and "u_visibility" in self.program:
-            visibility.use(location=0)
-            self.program["u_visibility"].value = 0
+        for program in self.wavefront.programs if as_wavefront else (self.program,):
+            set_uniforms(program, uniforms)
+            if visibility is not None and "u_visibility" in program:
+                visibility.use(location=0)
+                program["u_visibility"].value = 0
         if as_wavefront:
-            for program in self.wavefront.programs:
-                set_uniforms(program, uniforms)
-                if "u_visibility" in program:
-                    visibility.use(location=0)
-                    program["u_visibility"].value = 0
             self.wavefront.run(self.frame, int(uniforms["u_samples"]))
             return
         self.frame.bind_to_image(0, read=False, write=True)
         if self.splats is not None:
             self.splats.bind()
-        (lx, ly), (w, h) = self.local_size, self.size
-        self.program.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+        self.program.run(*groups(*self.size, self.local_size))
         if self.splats is not None:
             self.splats.add_to(self.frame)
 

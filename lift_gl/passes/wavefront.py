@@ -33,13 +33,13 @@ little to change every CPU render's code path.
 """
 from __future__ import annotations
 
-import os
 import re
 
 import moderngl
 
 from .. import shaders
 from ..errors import LiftError
+from .common import env_choice, groups
 
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
@@ -229,17 +229,11 @@ def wavefront_mode(ctx: moderngl.Context) -> str:
     trace pass times both ways on its first frames and keeps the faster, TracePass)."""
     from ..gl.context import is_software
 
-    mode = os.environ.get(WAVEFRONT_ENV_VAR, "auto").strip().lower() or "auto"
-    if mode not in ("auto", "on", "off"):
-        raise LiftError(f"${WAVEFRONT_ENV_VAR} must be on, off or auto, not {mode!r}")
+    mode = env_choice(WAVEFRONT_ENV_VAR, ("on", "off"))
     if mode == "auto":
         return "off" if is_software(ctx) else "faster"
     return mode
 
-
-def wavefront_wanted(ctx: moderngl.Context) -> bool:
-    """Whether a wavefront is built at all ($LIFT_GL_WAVEFRONT on, or auto on a GPU)."""
-    return wavefront_mode(ctx) != "off"
 
 
 def fallback_reason(plugin, source_text: str, defines: dict) -> str | None:
@@ -316,7 +310,7 @@ class WavefrontTrace:
         ctx, args = self.ctx, self.args
         start, step, tail = self.modes
         generic = start is step
-        (tx, ty), (w, h) = self.tile, self.size
+        w, h = self.size
         frame.bind_to_image(0, read=True, write=True)
         self.slots.bind_to_storage_buffer(SLOTS_BINDING)
         self.queues.bind_to_storage_buffer(QUEUES_BINDING)
@@ -328,7 +322,7 @@ class WavefrontTrace:
                 prog["u_wave_sample"].value = s
             if generic:
                 start["u_wave_mode"].value = MODE_START
-            dispatch("start", s, 0, lambda: start.run((w + tx - 1) // tx, (h + ty - 1) // ty, 1))
+            dispatch("start", s, 0, lambda: start.run(*groups(w, h, self.tile)))
             for k in range(self.steps + 1):
                 ctx.memory_barrier(WAVE_BARRIERS)
                 if k < 2:
