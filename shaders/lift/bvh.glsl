@@ -302,6 +302,20 @@ bvec4 lift_bvh4_children(uint n, vec3 org, vec3 inv, uvec3 near, float tmin, flo
 
 // One compare-exchange of a sorting network on (distance, entry) pairs.
 #define LIFT_BVH4_ORDER(ta, ea, tb, eb) if (tb < ta) { float t_ = ta; ta = tb; tb = t_; uint e_ = ea; ea = eb; eb = e_; }
+// The four children's entries e0..e3 sorted near to far by their entry distances tn (t0..t3
+// declared here), a child missed (hit false) sorting last: a 5-exchange network.
+#define LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3) \
+    float t0 = hit.x ? tn.x : LIFT_BVH4_MISS, t1 = hit.y ? tn.y : LIFT_BVH4_MISS; \
+    float t2 = hit.z ? tn.z : LIFT_BVH4_MISS, t3 = hit.w ? tn.w : LIFT_BVH4_MISS; \
+    LIFT_BVH4_ORDER(t0, e0, t1, e1) \
+    LIFT_BVH4_ORDER(t2, e2, t3, e3) \
+    LIFT_BVH4_ORDER(t0, e0, t2, e2) \
+    LIFT_BVH4_ORDER(t1, e1, t3, e3) \
+    LIFT_BVH4_ORDER(t1, e1, t2, e2)
+const float LIFT_BVH4_MISS = uintBitsToFloat(0x7f800000u);   // +inf: misses sort last
+// A leaf entry's triangles: the first, and how many (1-16).
+uint lift_bvh4_leaf_first(uint leaf) { return leaf & LIFT_BVH4_FIRST_MASK; }
+uint lift_bvh4_leaf_count(uint leaf) { return ((leaf >> 27u) & 15u) + 1u; }
 
 // Closest hit below the root, as lift_bvh_closest for the binary tree: while-while, an inner
 // loop over wide nodes down to the next leaf entry. At each node the hit children are sorted
@@ -316,7 +330,6 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
     int sp = 0;
     uint cur = root;
     bool live = true;
-    const float miss = uintBitsToFloat(0x7f800000u);   // +inf: misses sort last
     while (live) {
         while ((cur & LIFT_BVH4_LEAF) == 0u) {   // a wide node: test its children
             vec4 tn;
@@ -328,14 +341,8 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
                 cur = LIFT_BVH_STACK_AT(--sp);
                 continue;
             }
-            float t0 = hit.x ? tn.x : miss, t1 = hit.y ? tn.y : miss;
-            float t2 = hit.z ? tn.z : miss, t3 = hit.w ? tn.w : miss;
             uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
-            LIFT_BVH4_ORDER(t0, e0, t1, e1)
-            LIFT_BVH4_ORDER(t2, e2, t3, e3)
-            LIFT_BVH4_ORDER(t0, e0, t2, e2)
-            LIFT_BVH4_ORDER(t1, e1, t3, e3)
-            LIFT_BVH4_ORDER(t1, e1, t2, e2)
+            LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3)
             // the collapse bounds the pushes of any root path by LIFT_BVH_STACK
             if (n > 3u) LIFT_BVH_STACK_AT(sp++) = e3;
             if (n > 2u) LIFT_BVH_STACK_AT(sp++) = e2;
@@ -343,8 +350,8 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             cur = e0;
         }
         if (!live) break;
-        uint first = cur & LIFT_BVH4_FIRST_MASK;
-        uint count = ((cur >> 27u) & 15u) + 1u;
+        uint first = lift_bvh4_leaf_first(cur);
+        uint count = lift_bvh4_leaf_count(cur);
         for (uint i = first; i < first + count; ++i) {
             vec2 bary;
             if (lift_intersect_triangle(ray, shear, i, t, bary)) {
@@ -361,8 +368,8 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
 
 // Tests the triangles of leaf entry `leaf` against (ray.tmin, t): true at the first hit.
 bool lift_bvh4_any_leaf(uint leaf, Ray ray, LiftRayShear shear, float t) {
-    uint first = leaf & LIFT_BVH4_FIRST_MASK;
-    uint count = ((leaf >> 27u) & 15u) + 1u;
+    uint first = lift_bvh4_leaf_first(leaf);
+    uint count = lift_bvh4_leaf_count(leaf);
     for (uint i = first; i < first + count; ++i) {
         vec2 bary;
         if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
@@ -397,14 +404,7 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
             bool h0 = hit.x, h1 = hit.y, h2 = hit.z, h3 = hit.w;
             uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
 #ifdef LIFT_BVH4_ANY_NEAREST
-            const float miss = uintBitsToFloat(0x7f800000u);   // +inf: misses sort last
-            float t0 = h0 ? tn.x : miss, t1 = h1 ? tn.y : miss;
-            float t2 = h2 ? tn.z : miss, t3 = h3 ? tn.w : miss;
-            LIFT_BVH4_ORDER(t0, e0, t1, e1)
-            LIFT_BVH4_ORDER(t2, e2, t3, e3)
-            LIFT_BVH4_ORDER(t0, e0, t2, e2)
-            LIFT_BVH4_ORDER(t1, e1, t3, e3)
-            LIFT_BVH4_ORDER(t1, e1, t2, e2)
+            LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3)
             uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
             h0 = n > 0u; h1 = n > 1u; h2 = n > 2u; h3 = n > 3u;
 #endif
