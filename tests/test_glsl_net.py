@@ -237,6 +237,15 @@ def test_shipped_denoiser_matches_onnxruntime(gl_ctx):
     assert (np.abs(want - exact[:, :, :h, :w]) <= bound).all()
 
 
+def _noisy_frame(rng, h, w):
+    """A frame for the denoiser executors: colour = albedo times exponential noise, unit normals."""
+    albedo = rng.random((h, w, 3)).astype(np.float32)
+    color = (albedo * rng.exponential(1.0, (h, w, 1))).astype(np.float32)
+    normal = rng.standard_normal((h, w, 3)).astype(np.float32)
+    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    return color, albedo, normal
+
+
 def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
     """GlslDenoiser and OnnxDenoiser (lift_gl/denoise/onnx_denoiser.py) on one noisy frame: the
     network's bound carried through the output transform (divide by the exposure, times albedo)."""
@@ -245,12 +254,8 @@ def test_glsl_denoiser_matches_onnx_denoiser(gl_ctx):
     from lift_gl.denoise.glsl_denoiser import GlslDenoiser
     from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
 
-    rng = np.random.default_rng(4)
     h, w = 23, 41
-    albedo = rng.random((h, w, 3)).astype(np.float32)
-    color = (albedo * rng.exponential(1.0, (h, w, 1))).astype(np.float32)
-    normal = rng.standard_normal((h, w, 3)).astype(np.float32)
-    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    color, albedo, normal = _noisy_frame(np.random.default_rng(4), h, w)
     glsl = GlslDenoiser(ctx=gl_ctx)
     try:
         got = glsl.denoise(color, albedo, normal)
@@ -270,12 +275,8 @@ def test_glsl_denoiser_ensemble_matches_onnx_denoiser(gl_ctx):
     from lift_gl.denoise.glsl_denoiser import GlslDenoiser
     from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
 
-    rng = np.random.default_rng(5)
     h, w = 19, 37
-    albedo = rng.random((h, w, 3)).astype(np.float32)
-    color = (albedo * rng.exponential(1.0, (h, w, 1))).astype(np.float32)
-    normal = rng.standard_normal((h, w, 3)).astype(np.float32)
-    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    color, albedo, normal = _noisy_frame(np.random.default_rng(5), h, w)
     glsl = GlslDenoiser(ctx=gl_ctx, ensemble=2)
     try:
         got = glsl.denoise(color, albedo, normal)
