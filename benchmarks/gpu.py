@@ -199,6 +199,34 @@ def timed_dispatch(ctx, program, query, size, cpu: bool, cpu_clock=time.perf_cou
     return ((cpu_clock() - start) if cpu else query.elapsed) / 1e6
 
 
+def _gpu_clock():
+    """lift_gl/report/gpu_clock.py's ClockReader and warm_up, this checkout's copy (a
+    $LIFT_GL_TREE may be older than it)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parent.parent / "lift_gl" / "report" / "gpu_clock.py"
+    spec = importlib.util.spec_from_file_location("_lift_gl_gpu_clock", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.ClockReader, module.warm_up
+
+
+def warm_gpu(ctx, program, size, local, uniforms: dict) -> tuple:
+    """Dispatch `program` (20 at a time) until an idle GPU's SM clock has risen
+    (lift_gl/report/gpu_clock.py); the clock reader and what the warm-up did."""
+    from lift_gl.passes.common import set_uniforms
+    ClockReader, warm_up = _gpu_clock()
+
+    clock = ClockReader(ctx.info.get("GL_RENDERER", ""))
+    set_uniforms(program, uniforms)
+
+    def step():
+        for _ in range(20):
+            program.run(*dispatch_groups(size, local))
+        ctx.finish()
+    return clock, warm_up(step, clock)
+
+
 def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     """Mrays/s of each ray kind (see the module docstring) for the renderer's scene and
     camera at `size`: the best of `repeat` dispatches (after one warm-up)."""
@@ -219,6 +247,7 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
                     u_eps=1e-4 * extent, u_seed=0)
     cpu = is_software(ctx)
     query = ctx.query(time=True)
+    clock, warm = warm_gpu(ctx, program, size, local, dict(uniforms, u_kind=0, u_seed=0))
     out = {}
     for kind_index, kind in enumerate(RAY_KINDS):
         best = None
@@ -235,7 +264,8 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
         rays = w * h if kind == "primary" else int(hit.sum())
         hits_of_kind = int(hit.sum()) if kind == "primary" else int((rows[hit, 1, 3] > 0.5).sum())
         out[kind] = {"rays": rays, "hits": hits_of_kind, "ms": best,
-                     "mrays_per_s": rays / max(best * 1e6, 1) * 1e3}
+                     "mrays_per_s": rays / max(best * 1e6, 1) * 1e3, "sm_mhz": clock.sm_mhz()}
+    out["primary"]["warm_up"] = warm
     for b in (hits, program):
         b.release()
     return out
@@ -262,6 +292,10 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
     ctx = renderers[0].ctx
     cpu = is_software(ctx)
     query = ctx.query(time=True)
+    r0, program0, hits0, uniforms0 = setups[0]
+    bind_as_storage(r0)
+    hits0.bind_to_storage_buffer(10)
+    clock, warm = warm_gpu(ctx, program0, size, local, dict(uniforms0, u_kind=0, u_seed=0))
     out = [{} for _ in renderers]
     for kind_index, kind in enumerate(RAY_KINDS):
         times = [[] for _ in renderers]
@@ -286,7 +320,9 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
             ms = med
             out[i][kind] = {"rays": rays, "hits": int(hit.sum()) if kind == "primary" else int((rows[hit, 1, 3] > 0.5).sum()),
                             "ms": ms, "median_ms": med, "best_ms": best, "all_ms": times[i],
-                            "mrays_per_s": rays / max(ms, 1e-9) / 1e3}
+                            "mrays_per_s": rays / max(ms, 1e-9) / 1e3, "sm_mhz": clock.sm_mhz()}
+    for o in out:
+        o["primary"]["warm_up"] = warm
     for _, program, hits, _ in setups:
         program.release()
         hits.release()
@@ -533,7 +569,7 @@ def measure(args) -> int:
                         "ray_times": "median of interleaved dispatches: GPU timer query, or on a CPU "
                                      "rasterizer the process's CPU time (all threads)"})
                     print(f"{name} {size[0]}x{size[1]} rays [{axis}={v}, {args.ray_repeat} interleaved]: " + ", ".join(
-                        f"{k_} {x['mrays_per_s']:.2f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()), flush=True)
+                        f"{k_} {x['mrays_per_s']:.2f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()) + _clock_text(rays), flush=True)
                 for r in renderers:
                     r.release()
                 save()
@@ -553,7 +589,7 @@ def measure(args) -> int:
                     save()
                     tag = f" [{axis}={v}]" if v is not None else ""
                     print(f"{name} {size[0]}x{size[1]} rays{tag}: " + ", ".join(
-                        f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()), flush=True)
+                        f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()) + _clock_text(rays), flush=True)
             for integrator in integrators:
                 for v, k in orders():
                     _set_splits(v, previous_splits, axis_var)
@@ -574,7 +610,8 @@ def measure(args) -> int:
                     save()
                     print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame "
                           f"({case.get('trace_way')}, tuned {case.get('wavefront_tuned_ms')}); passes "
-                          "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items()), flush=True)
+                          "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items())
+                          + _clock_text(case), flush=True)
     _set_splits(None, previous_splits, axis_var)
     save()
     records = [runs[v, 0] if rounds == 1 else best_of([runs[v, k] for k in range(rounds)]) for v in splits]
@@ -777,6 +814,22 @@ def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
         os.environ[var] = value
 
 
+def _lowest_mhz(record: dict) -> int | None:
+    """The lowest SM clock reading of a frame case (its timed runs) or of a ray-kind record's
+    `rays` (after each kind); None where there is none (no NVIDIA driver, an older lift_gl)."""
+    if "sm_clock" in record:
+        readings = record["sm_clock"].get("frames_mhz") or []
+    else:
+        readings = [x.get("sm_mhz") for x in record.values() if isinstance(x, dict)]
+    readings = [m for m in readings if m]
+    return min(readings) if readings else None
+
+
+def _clock_text(record: dict) -> str:
+    mhz = _lowest_mhz(record)
+    return "" if mhz is None else f"; SM clock {mhz} MHz"
+
+
 def _mrays(value: float) -> str:
     return f"{value:.0f}" if value >= 100 else f"{value:.2g}" if value < 1 else f"{value:.1f}"
 
@@ -800,6 +853,8 @@ def render_tables(records: list[dict]) -> str:
     if len(records) > 1:
         head += [f"trace {lab}/{labels[0]}" for lab in labels[1:]]
     head += ["Lift paper ms (RTX 2070)"]
+    clocked = any(_lowest_mhz(r) for t in frames for r in t.values())
+    head += ["SM MHz (lowest)"] if clocked else []
     lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for key in keys:
         first = frames[0][key]
@@ -819,6 +874,8 @@ def render_tables(records: list[dict]) -> str:
             cells.append("–" if qb is None else f"{qb['trace'] / qa['trace']:.3f}")
         paper = LIFT_PAPER_MS.get(key[2], {}).get(key[0]) if key[1] == (1920, 1080) else None
         cells.append("–" if paper is None else f"{paper}")
+        if clocked:
+            cells.append(" / ".join(str(_lowest_mhz(t[key]) or "–") if key in t else "–" for t in frames))
         lines.append("| " + " | ".join(cells) + " |")
     rays = [{(r["scene_name"], tuple(r["size"])): r for r in rec["results"] if r["kind"] == "rays"} for rec in records]
     if rays[0]:
@@ -829,6 +886,8 @@ def render_tables(records: list[dict]) -> str:
             head += [f"{label} {k}" for k in RAY_KINDS]
         if len(records) > 1:
             head += [f"{k} {lab}/{labels[0]}" for lab in labels[1:] for k in RAY_KINDS]
+        clocked = any(_lowest_mhz(r["rays"]) for t in rays for r in t.values())
+        head += ["SM MHz (lowest)"] if clocked else []
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for key, first in rays[0].items():
             cells = [key[0], f"{key[1][0]}x{key[1][1]}", f"{first['triangles']:,}"]
@@ -840,6 +899,8 @@ def render_tables(records: list[dict]) -> str:
                 for k in RAY_KINDS:
                     cells.append("–" if r is None else
                                  f"{r['rays'][k]['mrays_per_s'] / first['rays'][k]['mrays_per_s']:.3f}")
+            if clocked:
+                cells.append(" / ".join(str(_lowest_mhz(t[key]["rays"]) or "–") if key in t else "–" for t in rays))
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 

@@ -52,6 +52,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from lift_gl.report.gpu_clock import ClockReader, warm_up  # noqa: E402
+
 
 # ---- source edits ----
 
@@ -480,6 +482,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     times = {name: [] for name in names}
     gb_names = [*gb, "traced"] if gb else []
     gb_times = {name: [] for name in gb_names}
+    # an idle GPU's clock rises only under sustained work (lift_gl/report/gpu_clock.py)
+    clock = ClockReader(ctx.info.get("GL_RENDERER", ""))
+    warm = warm_up(lambda: [(refresh(), dispatch(names[0]), ctx.finish()) for _ in range(4)], clock)
+    round_mhz = []
     for rep in range(reps + 1):
         order = names if rep % 2 == 0 else names[::-1]
         for name in order:
@@ -492,6 +498,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             ms = timed(raster, name)
             if rep:
                 gb_times[name].append(ms)
+        round_mhz.append(clock.sm_mhz())
     base = images[names[0]]
     result = {"scene": Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
               "integrator": integrator, "size": [w, h], "triangles": int(r.packed.num_triangles), "max_depth": max_depth, "variants": {}}
@@ -506,6 +513,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
                 result["variants"][name]["warp"] = warp_costs(img[..., 0], img[..., 1], max_depth)
     result["gbuffer"] = {name: {"ms": t, "median_ms": float(np.median(t))} for name, t in gb_times.items()}
     result["gbuffer_kind"] = type(r.gbuffer).__name__ if r.gbuffer is not None else None
+    result["sm_clock"] = {"warm_up": warm, "rounds_mhz": round_mhz}  # NVIDIA only, else None
     for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
                 *([raster_pass, traced_pass] if gb else [])]:
         obj.release()
@@ -570,7 +578,8 @@ def main(argv=None) -> int:
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())
-            + "; gbuffer " + ", ".join(f"{n} {v['median_ms']:.3f}" for n, v in res["gbuffer"].items()), flush=True)
+            + "; gbuffer " + ", ".join(f"{n} {v['median_ms']:.3f}" for n, v in res["gbuffer"].items())
+            + f"; SM clock MHz after each round {res['sm_clock']['rounds_mhz']}", flush=True)
         if args.out:
             args.out.parent.mkdir(parents=True, exist_ok=True)
             args.out.write_text(json.dumps(record, indent=1))

@@ -3,6 +3,8 @@ the same paths from the same random numbers, so the same images bit for bit on l
 same dropped-sample and ray counts; and the megakernel wherever the wavefront cannot run."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -225,6 +227,31 @@ def test_auto_on_a_gpu_times_both_ways_and_keeps_the_faster(monkeypatch):
             assert (r.trace.wavefront is not None) == kept
             assert ("megakernel was faster" in (r.trace.wavefront_fallback or "")) == (not kept)
             r.trace.wavefront_fallback = None
+    finally:
+        r.release()
+
+
+def test_tuning_frames_take_the_ways_in_the_order_abba(monkeypatch):
+    """The ways are timed A B B A A B B A: a clock rising linearly over the tuning frames (an
+    idle GPU warming up) moves both ways' medians alike, where A B A B would favour the
+    wavefront, always timed after the megakernel. Checked on the frames TracePass.run
+    really takes, with a fake drift."""
+    import lift_gl.gl.context as context
+    from lift_gl.passes.trace import TUNING_FRAMES, tuning_way
+
+    assert [tuning_way(i) for i in range(8)] == ["megakernel", "wavefront", "wavefront", "megakernel"] * 2
+    monkeypatch.setattr(context, "is_software", lambda ctx: False)
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
+    try:
+        ways, clock = [], iter(range(100))
+        r.trace._run = lambda uniforms, visibility, as_wavefront: ways.append(as_wavefront)
+        # each frame takes 10 ms less than the last (a warming GPU), whichever way ran
+        monkeypatch.setattr("lift_gl.passes.trace.time", SimpleNamespace(perf_counter=lambda: -0.005 * next(clock) ** 2))
+        r.render(spp=2 * TUNING_FRAMES)
+        assert ways == [tuning_way(i) == "wavefront" for i in range(2 * TUNING_FRAMES)]
+        ms = r.trace.tuned_ms
+        assert ms is not None and abs(ms["megakernel"] - ms["wavefront"]) < 1e-9
     finally:
         r.release()
 

@@ -53,6 +53,14 @@ from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_m
 # medians of 4 frames of 2-30 ms told the H100's ways apart by 6-27% (docs/gpu.md).
 TUNING_FRAMES = 4
 
+
+def tuning_way(frame: int) -> str:
+    """The way timed in the frame-th tuning frame: megakernel, wavefront, wavefront,
+    megakernel, and again (the low bit of the frame's Gray code), so that a drift that is
+    linear over each four frames (a GPU clock rising from idle: report/gpu_clock.py) adds
+    the same to both ways' medians (and means)."""
+    return ("megakernel", "wavefront")[(frame ^ (frame >> 1)) & 1]
+
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
 #extension GL_NV_shader_atomic_float : require
@@ -242,9 +250,10 @@ class TracePass:
         if self.tuning is None:
             self._run(uniforms, visibility, self.wavefront is not None)
             return
-        # Choosing: this frame the way timed fewer times so far, its wall time between two
-        # finishes (a timer query could not nest in the renderer's per-pass one)
-        way = min(self.tuning, key=lambda k: len(self.tuning[k]))
+        # Choosing: this frame's way in the order A B B A (a GPU's clock rising from idle over
+        # these frames then slows both alike), its wall time between two finishes (a timer
+        # query could not nest in the renderer's per-pass one)
+        way = tuning_way(sum(len(t) for t in self.tuning.values()))
         self.ctx.finish()
         start = time.perf_counter()
         self._run(uniforms, visibility, way == "wavefront")

@@ -15,6 +15,8 @@ A pass that exists only with some settings gets its column when it runs.
 - denoiser time (--denoisers, default atrous): one denoiser run on the accumulated image, its
   unjittered G-buffer guides included, GPU work finished (best of --repeat x 3 runs); "none"
   leaves it out.
+- on NVIDIA GPUs: frames until the SM clock has risen from idle before timing, and the clock
+  each timed run ended at (`sm_clock` in the JSON; report/gpu_clock.py).
 """
 from __future__ import annotations
 
@@ -23,6 +25,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from .gpu_clock import ClockReader, warm_up
 
 
 def add_parser(subparsers) -> None:
@@ -108,17 +112,23 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     renderer = make()
     spf = renderer.samples_per_frame
     buffers = renderer.buffers.memory()
-    frame_seconds = []
+    # An idle GPU runs at a low clock until kept busy (report/gpu_clock.py): frames until it
+    # has risen, and the clock recorded after each timed run.
+    clock = ClockReader(renderer.ctx.info.get("GL_RENDERER", ""))
+    warm = warm_up(lambda: (renderer.render(spp=4 * spf), renderer.ctx.finish()), clock)
+    frame_seconds, frame_mhz = [], []
     for _ in range(max(repeat, 1)):
         renderer.reset()
         renderer.render(spp=frames * spf)
         frame_seconds.append(renderer.stats.render_seconds / renderer.stats.frames)
+        frame_mhz.append(clock.sm_mhz())
     frame_s = min(frame_seconds)
     dropped = renderer.stats.dropped_samples
     # Per pass, synchronised: slower in total than pipelined frames, but each pass alone.
     renderer.reset()
     renderer.timers = {p.name: PassTimer(renderer.ctx) for p in renderer.passes}
     renderer.render(spp=frames * spf)
+    pass_mhz = clock.sm_mhz()
     pass_sync = {name: t.mean_ms for name, t in renderer.timers.items() if t.count}
     pass_query = {name: t.query.mean_ms for name, t in renderer.timers.items() if t.count}
     # how the trace pass ran: the megakernel or a wavefront ($LIFT_GL_WAVEFRONT; auto's timings)
@@ -151,7 +161,21 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             # every storage buffer of the scene: name, binding, bytes (split scenes: heap[k])
             "gpu_buffers": [{"name": n, "binding": b, "bytes": int(size)} for n, b, size in buffers],
             "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
-            "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms}
+            "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
+            # NVIDIA only (else None): the SM clock after each timed run of frames and after
+            # the per-pass run, and the warm-up before them
+            "sm_clock": {"frames_mhz": frame_mhz, "passes_mhz": pass_mhz, "warm_up": warm}}
+
+
+def clock_note(case: dict) -> str:
+    """", SM clock 1980 MHz (max 1980)" from a case's record: the lowest clock its timed frames
+    ended at; empty where there is no reading (no NVIDIA driver)."""
+    clock = case.get("sm_clock") or {}
+    readings = [m for m in clock.get("frames_mhz", []) if m]
+    peak = (clock.get("warm_up") or {}).get("max_sm_mhz")
+    if not readings:
+        return ""
+    return f", SM clock {min(readings)} MHz" + (f" (max {peak})" if peak else "")
 
 
 def table(results: list[dict]) -> str:
@@ -213,7 +237,8 @@ def cmd_bench(args) -> int:
                         bvh_build_seconds=build_seconds)
             results.append(case)
             print(f"{case['scene_name']} {size[0]}x{size[1]}: {case['frame_ms']:.2f} ms/frame, "
-                  f"{case['paths_per_second'] / 1e6:.3f} Mpaths/s, {case['rays_per_path']:.2f} rays/path", flush=True)
+                  f"{case['paths_per_second'] / 1e6:.3f} Mpaths/s, {case['rays_per_path']:.2f} rays/path"
+                  f"{clock_note(case)}", flush=True)
     print()
     print(table(results))
     print(f"\n{args.integrator}; per-pass times: CPU clock between ctx.finish() calls (GL timer queries in the JSON); "
