@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 import tracemalloc
@@ -41,7 +42,7 @@ def _triangles(path: str) -> np.ndarray:
     return np.concatenate([m.positions[m.indices] for m in scene.meshes]).astype(np.float32)
 
 
-def scene_quality(path: str, bin_counts, split_values=("off",)) -> dict:
+def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("longest",)) -> dict:
     import functools
 
     from lift_gl.accel import cache as cache_mod
@@ -58,9 +59,13 @@ def scene_quality(path: str, bin_counts, split_values=("off",)) -> dict:
                                  "max": float(extent.max()), "over_1pct": int((extent > 0.01).sum()),
                                  "over_10pct": int((extent > 0.1).sum())},
            "builds": []}
-    for bins in bin_counts:
-        for splits in split_values:
-            cache_mod.build_bvh = functools.partial(build_bvh, bins=bins)  # what build_with calls
+    for bins, splits, axes in ((b, s, a) for b in bin_counts for s in split_values for a in axes_values):
+        if True:
+            # what build_with calls; it bins along each node's longest centroid axis or all three
+            # as $LIFT_GL_BVH_AXES says (accel/cache.py)
+            cache_mod.build_bvh = functools.partial(build_bvh, bins=bins)
+            previous_axes = os.environ.get(cache_mod.AXES_ENV_VAR)
+            os.environ[cache_mod.AXES_ENV_VAR] = axes
             try:
                 tracemalloc.start()
                 start = time.process_time()
@@ -70,13 +75,17 @@ def scene_quality(path: str, bin_counts, split_values=("off",)) -> dict:
                 tracemalloc.stop()
             finally:
                 cache_mod.build_bvh = build_bvh
+                if previous_axes is None:
+                    os.environ.pop(cache_mod.AXES_ENV_VAR, None)
+                else:
+                    os.environ[cache_mod.AXES_ENV_VAR] = previous_axes
             leaves = b.count[b.count > 0]
             area = _areas(b)
             interior = np.nonzero(b.count == 0)[0]
             child = b.first[interior]
             overlap = (area[child] + area[child + 1]) / np.maximum(area[interior], 1e-30)
             rows = int(b.order.size)
-            out["builds"].append({"bins": bins, "splits": splits, "cpu_s": cpu, "peak_mib": peak / 2**20,
+            out["builds"].append({"bins": bins, "splits": splits, "axes": axes, "cpu_s": cpu, "peak_mib": peak / 2**20,
                                   "rows": rows, "rows_over_triangles": rows / max(len(tris), 1),
                                   "gpu_mib": (b.num_nodes * 32 + rows * ROW_BYTES) / 2**20,
                                   "nodes": b.num_nodes, "depth": b.depth,
@@ -92,6 +101,7 @@ def main(argv=None) -> int:
     ap.add_argument("scenes", nargs="+")
     ap.add_argument("--bins", default="32,128")
     ap.add_argument("--splits", default="off", help="comma-separated $LIFT_GL_BVH_SPLITS values, e.g. off,auto")
+    ap.add_argument("--axes", default="longest", help="longest, all, or both: longest,all (accel/bvh.py all_axes)")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     results = []
@@ -99,16 +109,17 @@ def main(argv=None) -> int:
         if not Path(p).exists():
             print(f"skipped (not here): {p}", file=sys.stderr)
             continue
-        results.append(scene_quality(p, [int(b) for b in args.bins.split(",")], args.splits.split(",")))
+        results.append(scene_quality(p, [int(b) for b in args.bins.split(",")], args.splits.split(","),
+                                     args.axes.split(",")))
     print("| scene | triangles | tri extent / scene: median, p99 | tris > 1% / > 10% of it | bins | splits "
           "| rows / triangles | nodes | depth | tris/leaf | SAH cost | children/parent area (median, p90) "
           "| build CPU s | peak MiB | GPU MiB (nodes + rows) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         e = r["extent_over_scene"]
         for b in r["builds"]:
             print(f"| {r['scene']} | {r['triangles']:,} | {e['median']:.2g}, {e['p99']:.2g} | {e['over_1pct']:,} / "
-                  f"{e['over_10pct']:,} | {b['bins']} | {b['splits']} | {b['rows_over_triangles']:.3f} | "
+                  f"{e['over_10pct']:,} | {b['bins']} | {b['splits']} | {b.get('axes', 'longest')} | {b['rows_over_triangles']:.3f} | "
                   f"{b['nodes']:,} | {b['depth']} | {b['tris_per_leaf']:.2f} | "
                   f"{b['sah_cost']:.1f} | {b['children_over_parent_area_median']:.2f}, "
                   f"{b['children_over_parent_area_p90']:.2f} | {b['cpu_s']:.2f} | {b['peak_mib']:.0f} | "

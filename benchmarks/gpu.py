@@ -2,7 +2,8 @@
 
     python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
-                                     [--bvh-splits off,auto | --bvh-width 2,4 [--split-rounds 2]]
+                                     [--bvh-splits off,auto | --bvh-width 2,4 | --bvh-axes longest,all
+                                      [--split-rounds 2]]
     python benchmarks/gpu.py table FILE.json... [--md FILE.md]
 
 `measure`, for each scene, integrator and size: lift-gl bench's numbers
@@ -27,6 +28,8 @@ measure two versions of the renderer, alternately, on the same machine:
 `table` prints the results of one or more such files side by side (ratios to the first).
 `--bvh-splits off,auto` measures every case with the BVH built under each $LIFT_GL_BVH_SPLITS
 value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md);
+`--bvh-axes longest,all` for $LIFT_GL_BVH_AXES (the SAH builder's split planes along each
+node's longest axis or all three, accel/cache.py), and
 `--bvh-width 2,4` does the same for $LIFT_GL_BVH_WIDTH (the binary or 4-wide tree,
 accel/wide.py).
 """
@@ -518,11 +521,15 @@ def measure(args) -> int:
     # --bvh-splits A,B: the same cases with the BVH built under each setting (accel/presplit.py),
     # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
     # per setting and round, merged by best_of like repeated runs.
-    # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py).
-    if args.bvh_splits and args.bvh_width:
-        raise SystemExit("--bvh-splits and --bvh-width: one at a time")
-    axis, axis_var = ("width", WIDTH_VAR) if args.bvh_width else ("splits", SPLITS_VAR)
-    splits = [v.strip() for v in (args.bvh_width or args.bvh_splits or "").split(",") if v.strip()] or [None]
+    # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
+    # $LIFT_GL_BVH_AXES (accel/cache.py).
+    chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
+                                                          ("width", WIDTH_VAR, args.bvh_width),
+                                                          ("axes", AXES_VAR, args.bvh_axes)) if value]
+    if len(chosen) > 1:
+        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes: one at a time")
+    axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
+    splits = [v.strip() for v in values.split(",") if v.strip()] or [None]
     rounds = args.split_rounds if splits[0] is not None else 1
     runs = {(v, k): {"label": args.label + (f"{axis}={v}" if v is not None else ""), "machine": machine,
                      "gl": describe(ctx), "max_depth": args.max_depth, f"bvh_{axis}": v, "round": k, "results": []}
@@ -802,7 +809,7 @@ def wavefront_table(record: dict) -> str:
     return "\n".join(lines)
 
 
-SPLITS_VAR, WIDTH_VAR = "LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH"
+SPLITS_VAR, WIDTH_VAR, AXES_VAR = "LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH", "LIFT_GL_BVH_AXES"
 
 
 def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
@@ -963,6 +970,7 @@ def main(argv=None) -> int:
                    "measured under each, interleaved; --out FILE.json becomes FILE.splits-VALUE.json per value")
     m.add_argument("--bvh-width", help="comma-separated $LIFT_GL_BVH_WIDTH values (2,4,4q): as --bvh-splits, "
                    "--out FILE.json becoming FILE.width-VALUE.json")
+    m.add_argument("--bvh-axes", help="comma-separated $LIFT_GL_BVH_AXES values (longest,all): as --bvh-splits")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")

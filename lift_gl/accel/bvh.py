@@ -113,8 +113,48 @@ def _sah_sweep(n_rows: int, width: int, flat: np.ndarray, count: np.ndarray, lo:
     return cost[rows, best], l_cnt[rows, best]
 
 
+def _bin_keys(axis, c, c_lo, c_hi, n_bins, seg, bins, total):
+    """Each triangle's (node, bin) key for binning its node's centroids along `axis` (one per
+    node), the stable order that sorts the keys, and where each (node, bin) group starts in
+    that order."""
+    n_act = axis.size
+    ax_lo = c_lo[np.arange(n_act), axis]
+    extent = c_hi[np.arange(n_act), axis] - ax_lo
+    scale = np.where(extent > 0, n_bins / np.where(extent > 0, extent, 1.0), 0.0)
+    b = ((c[np.arange(total), axis[seg]] - ax_lo[seg]) * scale[seg]).astype(np.int64)
+    np.clip(b, 0, (n_bins - 1)[seg], out=b)
+    key = seg * bins + b
+    perm = np.argsort(key, kind="stable")
+    sorted_key = key[perm]
+    gstart = np.flatnonzero(np.concatenate(([True], sorted_key[1:] != sorted_key[:-1])))
+    return key, perm, gstart
+
+
+def _best_splits(sorted_key, d, gstart, total, bins, n_bins, forced, n_act, act_count):
+    """The cheapest plane split of each node from its (node, bin)-sorted triangles `d`:
+    (SAH cost numerator, left count) per node, cost inf where none or the node is forced."""
+    gkey = sorted_key[gstart]
+    gcount = np.diff(np.append(gstart, total))
+    glo = np.minimum.reduceat(d[:, 0:3], gstart, axis=0)
+    ghi = np.maximum.reduceat(d[:, 3:6], gstart, axis=0)
+    gseg, gbin = np.divmod(gkey, bins)
+    best_cost = np.full(n_act, np.inf)
+    n_left = act_count // 2
+    for width in sorted({int(w) for w in np.unique(n_bins)}):
+        sel = np.flatnonzero(~forced & (n_bins == width))
+        if sel.size:
+            row = np.full(n_act, -1, np.int64)
+            row[sel] = np.arange(sel.size)
+            g = np.flatnonzero(row[gseg] >= 0)
+            cost, nl = _sah_sweep(sel.size, width, row[gseg[g]] * width + gbin[g],
+                                  gcount[g], glo[g], ghi[g])
+            best_cost[sel] = cost
+            n_left[sel] = np.where(np.isfinite(cost), nl, n_left[sel])
+    return best_cost, n_left
+
+
 def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int = MAX_LEAF,
-              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT) -> BVH:
+              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT, all_axes: bool = False) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
     More generally (T, K, 3): primitive i is bounded by the box of its K points. A moving
@@ -122,7 +162,9 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     the box it sweeps (a linear motion stays inside the union of the two end boxes).
 
     Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
-    axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits. A node
+    axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits; with
+    `all_axes`, along each of the three axes, and the cheapest plane of all (about 2.3x the
+    build time; the SAH builder's default through accel/cache.py, docs/bvh.md). A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
     does not pay, or at depth max_depth (the traversal stack size); `min_split` = 2 with
     max_leaf = 1 gives one primitive a leaf (lbvh.py builds over clusters so). When all centroids
@@ -178,7 +220,7 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         nodes[act_node, 0:3] = node_lo
         nodes[act_node, 4:7] = node_hi
 
-        # --- bin centroids along each node's longest centroid axis -------------------------
+        # --- bin centroids along each node's longest centroid axis (or along each axis) ----
         # Small nodes get few bins: with <= SMALL_NODE triangles, SMALL_NODE bins are nearly an
         # exact sweep, and the dense per-node bin grids below are then 4x smaller. Deep levels
         # hold mostly small nodes, so this roughly halves the build time.
@@ -187,41 +229,32 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         # float64 here: extents of nearly coincident float32 centroids may be denormal-small
         c_lo = np.minimum.reduceat(c, seg_off, axis=0).astype(np.float64)
         c_hi = np.maximum.reduceat(c, seg_off, axis=0).astype(np.float64)
-        axis = np.argmax(c_hi - c_lo, axis=1)
-        ax_lo = c_lo[np.arange(n_act), axis]
-        extent = c_hi[np.arange(n_act), axis] - ax_lo
-        scale = np.where(extent > 0, n_bins / np.where(extent > 0, extent, 1.0), 0.0)
-        b = ((c[np.arange(total), axis[seg]] - ax_lo[seg]) * scale[seg]).astype(np.int64)
-        np.clip(b, 0, (n_bins - 1)[seg], out=b)
-        key = seg * bins + b
+        longest = np.argmax(c_hi - c_lo, axis=1)
+        candidates = [longest] if not all_axes else [np.full(n_act, k, np.int64) for k in range(3)]
+        best_cost = np.full(n_act, np.inf)
+        n_left = act_count // 2   # no separating plane (all centroids equal): cut by count
+        best_axis = longest.copy()
+        keys = []
+        for axis in candidates:
+            key, perm, gstart = _bin_keys(axis, c, c_lo, c_hi, n_bins, seg, bins, total)
+            keys.append(key)
+            if all_axes and len(candidates) > 1:
+                # the axis is judged on its own sorted copy; the chosen one is applied below
+                cost, nl = _best_splits(key[perm], d[perm], gstart, total, bins, n_bins, forced, n_act, act_count)
+                better = cost < best_cost
+                best_cost = np.where(better, cost, best_cost)
+                n_left = np.where(better & np.isfinite(cost), nl, n_left)
+                best_axis = np.where(better, axis, best_axis)
+        if len(candidates) > 1:   # each node's triangles in the order of its chosen axis's bins
+            chosen = np.take_along_axis(np.stack(keys, axis=1), best_axis[seg][:, None], axis=1)[:, 0]
+            perm = np.argsort(chosen, kind="stable")
         # Sorting by (node, bin) groups each bin's triangles contiguously inside its node's
         # range, so a split after bin k is simply "the first NL triangles of the range".
-        perm = np.argsort(key, kind="stable")
-        key = key[perm]
         d = d[perm]
         data[where] = d
         order[where] = order[where][perm]
-
-        # per (node, bin) group: count and triangle bounds
-        gstart = np.flatnonzero(np.concatenate(([True], key[1:] != key[:-1])))
-        gkey = key[gstart]
-        gcount = np.diff(np.append(gstart, total))
-        glo = np.minimum.reduceat(d[:, 0:3], gstart, axis=0)
-        ghi = np.maximum.reduceat(d[:, 3:6], gstart, axis=0)
-        gseg, gbin = np.divmod(gkey, bins)
-
-        best_cost = np.full(n_act, np.inf)
-        n_left = act_count // 2   # no separating plane (all centroids equal): cut by count
-        for width in sorted({int(w) for w in np.unique(n_bins)}):
-            sel = np.flatnonzero(~forced & (n_bins == width))
-            if sel.size:
-                row = np.full(n_act, -1, np.int64)
-                row[sel] = np.arange(sel.size)
-                g = np.flatnonzero(row[gseg] >= 0)
-                cost, nl = _sah_sweep(sel.size, width, row[gseg[g]] * width + gbin[g],
-                                      gcount[g], glo[g], ghi[g])
-                best_cost[sel] = cost
-                n_left[sel] = np.where(np.isfinite(cost), nl, n_left[sel])
+        if len(candidates) == 1:
+            best_cost, n_left = _best_splits(keys[0][perm], d, gstart, total, bins, n_bins, forced, n_act, act_count)
 
         area = _box_area(node_lo.astype(np.float64), node_hi.astype(np.float64))
         # only a node whose triangles are all one point has area 0; it has no plane split

@@ -25,6 +25,20 @@ BUILDER_ENV_VAR = "LIFT_GL_BVH_BUILDER"
 # make it trace faster on llvmpipe (docs/bvh.md has the measurements).
 BUILDERS = ("auto", "sah", "lbvh", "lbvh+sah")
 AUTO_LBVH_TRIANGLES = 1_000_000
+# The SAH builder's split planes: along each node's longest centroid axis, or the cheapest of
+# all three axes (bvh.py build_bvh all_axes; docs/bvh.md "Split planes on all three axes").
+AXES_ENV_VAR = "LIFT_GL_BVH_AXES"
+AXES = ("longest", "all")
+DEFAULT_AXES = "all"
+
+
+def resolve_axes(axes: str | None = None) -> str:
+    """longest or all (None: $LIFT_GL_BVH_AXES, else DEFAULT_AXES)."""
+    name = (axes or os.environ.get(AXES_ENV_VAR) or DEFAULT_AXES).strip().lower()
+    if name not in AXES:
+        raise ValueError(f"unknown BVH split axes {name!r} (from {'$' + AXES_ENV_VAR if axes is None else 'the caller'}); "
+                         f"choose one of {', '.join(AXES)}")
+    return name
 
 
 def _opencl_available() -> bool:
@@ -46,7 +60,7 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
 
 def _build_plain(tri_positions: np.ndarray, builder: str) -> BVH:
     if builder == "sah":
-        return build_bvh(tri_positions)
+        return build_bvh(tri_positions, all_axes=resolve_axes() == "all")
     from .lbvh import build_lbvh  # pyopencl, only for these builders
 
     return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
@@ -101,6 +115,8 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
     h.update(LAYOUT_VERSION.encode())
     if builder != "sah":  # the SAH keys stay what they were before there were other builders
         h.update(builder.encode())
+    elif resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
+        h.update(b"axes=all")
     if splits_apply(pos, splits):  # builds that splitting cannot change keep their keys
         h.update(splits.key().encode())
     h.update(repr(pos.shape).encode())
