@@ -116,6 +116,13 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # has risen, and the clock recorded after each timed run.
     clock = ClockReader(renderer.ctx.info.get("GL_RENDERER", ""))
     warm = warm_up(lambda: (renderer.render(spp=4 * spf), renderer.ctx.finish()), clock)
+    # On a GPU the trace pass times its two ways on its first frames, each between two
+    # finishes (passes/trace.py, TUNING_FRAMES): those end before the timed frames start.
+    trace = getattr(renderer, "trace", None)
+    for _ in range(64):
+        if getattr(trace, "tuning", None) is None:
+            break
+        renderer.render(spp=spf)
     frame_seconds, frame_mhz = [], []
     for _ in range(max(repeat, 1)):
         renderer.reset()
