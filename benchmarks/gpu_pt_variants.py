@@ -101,6 +101,23 @@ def define(name: str):
     return edit
 
 
+def stack_entries(n: int):
+    """The 4-wide traversal's stack declared with n entries instead of the tree's own bound
+    (LIFT_BVH_STACK_SIZE, accel/wide.stack_size): what the shared memory it takes costs."""
+    def edit(text):
+        text, k = re.subn(r"#define LIFT_BVH_STACK_SIZE \d+\n", f"#define LIFT_BVH_STACK_SIZE {n}\n", text)
+        if k != 1:
+            raise ValueError("variant edit: no LIFT_BVH_STACK_SIZE in the source (a binary tree?)")
+        return text
+    return edit
+
+
+def shared_depth(n: int):
+    """The top n entries of the traversal stack in shared memory (LIFT_BVH_SHARED_DEPTH, lift/bvh.glsl;
+    by default all of them), the rest spilled to a local array."""
+    return define(f"LIFT_BVH_SHARED_DEPTH {n}")
+
+
 # ---- bdpt diagnostics (issue 10: where bdpt's GPU time goes) ----
 # Each removes or replaces one part of bdpt's work; none keeps the image (except bdpt_unpacked's
 # rounding). Anchors are bdpt's source as of this script; an edit whose anchor is gone raises.
@@ -227,6 +244,13 @@ VARIANTS = {
     "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
     "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
     # the 4-wide tree's any-hit child orders (lift/bvh.glsl): the same shadow rays blocked
+    "shared8": (shared_depth(8), {}, True),
+    "shared16": (shared_depth(16), {}, True),
+    "shared24": (shared_depth(24), {}, True),
+    "stack16": (stack_entries(16), {}, True),   # exact only where the tree's bound is <= 16
+    "stack32": (stack_entries(32), {}, True),   # ... <= 32
+    "stack48": (stack_entries(48), {}, True),
+    "stack64": (stack_entries(64), {}, True),
     "any_nearest": (define("LIFT_BVH4_ANY_NEAREST"), {}, True),
     "any_leaves": (define("LIFT_BVH4_ANY_LEAVES_FIRST"), {}, True),
     "any_both": (compose(define("LIFT_BVH4_ANY_NEAREST"), define("LIFT_BVH4_ANY_LEAVES_FIRST")), {}, True),

@@ -141,17 +141,27 @@ def _case_triangles(case: str):
 
 
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
-@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
+@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q"), ("shared3", "4"),
+                                           ("shared3", "4q")])
 def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
+    """shared3: only the top 3 stack entries in shared memory, the deeper ones spilled to the
+    local array (LIFT_BVH_SHARED_DEPTH; by default the whole stack is shared)."""
     nodes, tris = _case_triangles(case)
     wide = wide_layout(nodes, layout)
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=7)
-    extra = {"LIFT_BVH_SHARED_STACK": 64} if stack == "shared" else {}   # the test kernel's 64 invocations
+    extra = {"LIFT_BVH_SHARED_STACK": 64} if stack.startswith("shared") else {}   # the test kernel's 64 invocations
+    if stack == "shared3":
+        extra["LIFT_BVH_SHARED_DEPTH"] = 3
     t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)
     t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=dict(WIDE[layout], **extra))
     assert found2.mean() > 0.3
+    if extra:   # the binary traversal on a shared (or spilling) stack finds what it finds on a local one
+        t_local, p_local, occ_local, found_local, _ = run_glsl(gl, nodes, tris, o, d)
+        np.testing.assert_array_equal(found2, found_local)
+        np.testing.assert_array_equal(t2[found2], t_local[found2])
+        np.testing.assert_array_equal(occ2, occ_local)
     np.testing.assert_array_equal(found4, found2)
     np.testing.assert_array_equal(t4[found2], t2[found2])     # the same nearest distance, bit for bit
     assert (p4 != p2).mean() < 1e-3                           # another primitive only at a tie
@@ -263,3 +273,20 @@ def test_bad_width_setting_is_refused(monkeypatch):
     monkeypatch.setenv(WIDTH_ENV_VAR, "3")
     with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
         Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+
+
+def test_the_shaders_declare_the_stack_the_tree_needs():
+    """LIFT_BVH_STACK_SIZE: the tree's own stack bound rounded up to a multiple of 8 (8 to
+    STACK), so a small scene's traversal takes a fraction of the shared memory; the renderer
+    compiles its passes with it (the images above are rendered so)."""
+    from lift_gl.accel.wide import stack_size
+    from lift_gl.renderer import Renderer
+
+    assert [stack_size(n) for n in (0, 1, 8, 9, 46, 64)] == [8, 8, 8, 16, 48, 64] and stack_size(99) == STACK
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(16, 16), integrator="pt")
+    try:
+        if r.packed.bvh_width == 4:
+            assert 0 < r.packed.bvh_stack <= r.defines["LIFT_BVH_STACK_SIZE"] == stack_size(r.packed.bvh_stack) < STACK
+            assert "#define LIFT_BVH_STACK_SIZE" in r.trace.source.text
+    finally:
+        r.release()

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import BVH, LAYOUT_VERSION, build_bvh, sah_cost
+from .bvh import BVH, LAYOUT_VERSION, SAH_BINS, build_bvh, sah_cost
 from .presplit import AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SplitSettings, presplit, resolve_splits
 
 ENV_VAR = "LIFT_GL_CACHE_DIR"
@@ -30,6 +30,19 @@ AUTO_LBVH_TRIANGLES = 1_000_000
 AXES_ENV_VAR = "LIFT_GL_BVH_AXES"
 AXES = ("longest", "all")
 DEFAULT_AXES = "all"
+
+
+BINS_ENV_VAR = "LIFT_GL_BVH_BINS"
+
+
+def resolve_bins() -> int:
+    """The SAH builder's bins per node: $LIFT_GL_BVH_BINS (8 to 256), else bvh.SAH_BINS."""
+    text = os.environ.get(BINS_ENV_VAR, "").strip()
+    if not text:
+        return SAH_BINS
+    if not text.isdigit() or not 8 <= int(text) <= 256:
+        raise ValueError(f"${BINS_ENV_VAR} must be a whole number from 8 to 256, not {text!r}")
+    return int(text)
 
 
 def resolve_axes(axes: str | None = None) -> str:
@@ -60,7 +73,7 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
 
 def _build_plain(tri_positions: np.ndarray, builder: str) -> BVH:
     if builder == "sah":
-        return build_bvh(tri_positions, all_axes=resolve_axes() == "all")
+        return build_bvh(tri_positions, bins=resolve_bins(), all_axes=resolve_axes() == "all")
     from .lbvh import build_lbvh  # pyopencl, only for these builders
 
     return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
@@ -115,8 +128,11 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
     h.update(LAYOUT_VERSION.encode())
     if builder != "sah":  # the SAH keys stay what they were before there were other builders
         h.update(builder.encode())
-    elif resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
-        h.update(b"axes=all")
+    else:
+        if resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
+            h.update(b"axes=all")
+        if resolve_bins() != SAH_BINS:
+            h.update(f"bins={resolve_bins()}".encode())
     if splits_apply(pos, splits):  # builds that splitting cannot change keep their keys
         h.update(splits.key().encode())
     h.update(repr(pos.shape).encode())

@@ -45,6 +45,15 @@ EMPTY = 0xFFFFFFFF
 # children are all hit pushes 3 of them, so the stack the tree needs is its largest sum of
 # (children - 1) along a root path (WideBVH.stack_bound); a tree that needs more stays binary.
 STACK = 64
+
+
+def stack_size(stack_bound: int) -> int:
+    """The traversal stack the shaders declare (LIFT_BVH_STACK_SIZE) for a tree whose
+    traversal needs `stack_bound` entries: rounded up to a multiple of 8, so that an edit that
+    deepens the tree a little recompiles nothing, and at most STACK. On GPUs the stack lives in
+    shared memory, which bounds how many warps an SM holds: a smaller one lets more run
+    (docs/gpu.md "A stack as deep as the tree needs")."""
+    return min(STACK, max(8, -(-int(stack_bound) // 8) * 8))
 # The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
 # pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
 # 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).

@@ -42,7 +42,16 @@ vec3 prim_displacement(uint prim) {
 #if defined(HAS_MOTION) || defined(HAS_INSTANCES)
 #error "the 4-wide BVH has no motion boxes and no BLAS roots: such scenes keep the binary tree (scene/pack.py)"
 #endif
+// The host declares the stack its tree needs (LIFT_BVH_STACK_SIZE, wide.stack_size: at most 64):
+// on GPUs it is shared memory, and a smaller one lets more warps run on an SM.
+#ifdef LIFT_BVH_STACK_SIZE
+#if LIFT_BVH_STACK_SIZE > 64
+#error "LIFT_BVH_STACK_SIZE above the 4-wide collapse's bound (wide.STACK)"
+#endif
+#define LIFT_BVH_STACK LIFT_BVH_STACK_SIZE
+#else
 #define LIFT_BVH_STACK 64
+#endif
 #else
 #define LIFT_BVH_STACK 48
 #endif
@@ -55,13 +64,37 @@ vec3 prim_displacement(uint prim) {
 // keeps its stack in one column of a shared array (consecutive invocations in consecutive
 // words: no bank conflicts). No two traversals of one invocation overlap, so they share it.
 // Otherwise (CPU rasterizers, fragment shaders, other hosts) the stack is a local array.
+//
+// Shared memory is also what bounds how many warps an SM runs at once (a 64-entry stack in
+// 8x4 groups: 8 KiB a group), hence a stack only as deep as the scene's tree needs
+// (LIFT_BVH_STACK_SIZE above). LIFT_BVH_SHARED_DEPTH n (a host's option) keeps only the top n
+// entries of each stack in shared memory and spills the deeper ones to a local array: on the
+// H100 that made pt's trace slower (its rays often go deeper than 16 entries and local memory
+// is slow) though the light ray-casting kernels gained (docs/gpu.md "A stack as deep as the
+// tree needs"), so by default the whole stack is shared. Entries are written with
+// LIFT_BVH_STACK_SET(i, v) and read with LIFT_BVH_STACK_GET(i) (i without side effects: it
+// may be evaluated twice).
 #ifdef LIFT_BVH_SHARED_STACK
+#ifndef LIFT_BVH_SHARED_DEPTH
+#define LIFT_BVH_SHARED_DEPTH LIFT_BVH_STACK
+#endif
+#if LIFT_BVH_SHARED_DEPTH >= LIFT_BVH_STACK
 shared uint lift_bvh_stack[LIFT_BVH_STACK * LIFT_BVH_SHARED_STACK];
 #define LIFT_BVH_STACK_DECLARE
-#define LIFT_BVH_STACK_AT(i) lift_bvh_stack[uint(i) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex]
+#define LIFT_BVH_SHARED_AT(i) lift_bvh_stack[uint(i) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex]
+#define LIFT_BVH_STACK_SET(i, v) LIFT_BVH_SHARED_AT(i) = (v)
+#define LIFT_BVH_STACK_GET(i) LIFT_BVH_SHARED_AT(i)
+#else
+shared uint lift_bvh_stack[LIFT_BVH_SHARED_DEPTH * LIFT_BVH_SHARED_STACK];
+#define LIFT_BVH_STACK_DECLARE uint lift_bvh_spill[LIFT_BVH_STACK - LIFT_BVH_SHARED_DEPTH];
+#define LIFT_BVH_SHARED_AT(i) lift_bvh_stack[uint(i) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex]
+#define LIFT_BVH_STACK_SET(i, v) if ((i) < LIFT_BVH_SHARED_DEPTH) LIFT_BVH_SHARED_AT(i) = (v); else lift_bvh_spill[(i) - LIFT_BVH_SHARED_DEPTH] = (v)
+#define LIFT_BVH_STACK_GET(i) ((i) < LIFT_BVH_SHARED_DEPTH ? LIFT_BVH_SHARED_AT(i) : lift_bvh_spill[(i) - LIFT_BVH_SHARED_DEPTH])
+#endif
 #else
 #define LIFT_BVH_STACK_DECLARE uint lift_bvh_stack[LIFT_BVH_STACK];
-#define LIFT_BVH_STACK_AT(i) lift_bvh_stack[i]
+#define LIFT_BVH_STACK_SET(i, v) lift_bvh_stack[i] = (v)
+#define LIFT_BVH_STACK_GET(i) lift_bvh_stack[i]
 #endif
 
 // With LIFT_COUNT_RAYS (lift-gl bench), each invocation counts its traversals here and the
@@ -338,15 +371,15 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
             if (n == 0u) {
                 if (sp == 0) { live = false; break; }
-                cur = LIFT_BVH_STACK_AT(--sp);
+                { --sp; cur = LIFT_BVH_STACK_GET(sp); }
                 continue;
             }
             uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
             LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3)
             // the collapse bounds the pushes of any root path by LIFT_BVH_STACK
-            if (n > 3u) LIFT_BVH_STACK_AT(sp++) = e3;
-            if (n > 2u) LIFT_BVH_STACK_AT(sp++) = e2;
-            if (n > 1u) LIFT_BVH_STACK_AT(sp++) = e1;
+            if (n > 3u) { LIFT_BVH_STACK_SET(sp, e3); ++sp; }
+            if (n > 2u) { LIFT_BVH_STACK_SET(sp, e2); ++sp; }
+            if (n > 1u) { LIFT_BVH_STACK_SET(sp, e1); ++sp; }
             cur = e0;
         }
         if (!live) break;
@@ -361,7 +394,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             }
         }
         if (sp == 0) break;
-        cur = LIFT_BVH_STACK_AT(--sp);
+        { --sp; cur = LIFT_BVH_STACK_GET(sp); }
     }
     return found;
 }
@@ -418,19 +451,19 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
             bool have = false;
             uint next = 0u;
             if (h3) { next = e3; have = true; }
-            if (h2) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e2; have = true; }
-            if (h1) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e1; have = true; }
-            if (h0) { if (have) LIFT_BVH_STACK_AT(sp++) = next; next = e0; have = true; }
+            if (h2) { if (have) { LIFT_BVH_STACK_SET(sp, next); ++sp; } next = e2; have = true; }
+            if (h1) { if (have) { LIFT_BVH_STACK_SET(sp, next); ++sp; } next = e1; have = true; }
+            if (h0) { if (have) { LIFT_BVH_STACK_SET(sp, next); ++sp; } next = e0; have = true; }
             if (have) {
                 cur = next;
             } else {
                 if (sp == 0) return false;
-                cur = LIFT_BVH_STACK_AT(--sp);
+                { --sp; cur = LIFT_BVH_STACK_GET(sp); }
             }
         }
         if (lift_bvh4_any_leaf(cur, ray, shear, t)) return true;
         if (sp == 0) return false;
-        cur = LIFT_BVH_STACK_AT(--sp);
+        { --sp; cur = LIFT_BVH_STACK_GET(sp); }
     }
     return false;
 }
@@ -460,13 +493,13 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
             if (ha && hb && sp < LIFT_BVH_STACK) {   // the bound holds by construction
                 bool a_first = ta <= tb;
-                LIFT_BVH_STACK_AT(sp) = a_first ? first + 1u : first;
+                LIFT_BVH_STACK_SET(sp, a_first ? first + 1u : first);
                 ++sp;
                 node = a_first ? first : first + 1u;
             } else if (ha || hb) {
                 node = ha ? first : first + 1u;
             } else if (sp > 0) {
-                node = LIFT_BVH_STACK_AT(--sp);
+                { --sp; node = LIFT_BVH_STACK_GET(sp); }
             } else {
                 live = false;
                 break;
@@ -483,7 +516,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             }
         }
         live = live && sp > 0;
-        if (live) node = LIFT_BVH_STACK_AT(--sp);
+        if (live) { --sp; node = LIFT_BVH_STACK_GET(sp); }
     }
     return found;
 }
@@ -506,13 +539,13 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
             bool ha = lift_bvh_box(first, ray.origin, inv, ray.tmin, t, ta);
             bool hb = lift_bvh_box(first + 1u, ray.origin, inv, ray.tmin, t, tb);
             if (ha && hb && sp < LIFT_BVH_STACK) {
-                LIFT_BVH_STACK_AT(sp) = first + 1u;
+                LIFT_BVH_STACK_SET(sp, first + 1u);
                 ++sp;
                 node = first;
             } else if (ha || hb) {
                 node = ha ? first : first + 1u;
             } else if (sp > 0) {
-                node = LIFT_BVH_STACK_AT(--sp);
+                { --sp; node = LIFT_BVH_STACK_GET(sp); }
             } else {
                 return false;
             }
@@ -524,7 +557,7 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
             if (lift_intersect_triangle(ray, shear, i, t, bary)) return true;
         }
         if (sp == 0) return false;
-        node = LIFT_BVH_STACK_AT(--sp);
+        { --sp; node = LIFT_BVH_STACK_GET(sp); }
     }
     return false;
 }
