@@ -208,6 +208,8 @@ def test_auto_on_a_gpu_times_both_ways_and_keeps_the_faster(monkeypatch):
     from lift_gl.passes.trace import TUNING_FRAMES
 
     monkeypatch.setattr(context, "is_software", lambda ctx: False)   # wavefront_mode's view only
+    monkeypatch.setattr("lift_gl.passes.trace.TUNING_DELAY_S", 0.0)  # timed from the first frame
+    monkeypatch.setattr("lift_gl.passes.trace.TUNING_CLOSE", 0.0)    # one block of frames decides
     scene = load_scene(REPO / "scenes" / "cornell.toml")
     reference, _, _, _ = _render(monkeypatch, "off", scene, spp=2 * TUNING_FRAMES + 2)
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
@@ -241,6 +243,8 @@ def test_tuning_frames_take_the_ways_in_the_order_abba(monkeypatch):
 
     assert [tuning_way(i) for i in range(8)] == ["megakernel", "wavefront", "wavefront", "megakernel"] * 2
     monkeypatch.setattr(context, "is_software", lambda ctx: False)
+    monkeypatch.setattr("lift_gl.passes.trace.TUNING_DELAY_S", 0.0)
+    monkeypatch.setattr("lift_gl.passes.trace.TUNING_CLOSE", 0.0)
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
     r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
     try:
@@ -252,6 +256,49 @@ def test_tuning_frames_take_the_ways_in_the_order_abba(monkeypatch):
         assert ways == [tuning_way(i) == "wavefront" for i in range(2 * TUNING_FRAMES)]
         ms = r.trace.tuned_ms
         assert ms is not None and abs(ms["megakernel"] - ms["wavefront"]) < 1e-9
+    finally:
+        r.release()
+
+
+def test_tuning_waits_for_the_clock_and_times_close_ways_longer(monkeypatch):
+    """The frames of the first TUNING_DELAY_S run the megakernel untimed (a GPU's clock is
+    still rising); then blocks of 2 x TUNING_FRAMES timed frames, another block while the two
+    medians are within TUNING_CLOSE, at most TUNING_ROUNDS blocks. Fake clock and frame times."""
+    import lift_gl.gl.context as context
+    import lift_gl.passes.trace as trace_mod
+
+    monkeypatch.setattr(context, "is_software", lambda ctx: False)
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setattr(trace_mod, "TUNING_DELAY_S", 0.05)
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
+    try:
+        clock = {"now": 0.0}
+        frame_s = {"megakernel": 0.010, "wavefront": 0.0102}   # 2% apart: close
+
+        def fake_run(uniforms, visibility, as_wavefront):
+            ways.append(as_wavefront)
+            clock["now"] += frame_s["wavefront" if as_wavefront else "megakernel"]
+
+        monkeypatch.setattr(trace_mod, "time", SimpleNamespace(perf_counter=lambda: clock["now"]))
+        ways = []
+        r.trace._run = fake_run
+        r.render(spp=5)   # 50 ms of megakernel frames: the delay, untimed
+        assert ways == [False] * 5 and all(len(t) == 0 for t in r.trace.tuning.values())
+        n = 2 * trace_mod.TUNING_FRAMES
+        r.render(spp=n)
+        assert r.trace.tuning is not None                  # close: a second block
+        r.render(spp=n * (trace_mod.TUNING_ROUNDS - 1))
+        assert r.trace.tuning is None and r.trace.wavefront is None   # the last block decided
+        # far apart: one block decides
+        r2 = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
+        try:
+            frame_s["wavefront"] = 0.007
+            r2.trace._run = fake_run
+            monkeypatch.setattr(trace_mod, "TUNING_DELAY_S", 0.0)
+            r2.render(spp=n)
+            assert r2.trace.tuning is None and r2.trace.wavefront is not None
+        finally:
+            r2.release()
     finally:
         r.release()
 

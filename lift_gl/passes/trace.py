@@ -32,8 +32,9 @@ $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways
 
 A plugin with LIFT_PATH_STEPS may run as a wavefront instead (a dispatch per path vertex over
 the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
-forces it; auto (the default) on a GPU times both ways on the first frames and keeps the
-faster (on an H100 each won on some scenes, docs/gpu.md), on a CPU rasterizer stays off.
+forces it; auto (the default) on a GPU times both ways on its first frames (after the
+clock has had TUNING_DELAY_S to rise) and keeps the faster (on an H100 each won on some
+scenes, docs/gpu.md), on a CPU rasterizer stays off.
 """
 from __future__ import annotations
 
@@ -50,8 +51,15 @@ from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_mode
 
 # Frames each way ($LIFT_GL_WAVEFRONT auto on a GPU) before the trace pass keeps the faster:
-# medians of 4 frames of 2-30 ms told the H100's ways apart by 6-27% (docs/gpu.md).
+# medians of 4 frames of 2-30 ms told the H100's ways apart by 6-27% (docs/gpu.md). Where the
+# medians are within TUNING_CLOSE of each other, another 4 each, up to TUNING_ROUNDS blocks.
+# The timing starts TUNING_DELAY_S after the first frame (the megakernel runs until then): an
+# idle GPU's clock takes a few hundred milliseconds to rise (report/gpu_clock.py), and one
+# call's dining room, timed from its first frame at the idle clock, kept the slower way.
 TUNING_FRAMES = 4
+TUNING_CLOSE = 0.05
+TUNING_ROUNDS = 3
+TUNING_DELAY_S = 0.3
 
 
 def tuning_way(frame: int) -> str:
@@ -235,6 +243,7 @@ class TracePass:
         # "faster": both ways timed on the first frames, alternately, then the faster kept
         self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
         self.tuned_ms = None  # once chosen: each way's median frame ms
+        self._tuning_from = None  # when the timed frames may start (TUNING_DELAY_S)
         if mode != "off":
             self.wavefront_fallback = fallback_reason(plugin, self.source.text, defines)
             if self.wavefront_fallback is None:
@@ -250,17 +259,28 @@ class TracePass:
         if self.tuning is None:
             self._run(uniforms, visibility, self.wavefront is not None)
             return
-        # Choosing: this frame's way in the order A B B A (a GPU's clock rising from idle over
-        # these frames then slows both alike), its wall time between two finishes (a timer
-        # query could not nest in the renderer's per-pass one)
-        way = tuning_way(sum(len(t) for t in self.tuning.values()))
+        if TUNING_DELAY_S > 0:   # the first frames, while the GPU's clock rises: not timed
+            now = time.perf_counter()
+            if self._tuning_from is None:
+                self._tuning_from = now + TUNING_DELAY_S
+            if now < self._tuning_from:
+                self._run(uniforms, visibility, False)
+                return
+        # Choosing: this frame's way in the order A B B A (a GPU's clock rising over these
+        # frames then slows both alike), its wall time between two finishes (a timer query
+        # could not nest in the renderer's per-pass one)
+        timed = sum(len(t) for t in self.tuning.values())
+        way = tuning_way(timed)
         self.ctx.finish()
         start = time.perf_counter()
         self._run(uniforms, visibility, way == "wavefront")
         self.ctx.finish()
         self.tuning[way].append(time.perf_counter() - start)
-        if min(len(t) for t in self.tuning.values()) >= TUNING_FRAMES:
-            self._keep_the_faster()
+        if (timed + 1) % (2 * TUNING_FRAMES) == 0:
+            ms = [float(np.median(t)) for t in self.tuning.values()]
+            close = abs(ms[0] - ms[1]) < TUNING_CLOSE * min(ms)
+            if not close or timed + 1 >= 2 * TUNING_FRAMES * TUNING_ROUNDS:
+                self._keep_the_faster()
 
     def _keep_the_faster(self) -> None:
         """The median of each way's timed frames decides; a megakernel kept frees the wavefront's slots."""

@@ -115,13 +115,14 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # An idle GPU runs at a low clock until kept busy (report/gpu_clock.py): frames until it
     # has risen, and the clock recorded after each timed run.
     clock = ClockReader(renderer.ctx.info.get("GL_RENDERER", ""))
-    warm = warm_up(lambda: (renderer.render(spp=4 * spf), renderer.ctx.finish()), clock)
+    # 16 frames a step: a step of a few frames of a small scene left the GPU idle between
+    # calls, and its clock then stayed down
+    warm = warm_up(lambda: (renderer.render(spp=16 * spf), renderer.ctx.finish()), clock)
     # On a GPU the trace pass times its two ways on its first frames, each between two
-    # finishes (passes/trace.py, TUNING_FRAMES): those end before the timed frames start.
+    # finishes (passes/trace.py, TUNING_*): those end before the timed frames start.
     trace = getattr(renderer, "trace", None)
-    for _ in range(64):
-        if getattr(trace, "tuning", None) is None:
-            break
+    give_up = time.perf_counter() + 20.0
+    while getattr(trace, "tuning", None) is not None and time.perf_counter() < give_up:
         renderer.render(spp=spf)
     frame_seconds, frame_mhz = [], []
     for _ in range(max(repeat, 1)):
