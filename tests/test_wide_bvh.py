@@ -11,7 +11,7 @@ import pytest
 from conftest import REPO
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
 from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, LEAF_BIT, MAX_FIRST, ROWS, STACK, WIDTH_ENV_VAR, collapse,
-                                decoded_boxes, intersect_wide_numpy, quantize, resolve_width, wide_layout)
+                                decoded_boxes, intersect_wide_numpy, quantize, resolve_width, stack_size, wide_layout)
 from lift_gl.errors import LiftError
 from lift_gl.scene.loader import load_scene
 from lift_gl.scene.pack import pack_scene
@@ -155,7 +155,9 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     if stack == "shared3":
         extra["LIFT_BVH_SHARED_DEPTH"] = 3
     t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)
-    t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=dict(WIDE[layout], **extra))
+    # the wide traversal with the stack the renderer declares for this tree (wide.stack_size)
+    tight = dict(WIDE[layout], LIFT_BVH_STACK_SIZE=stack_size(wide.stack_bound), **extra)
+    t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=tight)
     assert found2.mean() > 0.3
     if extra:   # the binary traversal on a shared (or spilling) stack finds what it finds on a local one
         t_local, p_local, occ_local, found_local, _ = run_glsl(gl, nodes, tris, o, d)
@@ -169,7 +171,7 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     # any-hit on bounded intervals (shadow rays): ending before, at and after the nearest hit
     tmax = np.where(found2, t2, 1.0).astype(np.float64) * np.random.default_rng(3).uniform(0.5, 1.5, len(o))
     _, _, occ2, _, _ = run_glsl(gl, nodes, tris, o, d, tmax=tmax.astype(np.float32), defines=extra)
-    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax.astype(np.float32), defines=dict(WIDE[layout], **extra))
+    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax.astype(np.float32), defines=tight)
     assert 0.1 < occ2.mean() < 0.9
     np.testing.assert_array_equal(occ4, occ2)
 
@@ -279,7 +281,6 @@ def test_the_shaders_declare_the_stack_the_tree_needs():
     """LIFT_BVH_STACK_SIZE: the tree's own stack bound rounded up to a multiple of 8 (8 to
     STACK), so a small scene's traversal takes a fraction of the shared memory; the renderer
     compiles its passes with it (the images above are rendered so)."""
-    from lift_gl.accel.wide import stack_size
     from lift_gl.renderer import Renderer
 
     assert [stack_size(n) for n in (0, 1, 8, 9, 46, 64)] == [8, 8, 8, 16, 48, 64] and stack_size(99) == STACK
