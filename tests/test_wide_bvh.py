@@ -291,3 +291,35 @@ def test_the_shaders_declare_the_stack_the_tree_needs():
             assert "#define LIFT_BVH_STACK_SIZE" in r.trace.source.text
     finally:
         r.release()
+
+
+def test_an_edit_that_deepens_the_tree_recompiles_with_the_deeper_stack():
+    """A geometry edit whose tree needs a deeper stack changes LIFT_BVH_STACK_SIZE: the passes
+    are recompiled with it, and the frame equals a fresh renderer's."""
+    import dataclasses
+
+    from lift_gl.renderer import Renderer
+    from lift_gl.scene.model import Mesh
+
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    tris = soup(6000, seed=31, size=0.05, degenerate=False).astype(np.float64)
+    pts = np.concatenate([m.positions for m in scene.meshes])
+    box_lo, box_hi = pts.min(axis=0), pts.max(axis=0)
+    tris = box_lo + (0.2 + 0.3 * tris) * (box_hi - box_lo)    # a cloud of small triangles inside the room
+    cloud = Mesh("cloud", tris.reshape(-1, 3), np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3),
+                 scene.meshes[0].material)
+    bigger = dataclasses.replace(scene, meshes=[*scene.meshes, cloud])
+    r = Renderer(scene, size=(32, 32), integrator="pt", seed=1)
+    try:
+        before = r.defines["LIFT_BVH_STACK_SIZE"]
+        r.update_scene(bigger)
+        after = r.defines["LIFT_BVH_STACK_SIZE"]
+        assert after > before and f"#define LIFT_BVH_STACK_SIZE {after}" in r.trace.source.text
+        image = r.render(spp=2)
+        fresh = Renderer(bigger, size=(32, 32), integrator="pt", seed=1)
+        try:
+            np.testing.assert_array_equal(image, fresh.render(spp=2))
+        finally:
+            fresh.release()
+    finally:
+        r.release()
