@@ -50,6 +50,50 @@ def test_without_nvml_every_reading_is_none_and_only_the_minimum_runs():
     assert len(steps) == 2 and out["reached"] is None
 
 
+class FakeNVML:
+    """NVML's calls as ClockReader makes them (ctypes byref arguments), over two GPUs."""
+
+    NAMES = (b"NVIDIA A100-SXM4-40GB", b"NVIDIA H100 80GB HBM3")
+    CLOCKS = ((1410, 1410), (1755, 1980))      # (now, max) per device
+
+    def nvmlInit_v2(self):
+        return 0
+
+    def nvmlDeviceGetCount_v2(self, count):
+        count._obj.value = len(self.NAMES)
+        return 0
+
+    def nvmlDeviceGetHandleByIndex_v2(self, i, handle):
+        handle._obj.value = i + 1
+        return 0
+
+    def nvmlDeviceGetName(self, handle, buf, size):
+        buf.value = self.NAMES[handle.value - 1]
+        return 0
+
+    def nvmlDeviceGetClockInfo(self, handle, kind, mhz):
+        mhz._obj.value = self.CLOCKS[handle.value - 1][0]
+        return 0
+
+    def nvmlDeviceGetMaxClockInfo(self, handle, kind, mhz):
+        mhz._obj.value = self.CLOCKS[handle.value - 1][1]
+        return 0
+
+
+def test_the_reader_follows_the_gl_renderer(monkeypatch):
+    """The GPU GL renders on is found by name among several; a GL that is not NVIDIA's
+    (llvmpipe, an integrated GPU beside an NVIDIA card) gets no readings, so no other GPU's
+    clock is read or waited for; no renderer name (a CUDA program): device 0."""
+    import lift_gl.report.gpu_clock as gpu_clock
+
+    monkeypatch.setattr(gpu_clock.ctypes, "CDLL", lambda name: FakeNVML())
+    h100 = ClockReader("NVIDIA H100 80GB HBM3/PCIe/SSE2")
+    assert h100.sample() == {"sm_mhz": 1755, "max_sm_mhz": 1980}
+    assert ClockReader().sample() == {"sm_mhz": 1410, "max_sm_mhz": 1410}
+    other = ClockReader("llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not other.available and other.sample() == {"sm_mhz": None, "max_sm_mhz": None}
+
+
 def test_bench_records_the_clock_field(tmp_path):
     """lift-gl bench's JSON carries sm_clock (readings None here), and its line says nothing
     of a clock it could not read."""

@@ -21,11 +21,15 @@ NVML_SUCCESS = 0
 
 
 class ClockReader:
-    """SM clock readings of one NVIDIA GPU (the first whose name is in `renderer_name`, the
-    GL renderer string, else device 0); every method returns None where NVML is missing."""
+    """SM clock readings of one NVIDIA GPU: the one whose name is in `renderer_name`, the GL
+    renderer string (a GL that is not NVIDIA's, say an integrated GPU beside an NVIDIA one,
+    gets no readings), or with None (a CUDA program such as Mitsuba) device 0. Every method
+    returns None where there is nothing to read."""
 
-    def __init__(self, renderer_name: str = "", library: str = "libnvidia-ml.so.1"):
+    def __init__(self, renderer_name: str | None = None, library: str = "libnvidia-ml.so.1"):
         self._lib = self._handle = None
+        if renderer_name is not None and "nvidia" not in renderer_name.lower():
+            return
         try:
             lib = ctypes.CDLL(library)
             if lib.nvmlInit_v2() != NVML_SUCCESS:
@@ -42,7 +46,7 @@ class ClockReader:
             self._lib, self._handle = lib, handles[0]
             for h in handles:  # several GPUs: the one GL renders on, by name
                 name = ctypes.create_string_buffer(96)
-                if lib.nvmlDeviceGetName(h, name, 96) == NVML_SUCCESS and name.value.decode() in renderer_name:
+                if lib.nvmlDeviceGetName(h, name, 96) == NVML_SUCCESS and name.value.decode() in (renderer_name or ""):
                     self._handle = h
                     break
         except (OSError, AttributeError):
