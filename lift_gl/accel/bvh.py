@@ -230,31 +230,29 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         c_lo = np.minimum.reduceat(c, seg_off, axis=0).astype(np.float64)
         c_hi = np.maximum.reduceat(c, seg_off, axis=0).astype(np.float64)
         longest = np.argmax(c_hi - c_lo, axis=1)
-        candidates = [longest] if not all_axes else [np.full(n_act, k, np.int64) for k in range(3)]
+        candidates = [np.full(n_act, k, np.int64) for k in range(3)] if all_axes else [longest]
         best_cost = np.full(n_act, np.inf)
         n_left = act_count // 2   # no separating plane (all centroids equal): cut by count
         best_axis = longest.copy()
         keys = []
-        for axis in candidates:
+        for axis in candidates:   # each axis judged on its own (node, bin)-sorted copy
             key, perm, gstart = _bin_keys(axis, c, c_lo, c_hi, n_bins, seg, bins, total)
             keys.append(key)
-            if all_axes and len(candidates) > 1:
-                # the axis is judged on its own sorted copy; the chosen one is applied below
-                cost, nl = _best_splits(key[perm], d[perm], gstart, total, bins, n_bins, forced, n_act, act_count)
-                better = cost < best_cost
-                best_cost = np.where(better, cost, best_cost)
-                n_left = np.where(better & np.isfinite(cost), nl, n_left)
-                best_axis = np.where(better, axis, best_axis)
+            sorted_d = d[perm]
+            cost, nl = _best_splits(key[perm], sorted_d, gstart, total, bins, n_bins, forced, n_act, act_count)
+            better = cost < best_cost
+            best_cost = np.where(better, cost, best_cost)
+            n_left = np.where(better & np.isfinite(cost), nl, n_left)
+            best_axis = np.where(better, axis, best_axis)
         if len(candidates) > 1:   # each node's triangles in the order of its chosen axis's bins
             chosen = np.take_along_axis(np.stack(keys, axis=1), best_axis[seg][:, None], axis=1)[:, 0]
             perm = np.argsort(chosen, kind="stable")
+            sorted_d = d[perm]
         # Sorting by (node, bin) groups each bin's triangles contiguously inside its node's
         # range, so a split after bin k is simply "the first NL triangles of the range".
-        d = d[perm]
+        d = sorted_d
         data[where] = d
         order[where] = order[where][perm]
-        if len(candidates) == 1:
-            best_cost, n_left = _best_splits(keys[0][perm], d, gstart, total, bins, n_bins, forced, n_act, act_count)
 
         area = _box_area(node_lo.astype(np.float64), node_hi.astype(np.float64))
         # only a node whose triangles are all one point has area 0; it has no plane split
