@@ -30,8 +30,6 @@ AUTO_LBVH_TRIANGLES = 1_000_000
 AXES_ENV_VAR = "LIFT_GL_BVH_AXES"
 AXES = ("longest", "all")
 DEFAULT_AXES = "all"
-
-
 BINS_ENV_VAR = "LIFT_GL_BVH_BINS"
 
 
@@ -45,12 +43,11 @@ def resolve_bins() -> int:
     return int(text)
 
 
-def resolve_axes(axes: str | None = None) -> str:
-    """longest or all (None: $LIFT_GL_BVH_AXES, else DEFAULT_AXES)."""
-    name = (axes or os.environ.get(AXES_ENV_VAR) or DEFAULT_AXES).strip().lower()
+def resolve_axes() -> str:
+    """longest or all: $LIFT_GL_BVH_AXES, else DEFAULT_AXES."""
+    name = (os.environ.get(AXES_ENV_VAR) or DEFAULT_AXES).strip().lower()
     if name not in AXES:
-        raise ValueError(f"unknown BVH split axes {name!r} (from {'$' + AXES_ENV_VAR if axes is None else 'the caller'}); "
-                         f"choose one of {', '.join(AXES)}")
+        raise ValueError(f"unknown BVH split axes {name!r} (from ${AXES_ENV_VAR}); choose one of {', '.join(AXES)}")
     return name
 
 
@@ -131,8 +128,9 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
     else:
         if resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
             h.update(b"axes=all")
-        if resolve_bins() != SAH_BINS:
-            h.update(f"bins={resolve_bins()}".encode())
+        bins = resolve_bins()
+        if bins != SAH_BINS:
+            h.update(f"bins={bins}".encode())
     if splits_apply(pos, splits):  # builds that splitting cannot change keep their keys
         h.update(splits.key().encode())
     h.update(repr(pos.shape).encode())

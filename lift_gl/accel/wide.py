@@ -54,6 +54,8 @@ def stack_size(stack_bound: int) -> int:
     shared memory, which bounds how many warps an SM holds: a smaller one lets more run
     (docs/gpu.md "A stack as deep as the tree needs")."""
     return min(STACK, max(8, -(-int(stack_bound) // 8) * 8))
+
+
 # The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
 # pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
 # 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).
