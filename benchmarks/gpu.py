@@ -478,11 +478,15 @@ def ab(args) -> int:
             r.release()
             if args.out:
                 args.out.write_text(json.dumps(record, indent=1))
-    text = ab_table(record)
-    print(text)
-    if args.md:
-        args.md.write_text(text + "\n")
+    show_table(ab_table(record), args.md)
     return 0
+
+
+def show_table(text: str, md: Path | None) -> None:
+    """Print a markdown table, and write it to `md` too when given (--md)."""
+    print(text)
+    if md:
+        md.write_text(text + "\n")
 
 
 def portable(path) -> str:
@@ -752,10 +756,7 @@ def wavefront_cmd(args) -> int:
             if args.out:
                 args.out.parent.mkdir(parents=True, exist_ok=True)
                 args.out.write_text(json.dumps(record, indent=1))
-    text = wavefront_table(record)
-    print(text)
-    if args.md:
-        args.md.write_text(text + "\n")
+    show_table(wavefront_table(record), args.md)
     return 0
 
 
@@ -940,17 +941,11 @@ def table_cmd(args) -> int:
     for f in args.files:
         rec = json.loads(Path(f).read_text())
         if "variants" in rec:  # an `ab` record
-            text = ab_table(rec)
-            print(text)
-            if args.md:
-                args.md.write_text(text + "\n")
+            show_table(ab_table(rec), args.md)
             return 0
         by_label.setdefault(rec.get("label") or f, []).append(rec)
     records = [best_of(recs) for recs in by_label.values()]
-    text = render_tables(records)
-    print(text)
-    if args.md:
-        args.md.write_text(text + "\n")
+    show_table(render_tables(records), args.md)
     return 0
 
 
