@@ -30,6 +30,7 @@ measure two versions of the renderer, alternately, on the same machine:
 value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md);
 `--bvh-axes longest,all` for $LIFT_GL_BVH_AXES (the SAH builder's split planes along each
 node's longest axis or all three, accel/cache.py), `--bvh-bins 32,128` for $LIFT_GL_BVH_BINS,
+`--bvh-stack-entries children,groups` for $LIFT_GL_BVH_STACK_ENTRIES (the 4-wide traversal's stack entries),
 and
 `--bvh-width 2,4` does the same for $LIFT_GL_BVH_WIDTH (the binary or 4-wide tree,
 accel/wide.py).
@@ -59,7 +60,8 @@ LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakf
 
 RAY_KINDS = ("primary", "shadow", "bounce")
 # The renderer's defines the ray-kind shader takes: spheres, and the BVH's layout and stack (accel/wide.py).
-RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH", "LIFT_BVH_QUANTIZED", "LIFT_BVH_STACK_SIZE")
+RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH", "LIFT_BVH_QUANTIZED", "LIFT_BVH_STACK_SIZE", "LIFT_BVH_GROUP_STACK",
+                      "LIFT_BVH_SHARED_DEPTH")
 
 # Compiled by ray_program, in the trace pass's work-group shape and BVH stack placement.
 RAY_SHADER = """
@@ -527,13 +529,14 @@ def measure(args) -> int:
     # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
     # per setting and round, merged by best_of like repeated runs.
     # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
-    # $LIFT_GL_BVH_AXES (accel/cache.py).
+    # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py).
     chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
                                                           ("width", WIDTH_VAR, args.bvh_width),
                                                           ("axes", AXES_VAR, args.bvh_axes),
-                                                          ("bins", BINS_VAR, args.bvh_bins)) if value]
+                                                          ("bins", BINS_VAR, args.bvh_bins),
+                                                          ("entries", STACK_VAR, args.bvh_stack_entries)) if value]
     if len(chosen) > 1:
-        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins: one at a time")
+        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries: one at a time")
     axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
     splits = [v.strip() for v in values.split(",") if v.strip()] or [None]
     rounds = args.split_rounds if splits[0] is not None else 1
@@ -812,8 +815,8 @@ def wavefront_table(record: dict) -> str:
     return "\n".join(lines)
 
 
-SPLITS_VAR, WIDTH_VAR, AXES_VAR, BINS_VAR = ("LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH", "LIFT_GL_BVH_AXES",
-                                             "LIFT_GL_BVH_BINS")
+SPLITS_VAR, WIDTH_VAR, AXES_VAR, BINS_VAR, STACK_VAR = ("LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH", "LIFT_GL_BVH_AXES",
+                                                        "LIFT_GL_BVH_BINS", "LIFT_GL_BVH_STACK_ENTRIES")
 
 
 def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
@@ -970,6 +973,8 @@ def main(argv=None) -> int:
                    "--out FILE.json becoming FILE.width-VALUE.json")
     m.add_argument("--bvh-axes", help="comma-separated $LIFT_GL_BVH_AXES values (longest,all): as --bvh-splits")
     m.add_argument("--bvh-bins", help="comma-separated $LIFT_GL_BVH_BINS values (e.g. 32,128): as --bvh-splits")
+    m.add_argument("--bvh-stack-entries", help="comma-separated $LIFT_GL_BVH_STACK_ENTRIES values (children,groups): "
+                   "as --bvh-splits")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")

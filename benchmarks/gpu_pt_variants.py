@@ -35,6 +35,11 @@ diagnostics of what rasterizing costs on this GPU), and `traced` (TracedGBufferP
 camera ray a pixel). Variant `camera`: pt with camera rays traced in the trace pass instead
 of a G-buffer (primary = "camera", one sample a frame).
 
+Shared memory (docs/gpu.md "A stack of node groups"): pad2k ... pad32k give each work group
+that much more shared memory (a diagnostic of what occupancy and the L1 cache it displaces
+cost), groups8/16/24 trace with node-group stack entries (LIFT_BVH_GROUP_STACK) that many deep
+(exact where the tree has no more levels), the _s8x8 / _s16x4 ones in 64-invocation groups.
+
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
 text, from which local-memory arrays and register use can be read).
 """
@@ -95,9 +100,18 @@ def bdpt_unpacked(text: str) -> str:
 
 def define(name: str):
     """The program with `name` #defined (e.g. LIFT_MOLLER_TRUMBORE: lift/bvh.glsl's other
-    triangle test; the image may move by the rays through shared edges)."""
+    triangle test; the image may move by the rays through shared edges); "NAME VALUE" replaces
+    a definition of NAME the renderer made."""
     def edit(text):
+        text = undefine(name.split()[0])(text)
         return text.replace("\n", f"\n#define {name}\n", 1)  # after #version
+    return edit
+
+
+def undefine(name: str):
+    """The program without the renderer's #define of `name`."""
+    def edit(text):
+        return re.sub(rf"#define {name}( [^\n]*)?\n", "", text)
     return edit
 
 
@@ -112,10 +126,33 @@ def stack_entries(n: int):
     return edit
 
 
+def children_entries(n: int):
+    """The 4-wide traversal's stack of child entries, n deep, where the renderer chose node
+    groups (accel/wide.stack_defines): exact where n >= the tree's stack_bound."""
+    def edit(text):
+        return stack_entries(n)(undefine("LIFT_BVH_SHARED_DEPTH")(undefine("LIFT_BVH_GROUP_STACK")(text)))
+    return edit
+
+
 def shared_depth(n: int):
     """The top n entries of the traversal stack in shared memory (LIFT_BVH_SHARED_DEPTH, lift/bvh.glsl;
     by default all of them), the rest spilled to a local array."""
     return define(f"LIFT_BVH_SHARED_DEPTH {n}")
+
+
+def pad_shared(n_bytes: int):
+    """n_bytes more shared memory a work group, written and read so that the compiler keeps
+    it: fewer groups fit on an SM, and where that slows the program down tells how many warps
+    its registers let run (a diagnostic; the image is the same)."""
+    words = n_bytes // 4
+    def edit(text):
+        text = _sub(text, "void main() {\n", "shared uint lift_pad[%d];\nvoid main() {\n"
+                    "    lift_pad[(gl_LocalInvocationIndex * 131u + gl_WorkGroupID.x) %% %du] = gl_WorkGroupID.y;\n"
+                    "    barrier();\n"
+                    "    if (lift_pad[(gl_LocalInvocationIndex * 7u + gl_WorkGroupID.y) %% %du] == 0xFFFFFFFFu) return;\n"
+                    % (words, words, words))
+        return text
+    return edit
 
 
 # ---- bdpt diagnostics (issue 10: where bdpt's GPU time goes) ----
@@ -251,6 +288,25 @@ VARIANTS = {
     "stack32": (stack_entries(32), {}, True),   # ... <= 32
     "stack48": (stack_entries(48), {}, True),
     "stack64": (stack_entries(64), {}, True),
+    # node-group stack entries (LIFT_BVH_GROUP_STACK) n deep: exact where the tree has <= n levels
+    "groups8": (compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(8)), {}, True),
+    "groups16": (compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(16)), {}, True),
+    "groups24": (compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(24)), {}, True),
+    # ... with only the top 8 or 12 entries in shared memory, the deeper ones in a local array
+    "groups24_shared8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shared_depth(8)), {}, True),
+    "groups24_shared12": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shared_depth(12)), {}, True),
+    "groups16_shared8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(16), shared_depth(8)), {}, True),
+    "children16": (children_entries(16), {}, True),
+    "children48": (children_entries(48), {}, True),
+    "children56": (children_entries(56), {}, True),
+    "groups24_s8x8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shape(8, 8)), {}, True),
+    "groups16_s8x8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(16), shape(8, 8)), {}, True),
+    "groups24_s16x4": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shape(16, 4)), {}, True),
+    "pad2k": (pad_shared(2048), {}, True),
+    "pad4k": (pad_shared(4096), {}, True),
+    "pad8k": (pad_shared(8192), {}, True),
+    "pad16k": (pad_shared(16384), {}, True),
+    "pad32k": (pad_shared(32768), {}, True),
     "any_nearest": (define("LIFT_BVH4_ANY_NEAREST"), {}, True),
     "any_leaves": (define("LIFT_BVH4_ANY_LEAVES_FIRST"), {}, True),
     "any_both": (compose(define("LIFT_BVH4_ANY_NEAREST"), define("LIFT_BVH4_ANY_LEAVES_FIRST")), {}, True),
@@ -397,6 +453,20 @@ def gbuffer_variants(renderer) -> dict:
     return {"gbuffer": (vert, frag), "gbuffer_flat": (vert, flat), "gbuffer_nodepthwrite": (vert, early)}
 
 
+def stack_too_short(source: str, packed) -> str | None:
+    """Why a 4-wide trace program's stack is too short for this tree, or None: a variant that
+    declares fewer entries than the tree can push (stack_bound for child entries, levels for
+    node groups) may overflow it, and on a GPU that can hang the program (seen on the H100)."""
+    m = re.search(r"#define LIFT_BVH_STACK_SIZE (\d+)\n", source)
+    if m is None or packed.bvh_width != 4:
+        return None
+    groups = "#define LIFT_BVH_GROUP_STACK\n" in source
+    need = packed.bvh_levels if groups else packed.bvh_stack
+    if int(m.group(1)) >= need:
+        return None
+    return f"{m.group(1)} stack entries, the tree needs {need} ({'levels' if groups else 'stack_bound'})"
+
+
 def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt", trees=None):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
@@ -428,6 +498,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             edit, over, exact = VARIANTS[name]
             src = edit(base_source) if edit else base_source
             local = getattr(edit, "local", None) or r.trace.local_size
+            short = stack_too_short(src, r.packed)
+            if short:   # its traversal could write past its stack: garbage entries can loop forever
+                print(f"{Path(path).parent.name}: {name} skipped: {short}", flush=True)
+                continue
         start = time.perf_counter()
         prog = ctx.compute_shader(src)
         compile_s = time.perf_counter() - start
@@ -438,6 +512,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         programs[name] = (prog, dict(uniforms, **over), local)
         info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
                       "binary": binary_summary(blob)}
+    names = [name for name in names if name in programs]   # less the skipped ones
     w, h = size
     frame = r.trace.frame
     splats = r.trace.splats
@@ -552,9 +627,13 @@ def table(record: dict) -> str:
              "| variant | exact | " + " | ".join(f"{c['scene']} ms | x base" for c in record["results"]) + " |",
              "|---|---|" + "---|---|" * len(record["results"])]
     for name in names:
-        cells = [name, "yes" if name == names[0] or record["results"][0]["variants"][name]["exact"] else "no"]
+        ran = [c["variants"][name] for c in record["results"] if name in c["variants"]]
+        cells = [name, "yes" if name == names[0] or (ran and ran[0]["exact"]) else "no" if ran else "–"]
         for c in record["results"]:
-            v = c["variants"][name]
+            v = c["variants"].get(name)
+            if v is None:   # skipped on this scene (stack_too_short)
+                cells += ["skipped", "–"]
+                continue
             base = c["variants"][names[0]]["median_ms"]
             cells += [f"{v['median_ms']:.3f}", f"{base / v['median_ms']:.2f}"]
         lines.append("| " + " | ".join(cells) + " |")

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .accel.wide import resolve_width, stack_size as bvh_stack_size
+from .accel.wide import resolve_width, stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
@@ -180,7 +180,8 @@ class Renderer:
             defines["LIFT_BVH_WIDTH"] = self.packed.bvh_width
             if self.packed.bvh_quantized:
                 defines["LIFT_BVH_QUANTIZED"] = True
-            defines["LIFT_BVH_STACK_SIZE"] = bvh_stack_size(self.packed.bvh_stack)
+            defines.update(bvh_stack_defines(self.packed.bvh_stack, self.packed.bvh_levels, self.packed.bvh_wide_nodes,
+                                             software=is_software(self.ctx)))
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines

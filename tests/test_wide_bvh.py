@@ -10,8 +10,9 @@ import pytest
 
 from conftest import REPO
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
-from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, LEAF_BIT, MAX_FIRST, ROWS, STACK, WIDTH_ENV_VAR, collapse,
-                                decoded_boxes, intersect_wide_numpy, quantize, resolve_width, stack_size, wide_layout)
+from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, GROUP_MAX_NODES, GROUP_SHARED_DEPTH, GROUP_STACK_FROM, LEAF_BIT,
+                                MAX_FIRST, ROWS, STACK, STACK_ENV_VAR, WIDTH_ENV_VAR, collapse, decoded_boxes, intersect_wide_numpy, quantize,
+                                resolve_width, stack_defines, stack_size, wide_layout)
 from lift_gl.errors import LiftError
 from lift_gl.scene.loader import load_scene
 from lift_gl.scene.pack import pack_scene
@@ -142,21 +143,27 @@ def _case_triangles(case: str):
 
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
 @pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q"), ("shared3", "4"),
-                                           ("shared3", "4q")])
+                                           ("shared3", "4q"), ("groups", "4"), ("groups", "4q"), ("groups_local", "4"),
+                                           ("groups_shared3", "4")])
 def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     """shared3: only the top 3 stack entries in shared memory, the deeper ones spilled to the
-    local array (LIFT_BVH_SHARED_DEPTH; by default the whole stack is shared)."""
+    local array (LIFT_BVH_SHARED_DEPTH; by default the whole stack is shared). groups: a stack
+    of node groups (LIFT_BVH_GROUP_STACK) exactly as deep as the tree has levels: entries past
+    it would land in the next invocation's column (shared) or out of the array."""
     nodes, tris = _case_triangles(case)
     wide = wide_layout(nodes, layout)
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=7)
-    extra = {"LIFT_BVH_SHARED_STACK": 64} if stack.startswith("shared") else {}   # the test kernel's 64 invocations
-    if stack == "shared3":
+    extra = {"LIFT_BVH_SHARED_STACK": 64} if stack.startswith(("shared", "groups")) and stack != "groups_local" else {}   # the test kernel's 64 invocations
+    if stack.endswith("shared3"):
         extra["LIFT_BVH_SHARED_DEPTH"] = 3
     t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)
     # the wide traversal with the stack the renderer declares for this tree (wide.stack_size)
     tight = dict(WIDE[layout], LIFT_BVH_STACK_SIZE=stack_size(wide.stack_bound), **extra)
+    if stack.startswith("groups"):
+        assert 1 < wide.levels < wide.stack_bound
+        tight.update(LIFT_BVH_GROUP_STACK=True, LIFT_BVH_STACK_SIZE=wide.levels)
     t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=tight)
     assert found2.mean() > 0.3
     if extra:   # the binary traversal on a shared (or spilling) stack finds what it finds on a local one
@@ -224,12 +231,13 @@ def test_pack_scene_width_and_fallbacks(monkeypatch):
     assert resolve_width(None, software=False) == "4" and resolve_width(2, software=False) == "2"
 
 
-def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, **kw):
+def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, group_stack=False, **kw):
     from lift_gl.renderer import Renderer
 
     monkeypatch.setenv(WIDTH_ENV_VAR, width)
     r = Renderer(scene, size=size, integrator=integrator, seed=5, **kw)
     try:
+        assert ("LIFT_BVH_GROUP_STACK" in r.defines) == group_stack
         return r.render(spp=spp), r.packed.bvh_width, r.defines.get("LIFT_BVH_WIDTH"), r.defines.get("LIFT_BVH_QUANTIZED")
     finally:
         r.release()
@@ -240,12 +248,15 @@ def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, **kw):
     ("showcase.toml", "pt"),         # spheres beside the triangles, textures
     ("cornell.toml", "drt"),         # camera rays through the trace pass
 ])
-@pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q")])
-def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stack, layout):
+@pytest.mark.parametrize("stack, layout, entries", [("local", "4", "children"), ("shared", "4", "children"),
+                                                    ("shared", "4q", "children"), ("shared", "4", "groups"),
+                                                    ("local", "4q", "groups")])
+def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stack, layout, entries):
     monkeypatch.setenv("LIFT_GL_BVH_STACK", stack)
+    monkeypatch.setenv(STACK_ENV_VAR, entries)
     scene = load_scene(REPO / "scenes" / scene_name)
     binary, w2, d2, q2 = _render(monkeypatch, "2", scene, integrator)
-    wide, w4, d4, q4 = _render(monkeypatch, layout, scene, integrator)
+    wide, w4, d4, q4 = _render(monkeypatch, layout, scene, integrator, group_stack=entries == "groups")
     assert (w2, d2, q2, w4, d4, q4) == (2, None, None, 4, 4, True if layout == "4q" else None)
     assert np.isfinite(binary).all() and binary.max() > 0
     np.testing.assert_array_equal(wide, binary)
@@ -323,3 +334,34 @@ def test_an_edit_that_deepens_the_tree_recompiles_with_the_deeper_stack():
             fresh.release()
     finally:
         r.release()
+
+
+def test_stack_entries_setting():
+    """auto: node groups on GPUs where the stack of children would pass GROUP_STACK_FROM entries
+    (their shared memory is what they save), children on CPU rasterizers and for shallow trees;
+    groups only where node ids fit their 24 bits; a bad value names the variable."""
+    children = {"LIFT_BVH_STACK_SIZE": 56}
+    groups = {"LIFT_BVH_GROUP_STACK": True, "LIFT_BVH_STACK_SIZE": 24, "LIFT_BVH_SHARED_DEPTH": GROUP_SHARED_DEPTH}
+    assert stack_defines(54, 18, 72647, software=False) == groups            # Lift's dining room on a GPU
+    assert stack_defines(54, 18, 72647, software=True) == children           # ... on llvmpipe
+    assert stack_defines(11, 4, 7, software=False) == {"LIFT_BVH_STACK_SIZE": 16}   # the cornell-box
+    assert stack_defines(GROUP_STACK_FROM, 9, 100, software=False)["LIFT_BVH_STACK_SIZE"] == GROUP_STACK_FROM
+    assert stack_defines(11, 4, 7, software=True, stack="groups") == dict(groups, LIFT_BVH_STACK_SIZE=8)
+    assert stack_defines(54, 18, 72647, software=False, stack="children") == children
+    assert stack_defines(54, 18, GROUP_MAX_NODES, software=False, stack="groups") == children
+    with pytest.raises(LiftError, match=STACK_ENV_VAR):
+        stack_defines(54, 18, 72647, software=False, stack="pairs")
+
+
+def test_collapse_counts_levels():
+    """WideBVH.levels, the group stack's depth: the wide nodes on the longest root path,
+    counted here by walking the child entries (and kept by quantize)."""
+    tris = soup(3000, seed=2, size=0.05)
+    wide = collapse(build_bvh(tris).nodes)
+    entries = _entries(wide)[0]
+    depth = np.zeros(wide.num_nodes, np.int64)
+    for node in range(wide.num_nodes):   # breadth first: a parent comes before its children
+        inner = [e for e in entries[node] if e != EMPTY and not e & LEAF_BIT]
+        depth[inner] = depth[node] + 1
+    assert wide.levels == depth.max() + 1 and 1 < wide.levels < wide.stack_bound
+    assert quantize(wide).levels == wide.levels

@@ -56,6 +56,40 @@ def stack_size(stack_bound: int) -> int:
     return min(STACK, max(8, -(-int(stack_bound) // 8) * 8))
 
 
+STACK_ENV_VAR = "LIFT_GL_BVH_STACK_ENTRIES"
+STACKS = ("children", "groups")
+# A stack of node groups (shaders/lift/bvh.glsl LIFT_BVH_GROUP_STACK) packs a node id in 24 bits.
+GROUP_MAX_NODES = 1 << 24
+
+
+def resolve_stack(value: str | None = None) -> str:
+    """What the 4-wide traversal's stack entries are: `value`, else $LIFT_GL_BVH_STACK_ENTRIES,
+    else auto; one of STACKS or "auto" (stack_defines decides per tree and device).
+    children: one entry a child left to visit (as deep as stack_bound); groups: one entry a
+    node with children left (as deep as the tree has levels, shaders/lift/bvh.glsl)."""
+    if value is None:
+        value = os.environ.get(STACK_ENV_VAR, "auto")
+    text = str(value).strip().lower() or "auto"
+    if text not in STACKS + ("auto",):
+        raise LiftError(f"${STACK_ENV_VAR} must be children, groups or auto, not {value!r}")
+    return text
+
+
+def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: bool, stack: str | None = None) -> dict:
+    """The defines that size a 4-wide tree's traversal stack: LIFT_BVH_STACK_SIZE, with
+    LIFT_BVH_GROUP_STACK where its entries are node groups, whose top GROUP_SHARED_DEPTH
+    entries then stay in shared memory on GPUs (LIFT_BVH_SHARED_DEPTH) and deeper ones go to a
+    local array. auto: groups on GPUs where the stack of children would need more than
+    GROUP_STACK_FROM entries, else children; groups need the node ids to fit 24 bits."""
+    mode = resolve_stack(stack)
+    if mode == "auto":
+        mode = "groups" if not software and stack_size(wide_stack_bound) > GROUP_STACK_FROM else "children"
+    if mode == "groups" and 0 < levels and num_nodes < GROUP_MAX_NODES:
+        return {"LIFT_BVH_GROUP_STACK": True, "LIFT_BVH_STACK_SIZE": stack_size(levels),
+                "LIFT_BVH_SHARED_DEPTH": GROUP_SHARED_DEPTH}
+    return {"LIFT_BVH_STACK_SIZE": stack_size(wide_stack_bound)}
+
+
 # The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
 # pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
 # 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).
@@ -65,6 +99,17 @@ DEFAULT_GPU_WIDTH = "4"
 # and the dining room, interleaved (benchmarks/cpu_speed.py; results/cpu_speed/wide_bvh_*):
 # on a CPU the smaller nodes pay (on the H100 they cost 7-35%).
 DEFAULT_CPU_WIDTH = "4q"
+# auto's stack entries (stack_defines). On an H100 at 1920x1080 (docs/gpu.md "A stack of node
+# groups"), node groups made the ray-casting shader's rays 1.2-1.7x faster on the dining room,
+# the classroom and the Covered Dragon (their stacks of children: 56, 48, 48 entries) and pt's
+# trace pass 1.17x (dining room), 1.10x (dragon), 0.98x (classroom); on the cornell-box (16
+# entries: occupancy is not held down by shared memory there) pt's trace 0.89x. On llvmpipe
+# (no shared memory: stacks are local arrays) its rays 0.78-0.99x: CPUs keep children.
+GROUP_STACK_FROM = 32
+# Node groups rarely go more than a few levels deep: with only the top 8 in shared memory (1 KiB
+# a work group) pt's trace pass ran 1.21x faster again on the dining room than with all 24 there,
+# 1.04x on the dragon, 1.02x on the classroom (H100; 12 entries: 1.13 / 0.98 / 0.98x).
+GROUP_SHARED_DEPTH = 8
 
 
 @dataclass
@@ -73,6 +118,7 @@ class WideBVH:
     width: int
     stack_bound: int        # the deepest the traversal stack can get (see STACK)
     quantized: bool = False
+    levels: int = 0         # wide nodes on the longest root path: the deepest a stack of node groups gets
 
     @property
     def num_nodes(self) -> int:
@@ -170,7 +216,7 @@ def quantize(wide: WideBVH) -> WideBVH | None:
     out[:, 2, 0], out[:, 2, 1] = pack(qlo[..., 2]), pack(qhi[..., 2])
     out[:, 3] = entry
     return WideBVH(rows=out.view(np.float32).reshape(w, QROWS * 4), width=wide.width,
-                   stack_bound=wide.stack_bound, quantized=True)
+                   stack_bound=wide.stack_bound, quantized=True, levels=wide.levels)
 
 
 def decoded_boxes(wide: WideBVH) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -275,7 +321,7 @@ def collapse(nodes: np.ndarray, width: int = 4) -> WideBVH | None:
         out[:, 2 * axis, :] = lo[:, :, axis]
         out[:, 2 * axis + 1, :] = hi[:, :, axis]
     out[:, 6, :] = entries.astype(np.uint32).view(np.float32)
-    return WideBVH(rows=out.reshape(w, ROWS * 4), width=width, stack_bound=stack_bound)
+    return WideBVH(rows=out.reshape(w, ROWS * 4), width=width, stack_bound=stack_bound, levels=len(out_slots))
 
 
 def intersect_wide_numpy(wide: WideBVH, tri_positions_reordered: np.ndarray, origins: np.ndarray,
