@@ -109,9 +109,10 @@ def define(name: str):
 
 
 def undefine(name: str):
-    """The program without the renderer's #define of `name`."""
+    """The program without the renderer's #define of `name` (a flag or a number: not the
+    shaders' own definitions in terms of other macros)."""
     def edit(text):
-        return re.sub(rf"#define {name}( [^\n]*)?\n", "", text)
+        return re.sub(rf"#define {name}( \d+)?\n", "", text)
     return edit
 
 

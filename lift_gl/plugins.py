@@ -11,6 +11,9 @@ documentation and parameter table (`lift-gl plugins` prints it):
     splats = false             # optional: true gives the shader splat(pixel_pos, value), which
                                # adds to any pixel of this frame (light tracing, BDPT's t = 1)
     biased = "why"             # optional: the plugin does not converge to the true image, and why
+    bvh_stack = "children"     # optional: the 4-wide BVH traversal's stack entries for this
+                               # plugin ("children", "groups" or "auto", the default; a set
+                               # $LIFT_GL_BVH_STACK_ENTRIES overrides it: accel/wide.stack_defines)
     [params.max_depth]
     type = "int"  default = 16  min = 0  max = 1000  help = "longest path, in bounces"
     define = "MY_MAX_DEPTH"    # optional, int parameters: also a compile-time constant
@@ -43,7 +46,9 @@ GLSL_TYPES = {"int": "int", "float": "float", "bool": "bool", "color": "vec3"}
 LANGUAGES = ("glsl", "opencl")
 PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced"}
+_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced",
+                  "bvh_stack"}
+BVH_STACKS = ("auto", "children", "groups")   # accel/wide.py STACKS and auto
 _PARAM_KEYS = {"type", "default", "min", "max", "help", "define"}
 _REDUCED_KEYS = {"function": None, "scale": "int", "normal_power": "float", "depth_sigma": "float"}
 _HOST_DEFINE_PREFIXES = ("HAS_", "LIFT_", "PRIMARY_", "GL_")  # features, host switches, GLSL's own
@@ -122,6 +127,7 @@ class Plugin:
     splats: bool = False  # the host gives the shader a splat buffer (lift/splat.glsl)
     biased: str = ""  # why the plugin does not converge to the true image ("": it does)
     reduced: ReducedPass | None = None
+    bvh_stack: str = "auto"  # the BVH traversal's stack entries this plugin asks for (accel/wide.stack_defines)
 
     @property
     def manifest(self) -> Path:
@@ -233,6 +239,9 @@ def load_manifest(folder: Path) -> Plugin:
         except PluginError as exc:
             fail(exc.message, header)
         params[pname] = param
+    bvh_stack = data.get("bvh_stack", "auto")
+    if not isinstance(bvh_stack, str) or bvh_stack not in BVH_STACKS:
+        fail(f"bvh_stack {bvh_stack!r} is not one of {', '.join(BVH_STACKS)}", r"^\s*bvh_stack\s*=")
     biased = data.get("biased", "")
     if not isinstance(biased, str):
         fail("'biased' must be a string saying why the plugin is biased", r"^\s*biased\s*=")
@@ -240,7 +249,8 @@ def load_manifest(folder: Path) -> Plugin:
         fail("description must be a string", r"^\s*description\s*=")
     return Plugin(name=name, description=data.get("description", ""), language=language,
                   entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
-                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail))
+                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail),
+                  bvh_stack=bvh_stack)
 
 
 def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> ReducedPass | None:

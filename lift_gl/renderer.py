@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .accel.wide import resolve_width, stack_defines as bvh_stack_defines
+from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, resolve_width, stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
@@ -180,8 +180,7 @@ class Renderer:
             defines["LIFT_BVH_WIDTH"] = self.packed.bvh_width
             if self.packed.bvh_quantized:
                 defines["LIFT_BVH_QUANTIZED"] = True
-            defines.update(bvh_stack_defines(self.packed.bvh_stack, self.packed.bvh_levels, self.packed.bvh_wide_nodes,
-                                             software=is_software(self.ctx)))
+            defines.update(self._bvh_stack_defines(self.plugin))
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines
@@ -394,9 +393,21 @@ class Renderer:
         self.reset()
 
     # ---- hot reload ----
+    def _bvh_stack_defines(self, plugin: Plugin) -> dict:
+        """The 4-wide traversal's stack for this tree, device and plugin (accel/wide.stack_defines)."""
+        p = self.packed
+        return bvh_stack_defines(p.bvh_stack, p.bvh_levels, p.bvh_wide_nodes, software=is_software(self.ctx),
+                                 preferred=plugin.bvh_stack)
+
     def _plugin_defines(self, plugin: Plugin, params: dict) -> dict:
-        """The scene's defines and the plugin's compile-time parameters (`define` in its manifest)."""
-        return dict(self.defines, **param_defines(plugin, params))
+        """The scene's defines and the plugin's compile-time parameters (`define` in its manifest);
+        its bvh_stack, which a reloaded manifest may have changed, sizes the trace pass's stack."""
+        defines = dict(self.defines)
+        if self.packed.bvh_width != 2:
+            for key in BVH_STACK_DEFINES:
+                defines.pop(key, None)
+            defines.update(self._bvh_stack_defines(plugin))
+        return dict(defines, **param_defines(plugin, params))
 
     def _create_trace(self, plugin: Plugin, params: dict):
         defines = self._plugin_defines(plugin, params)
@@ -561,6 +572,16 @@ class Renderer:
                      "or an OpenCL plugin: lift_gl/scene/instances.py)")
         return [line]
 
+    def _explain_stack(self) -> list[str]:
+        """What the trace pass's BVH stack holds and how deep it is (accel/wide.stack_defines)."""
+        d = self._plugin_defines(self.plugin, self.params) if self.packed.bvh_width != 2 else {}
+        if "LIFT_BVH_STACK_SIZE" not in d:
+            return []
+        what = "node groups" if d.get("LIFT_BVH_GROUP_STACK") else "child entries"
+        return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}"
+                + (f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs" if "LIFT_BVH_SHARED_DEPTH" in d else "")
+                + " ($LIFT_GL_BVH_STACK_ENTRIES, a manifest's bvh_stack choose)"]
+
     def _explain_memory(self) -> list[str]:
         """The scene's storage buffers, each with its size, and how a big scene was split."""
         p, plan = self.packed, self.buffers.plan
@@ -569,6 +590,7 @@ class Renderer:
         lines = [f"BVH: {p.bvh_nodes.shape[0]:,} {'binary' if p.bvh_width == 2 else f'{p.bvh_width}-wide'}{' quantized' if p.bvh_quantized else ''} nodes, "
                  f"depth {p.bvh_depth} (binary), built by {p.bvh_builder} "
                  f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER and $LIFT_GL_BVH_WIDTH choose)",
+                 *self._explain_stack(),
                  *self._explain_instances(),
                  f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
                  f"(limit {self.limits.max_ssbo_bytes / (1 << 20):,.0f} MiB a buffer)"

@@ -365,3 +365,38 @@ def test_collapse_counts_levels():
         depth[inner] = depth[node] + 1
     assert wide.levels == depth.max() + 1 and 1 < wide.levels < wide.stack_bound
     assert quantize(wide).levels == wide.levels
+
+
+def test_plugin_asks_for_its_stack_entries(monkeypatch, tmp_path):
+    """A manifest's bvh_stack picks the stack entries where $LIFT_GL_BVH_STACK_ENTRIES is auto (a
+    set variable wins); a reload that changes it recompiles the trace pass with the new stack;
+    the images are pt's with either. bdpt's manifest asks for children (docs/gpu.md)."""
+    import shutil
+
+    from lift_gl.plugins import BUILTIN_DIR, find_plugin
+    from lift_gl.renderer import Renderer
+
+    assert find_plugin("bdpt").bvh_stack == "children" and find_plugin("pt").bvh_stack == "auto"
+    assert stack_defines(54, 18, 72647, software=False, preferred="children") == {"LIFT_BVH_STACK_SIZE": 56}
+    assert "LIFT_BVH_GROUP_STACK" in stack_defines(11, 4, 7, software=True, preferred="groups")
+    assert "LIFT_BVH_GROUP_STACK" not in stack_defines(11, 4, 7, software=True, stack="children", preferred="groups")
+    folder = tmp_path / "ptg"
+    shutil.copytree(BUILTIN_DIR / "pt", folder)
+    manifest = folder / "plugin.toml"
+    manifest.write_text(manifest.read_text().replace('name = "pt"', 'name = "ptg"\nbvh_stack = "groups"'))
+    monkeypatch.delenv(STACK_ENV_VAR, raising=False)
+    monkeypatch.setenv(WIDTH_ENV_VAR, "4")
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    reference = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+    r = Renderer(scene, size=(40, 32), integrator=str(folder), seed=5)
+    try:
+        assert "#define LIFT_BVH_GROUP_STACK" in r.trace.source.text
+        assert "#define LIFT_BVH_GROUP_STACK" not in reference.trace.source.text
+        assert "BVH stack: 8 node groups" in r.explain() and "BVH stack: 8 child entries" in reference.explain()
+        np.testing.assert_array_equal(r.render(spp=4), reference.render(spp=4))
+        manifest.write_text(manifest.read_text().replace('bvh_stack = "groups"', 'bvh_stack = "children"'))
+        assert r.reload(force=True)
+        assert "#define LIFT_BVH_GROUP_STACK" not in r.trace.source.text and "child entries" in r.explain()
+    finally:
+        r.release()
+        reference.release()

@@ -75,13 +75,21 @@ def resolve_stack(value: str | None = None) -> str:
     return text
 
 
-def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: bool, stack: str | None = None) -> dict:
+STACK_DEFINES = ("LIFT_BVH_GROUP_STACK", "LIFT_BVH_STACK_SIZE", "LIFT_BVH_SHARED_DEPTH")   # what stack_defines sets
+
+
+def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: bool, stack: str | None = None,
+                  preferred: str = "auto") -> dict:
     """The defines that size a 4-wide tree's traversal stack: LIFT_BVH_STACK_SIZE, with
     LIFT_BVH_GROUP_STACK where its entries are node groups, whose top GROUP_SHARED_DEPTH
     entries then stay in shared memory on GPUs (LIFT_BVH_SHARED_DEPTH) and deeper ones go to a
     local array. auto: groups on GPUs where the stack of children would need more than
-    GROUP_STACK_FROM entries, else children; groups need the node ids to fit 24 bits."""
+    GROUP_STACK_FROM entries, else children; groups need the node ids to fit 24 bits.
+    `preferred`: what the plugin's manifest asks for (bvh_stack), taken where `stack` (else
+    $LIFT_GL_BVH_STACK_ENTRIES) is auto."""
     mode = resolve_stack(stack)
+    if mode == "auto":
+        mode = resolve_stack(preferred)
     if mode == "auto":
         mode = "groups" if not software and stack_size(wide_stack_bound) > GROUP_STACK_FROM else "children"
     if mode == "groups" and 0 < levels and num_nodes < GROUP_MAX_NODES:
