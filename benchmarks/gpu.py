@@ -60,8 +60,8 @@ LIFT_PAPER_SCENES = {"cornell-box": "Teapot Cornell Box", "dining-room": "Breakf
 
 RAY_KINDS = ("primary", "shadow", "bounce")
 # The renderer's defines the ray-kind shader takes: spheres, and the BVH's layout and stack (accel/wide.py).
-RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH", "LIFT_BVH_QUANTIZED", "LIFT_BVH_STACK_SIZE", "LIFT_BVH_GROUP_STACK",
-                      "LIFT_BVH_SHARED_DEPTH")
+RAY_SHADER_DEFINES = ("HAS_SPHERES", "LIFT_BVH_WIDTH", "LIFT_BVH_QUANTIZED", "LIFT_BVH_STACK_SIZE",
+                      "LIFT_BVH_GROUP_STACK", "LIFT_BVH_SHARED_DEPTH")
 
 # Compiled by ray_program, in the trace pass's work-group shape and BVH stack placement.
 RAY_SHADER = """

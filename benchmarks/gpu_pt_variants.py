@@ -135,6 +135,11 @@ def children_entries(n: int):
     return edit
 
 
+def all_shared_groups(n: int):
+    """Node-group stack entries (LIFT_BVH_GROUP_STACK), n deep, all in shared memory."""
+    return compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(n))
+
+
 def shared_depth(n: int):
     """The top n entries of the traversal stack in shared memory (LIFT_BVH_SHARED_DEPTH, lift/bvh.glsl;
     by default all of them), the rest spilled to a local array."""
@@ -290,9 +295,9 @@ VARIANTS = {
     "stack48": (stack_entries(48), {}, True),
     "stack64": (stack_entries(64), {}, True),
     # node-group stack entries (LIFT_BVH_GROUP_STACK) n deep: exact where the tree has <= n levels
-    "groups8": (compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(8)), {}, True),
-    "groups16": (compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(16)), {}, True),
-    "groups24": (compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(24)), {}, True),
+    "groups8": (all_shared_groups(8), {}, True),
+    "groups16": (all_shared_groups(16), {}, True),
+    "groups24": (all_shared_groups(24), {}, True),
     # ... with only the top 8 or 12 entries in shared memory, the deeper ones in a local array
     "groups24_shared8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shared_depth(8)), {}, True),
     "groups24_shared12": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shared_depth(12)), {}, True),

@@ -396,7 +396,7 @@ class Renderer:
     def _bvh_stack_defines(self, plugin: Plugin) -> dict:
         """The 4-wide traversal's stack for this tree, device and plugin (accel/wide.stack_defines)."""
         p = self.packed
-        return bvh_stack_defines(p.bvh_stack, p.bvh_levels, p.bvh_wide_nodes, software=is_software(self.ctx),
+        return bvh_stack_defines(p.bvh_stack, p.bvh_levels, p.bvh_nodes.shape[0], software=is_software(self.ctx),
                                  preferred=plugin.bvh_stack)
 
     def _plugin_defines(self, plugin: Plugin, params: dict) -> dict:
@@ -578,9 +578,9 @@ class Renderer:
         if "LIFT_BVH_STACK_SIZE" not in d:
             return []
         what = "node groups" if d.get("LIFT_BVH_GROUP_STACK") else "child entries"
-        return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}"
-                + (f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs" if "LIFT_BVH_SHARED_DEPTH" in d else "")
-                + " ($LIFT_GL_BVH_STACK_ENTRIES, a manifest's bvh_stack choose)"]
+        shared = f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs" if "LIFT_BVH_SHARED_DEPTH" in d else ""
+        return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}{shared} "
+                "($LIFT_GL_BVH_STACK_ENTRIES, a manifest's bvh_stack choose)"]
 
     def _explain_memory(self) -> list[str]:
         """The scene's storage buffers, each with its size, and how a big scene was split."""

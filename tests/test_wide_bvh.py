@@ -11,8 +11,8 @@ import pytest
 from conftest import REPO
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
 from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, GROUP_MAX_NODES, GROUP_SHARED_DEPTH, GROUP_STACK_FROM, LEAF_BIT,
-                                MAX_FIRST, ROWS, STACK, STACK_ENV_VAR, WIDTH_ENV_VAR, collapse, decoded_boxes, intersect_wide_numpy, quantize,
-                                resolve_width, stack_defines, stack_size, wide_layout)
+                                MAX_FIRST, ROWS, STACK, STACK_ENV_VAR, WIDTH_ENV_VAR, collapse, decoded_boxes,
+                                intersect_wide_numpy, quantize, resolve_width, stack_defines, stack_size, wide_layout)
 from lift_gl.errors import LiftError
 from lift_gl.scene.loader import load_scene
 from lift_gl.scene.pack import pack_scene
@@ -155,7 +155,8 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=7)
-    extra = {"LIFT_BVH_SHARED_STACK": 64} if stack.startswith(("shared", "groups")) and stack != "groups_local" else {}   # the test kernel's 64 invocations
+    shared = stack.startswith(("shared", "groups")) and stack != "groups_local"
+    extra = {"LIFT_BVH_SHARED_STACK": 64} if shared else {}   # the test kernel's 64 invocations
     if stack.endswith("shared3"):
         extra["LIFT_BVH_SHARED_DEPTH"] = 3
     t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)

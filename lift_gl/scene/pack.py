@@ -74,7 +74,6 @@ class PackedScene:
     bvh_quantized: bool = False  # 4-wide nodes with 8-bit child boxes (wide.quantize)
     bvh_stack: int = 0  # 4-wide: the deepest its traversal stack can get (WideBVH.stack_bound)
     bvh_levels: int = 0  # 4-wide: wide nodes on its longest root path (WideBVH.levels)
-    bvh_wide_nodes: int = 0  # 4-wide: how many wide nodes (a stack of node groups needs < 2^24)
     # Instances (scene/instances.py): the world geometry's triangles and nodes come first,
     # each traced prototype's BLAS after them; `instances` holds the TLAS nodes and then one
     # record per traced instance (None: no instances, nothing compiled for them).
@@ -387,7 +386,6 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         bvh_quantized=wide is not None and wide.quantized,
         bvh_stack=0 if wide is None else wide.stack_bound,
         bvh_levels=0 if wide is None else wide.levels,
-        bvh_wide_nodes=0 if wide is None else wide.num_nodes,
         world_triangles=T_world if traced else -1,
         instances=table.rows if table is not None else None,
         instance_table=table,
