@@ -1,0 +1,45 @@
+"""benchmarks/gpu_pt_variants.py's stack variants (docs/gpu.md "A stack of node groups"): each
+edit yields the stack it names, and a variant whose stack is shorter than the tree can need is
+recognised (on a GPU an overflowed stack's garbage entries can loop forever: one hung the H100)."""
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+from lift_gl import load_scene
+from lift_gl.renderer import Renderer
+
+REPO = Path(__file__).resolve().parent.parent
+_SPEC = importlib.util.spec_from_file_location("gpu_pt_variants", REPO / "benchmarks" / "gpu_pt_variants.py")
+variants = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(variants)
+
+
+def _stack(source):
+    size = int(re.search(r"#define LIFT_BVH_STACK_SIZE (\d+)\n", source).group(1))
+    depth = re.search(r"#define LIFT_BVH_SHARED_DEPTH (\d+)\n", source)
+    return ("groups" if "#define LIFT_BVH_GROUP_STACK\n" in source else "children", size,
+            int(depth.group(1)) if depth else None)
+
+
+def test_stack_variants_and_the_too_short_ones(monkeypatch, shared_dir):  # the dragon mesh is in ../shared
+    monkeypatch.setenv("LIFT_GL_BVH_WIDTH", "4")
+    monkeypatch.setenv("LIFT_GL_BVH_STACK_ENTRIES", "groups")
+    r = Renderer(load_scene(REPO / "scenes" / "covered_dragon.toml"), size=(8, 8), integrator="pt")
+    try:
+        base, packed = r.trace.source.text, r.packed
+        assert 8 < packed.bvh_levels <= 16 < packed.bvh_stack <= 48    # the 100k dragon: 15 levels, 43 pushes
+        assert _stack(base) == ("groups", 16, 8)
+        expected = {"groups8": ("groups", 8, None), "groups16": ("groups", 16, None),
+                    "groups24_shared8": ("groups", 24, 8), "children16": ("children", 16, None),
+                    "children48": ("children", 48, None)}
+        for name, stack in expected.items():
+            source = variants.VARIANTS[name][0](base)
+            assert _stack(source) == stack, name
+            assert "#define LIFT_BVH_SHARED_DEPTH LIFT_BVH_STACK" in source   # bvh.glsl's own default stays
+            short = variants.stack_too_short(source, packed)
+            assert (short is not None) == (name in ("groups8", "children16")), name
+        assert variants.stack_too_short(base, packed) is None
+    finally:
+        r.release()
