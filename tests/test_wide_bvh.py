@@ -263,18 +263,22 @@ def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stac
     np.testing.assert_array_equal(wide, binary)
 
 
-def test_wide_split_scene_renders_the_same_image(monkeypatch):
-    """A scene split across buffers (scene/split.py) reads the wide nodes through the heap."""
+@pytest.mark.parametrize("entries", ["children", "groups"])
+def test_wide_split_scene_renders_the_same_image(monkeypatch, entries):
+    """A scene split across buffers (scene/split.py) reads the wide nodes through the heap, the
+    node groups' entries too."""
     from lift_gl import limits
     from lift_gl.renderer import Renderer
     from test_split_buffers import _small_limit
 
+    monkeypatch.setenv(STACK_ENV_VAR, entries)
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    whole = _render(monkeypatch, "4", scene, "pt")[0]
+    whole = _render(monkeypatch, "4", scene, "pt", group_stack=entries == "groups")[0]
     monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(_small_limit(pack_scene(scene, bvh_width=4))))
     r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
     try:
         assert r.buffers.plan.split and r.buffers.plan.chunks >= 2 and r.packed.bvh_width == 4
+        assert ("LIFT_BVH_GROUP_STACK" in r.defines) == (entries == "groups")
         split = r.render(spp=4)
     finally:
         r.release()
