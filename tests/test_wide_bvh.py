@@ -341,10 +341,11 @@ def test_an_edit_that_deepens_the_tree_recompiles_with_the_deeper_stack():
         r.release()
 
 
-def test_stack_entries_setting():
+def test_stack_entries_setting(monkeypatch):
     """auto: node groups on GPUs where the stack of children would pass GROUP_STACK_FROM entries
     (their shared memory is what they save), children on CPU rasterizers and for shallow trees;
     groups only where node ids fit their 24 bits; a bad value names the variable."""
+    monkeypatch.delenv(STACK_ENV_VAR, raising=False)
     children = {"LIFT_BVH_STACK_SIZE": 56}
     groups = {"LIFT_BVH_GROUP_STACK": True, "LIFT_BVH_STACK_SIZE": 24, "LIFT_BVH_SHARED_DEPTH": GROUP_SHARED_DEPTH}
     assert stack_defines(54, 18, 72647, software=False) == groups            # Lift's dining room on a GPU
@@ -381,6 +382,7 @@ def test_plugin_asks_for_its_stack_entries(monkeypatch, tmp_path):
     from lift_gl.plugins import BUILTIN_DIR, find_plugin
     from lift_gl.renderer import Renderer
 
+    monkeypatch.delenv(STACK_ENV_VAR, raising=False)
     assert find_plugin("bdpt").bvh_stack == "children" and find_plugin("pt").bvh_stack == "auto"
     assert stack_defines(54, 18, 72647, software=False, preferred="children") == {"LIFT_BVH_STACK_SIZE": 56}
     assert "LIFT_BVH_GROUP_STACK" in stack_defines(11, 4, 7, software=True, preferred="groups")
@@ -389,7 +391,6 @@ def test_plugin_asks_for_its_stack_entries(monkeypatch, tmp_path):
     shutil.copytree(BUILTIN_DIR / "pt", folder)
     manifest = folder / "plugin.toml"
     manifest.write_text(manifest.read_text().replace('name = "pt"', 'name = "ptg"\nbvh_stack = "groups"'))
-    monkeypatch.delenv(STACK_ENV_VAR, raising=False)
     monkeypatch.setenv(WIDTH_ENV_VAR, "4")
     scene = load_scene(REPO / "scenes" / "cornell.toml")
     reference = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
