@@ -355,6 +355,7 @@ def test_stack_entries_setting(monkeypatch):
     assert stack_defines(11, 4, 7, software=True, stack="groups") == dict(groups, LIFT_BVH_STACK_SIZE=8)
     assert stack_defines(54, 18, 72647, software=False, stack="children") == children
     assert stack_defines(54, 18, GROUP_MAX_NODES, software=False, stack="groups") == children
+    assert stack_defines(64, STACK + 1, 1000, software=False, stack="groups") == {"LIFT_BVH_STACK_SIZE": STACK}
     with pytest.raises(LiftError, match=STACK_ENV_VAR):
         stack_defines(54, 18, 72647, software=False, stack="pairs")
 

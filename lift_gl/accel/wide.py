@@ -84,7 +84,8 @@ def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: 
     LIFT_BVH_GROUP_STACK where its entries are node groups, whose top GROUP_SHARED_DEPTH
     entries then stay in shared memory on GPUs (LIFT_BVH_SHARED_DEPTH) and deeper ones go to a
     local array. auto: groups on GPUs where the stack of children would need more than
-    GROUP_STACK_FROM entries, else children; groups need the node ids to fit 24 bits.
+    GROUP_STACK_FROM entries, else children; groups need node ids that fit 24 bits and at
+    most STACK levels (a tree's levels can pass its stack_bound by one).
     `preferred`: what the plugin's manifest asks for (bvh_stack), taken where `stack` (else
     $LIFT_GL_BVH_STACK_ENTRIES) is auto."""
     mode = resolve_stack(stack)
@@ -92,7 +93,7 @@ def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: 
         mode = resolve_stack(preferred)
     if mode == "auto":
         mode = "groups" if not software and stack_size(wide_stack_bound) > GROUP_STACK_FROM else "children"
-    if mode == "groups" and 0 < levels and num_nodes < GROUP_MAX_NODES:
+    if mode == "groups" and 0 < levels <= STACK and num_nodes < GROUP_MAX_NODES:
         return {"LIFT_BVH_GROUP_STACK": True, "LIFT_BVH_STACK_SIZE": stack_size(levels),
                 "LIFT_BVH_SHARED_DEPTH": GROUP_SHARED_DEPTH}
     return {"LIFT_BVH_STACK_SIZE": stack_size(wide_stack_bound)}
