@@ -78,7 +78,7 @@ def test_ray_kinds_run_in_the_trace_pass_layout(monkeypatch):
     assert hits["shared"] == hits["local"] and hits["shared"][0] > 0.5 * size[0] * size[1]
 
 
-def test_ab_compares_defines_on_the_wide_tree(tmp_path, monkeypatch):
+def test_ab_compares_defines_on_the_wide_tree(tmp_path, monkeypatch, shared_dir):  # the dragon's mesh
     """`gpu.py ab` with 4-wide layouts: the binary tree and its 4-wide collapses (float and
     8-bit boxes, with and without an any-hit order #defined) find the same primary hits and
     block the same shadow rays."""

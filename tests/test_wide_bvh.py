@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import REPO
+from conftest import REPO, skip_without_shared
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
 from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, GROUP_MAX_NODES, GROUP_SHARED_DEPTH, GROUP_STACK_FROM, LEAF_BIT,
                                 MAX_FIRST, ROWS, STACK, STACK_ENV_VAR, WIDTH_ENV_VAR, collapse, decoded_boxes,
@@ -127,6 +127,7 @@ def _scene_rays(lo, hi, seed):
 
 
 def _packed_triangles(name):
+    skip_without_shared(REPO / "scenes" / name)
     packed = pack_scene(load_scene(REPO / "scenes" / name), bvh_width=2, bvh_splits="off")
     return packed.bvh_nodes, packed.tri_pos[:packed.num_triangles, :, :3]
 
