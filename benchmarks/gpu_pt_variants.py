@@ -148,8 +148,9 @@ def shared_depth(n: int):
 
 def pad_shared(n_bytes: int):
     """n_bytes more shared memory a work group, written and read so that the compiler keeps
-    it: fewer groups fit on an SM, and where that slows the program down tells how many warps
-    its registers let run (a diagnostic; the image is the same)."""
+    it: what shared memory costs the program (fewer groups fit on an SM, and the L1 cache that
+    shares its memory shrinks; docs/gpu.md "A stack of node groups"). A diagnostic: the image
+    is the same."""
     words = n_bytes // 4
     def edit(text):
         text = _sub(text, "void main() {\n", "shared uint lift_pad[%d];\nvoid main() {\n"
