@@ -135,9 +135,12 @@ def children_entries(n: int):
     return edit
 
 
-def all_shared_groups(n: int):
-    """Node-group stack entries (LIFT_BVH_GROUP_STACK), n deep, all in shared memory."""
-    return compose(define("LIFT_BVH_GROUP_STACK"), undefine("LIFT_BVH_SHARED_DEPTH"), stack_entries(n))
+def group_entries(n: int, shared: int | None = None, local: tuple[int, int] | None = None):
+    """Node-group stack entries (LIFT_BVH_GROUP_STACK), n deep: all in shared memory, or only
+    the top `shared` (LIFT_BVH_SHARED_DEPTH), whatever the renderer chose; in work groups of
+    `local` invocations (shape) where given. Exact where n >= the tree's levels."""
+    depth = undefine("LIFT_BVH_SHARED_DEPTH") if shared is None else shared_depth(shared)
+    return compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(n), depth, *([shape(*local)] if local else []))
 
 
 def shared_depth(n: int):
@@ -296,19 +299,19 @@ VARIANTS = {
     "stack48": (stack_entries(48), {}, True),
     "stack64": (stack_entries(64), {}, True),
     # node-group stack entries (LIFT_BVH_GROUP_STACK) n deep: exact where the tree has <= n levels
-    "groups8": (all_shared_groups(8), {}, True),
-    "groups16": (all_shared_groups(16), {}, True),
-    "groups24": (all_shared_groups(24), {}, True),
+    "groups8": (group_entries(8), {}, True),
+    "groups16": (group_entries(16), {}, True),
+    "groups24": (group_entries(24), {}, True),
     # ... with only the top 8 or 12 entries in shared memory, the deeper ones in a local array
-    "groups24_shared8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shared_depth(8)), {}, True),
-    "groups24_shared12": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shared_depth(12)), {}, True),
-    "groups16_shared8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(16), shared_depth(8)), {}, True),
+    "groups24_shared8": (group_entries(24, shared=8), {}, True),
+    "groups24_shared12": (group_entries(24, shared=12), {}, True),
+    "groups16_shared8": (group_entries(16, shared=8), {}, True),
     "children16": (children_entries(16), {}, True),
     "children48": (children_entries(48), {}, True),
     "children56": (children_entries(56), {}, True),
-    "groups24_s8x8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shape(8, 8)), {}, True),
-    "groups16_s8x8": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(16), shape(8, 8)), {}, True),
-    "groups24_s16x4": (compose(define("LIFT_BVH_GROUP_STACK"), stack_entries(24), shape(16, 4)), {}, True),
+    "groups24_s8x8": (group_entries(24, local=(8, 8)), {}, True),
+    "groups16_s8x8": (group_entries(16, local=(8, 8)), {}, True),
+    "groups24_s16x4": (group_entries(24, local=(16, 4)), {}, True),
     "pad2k": (pad_shared(2048), {}, True),
     "pad4k": (pad_shared(4096), {}, True),
     "pad8k": (pad_shared(8192), {}, True),

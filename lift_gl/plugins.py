@@ -38,6 +38,7 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .accel.wide import STACKS
 from .errors import PluginError, read_utf8
 
 BUILTIN_DIR = Path(__file__).resolve().parent.parent / "plugins"
@@ -48,7 +49,7 @@ PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced",
                   "bvh_stack"}
-BVH_STACKS = ("auto", "children", "groups")   # accel/wide.py STACKS and auto
+BVH_STACKS = ("auto", *STACKS)   # a manifest's bvh_stack: accel/wide.py's stack entries, or auto
 _PARAM_KEYS = {"type", "default", "min", "max", "help", "define"}
 _REDUCED_KEYS = {"function": None, "scale": "int", "normal_power": "float", "depth_sigma": "float"}
 _HOST_DEFINE_PREFIXES = ("HAS_", "LIFT_", "PRIMARY_", "GL_")  # features, host switches, GLSL's own

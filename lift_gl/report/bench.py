@@ -140,7 +140,6 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     pass_sync = {name: t.mean_ms for name, t in renderer.timers.items() if t.count}
     pass_query = {name: t.query.mean_ms for name, t in renderer.timers.items() if t.count}
     # how the trace pass ran: the megakernel or a wavefront ($LIFT_GL_WAVEFRONT; auto's timings)
-    trace = getattr(renderer, "trace", None)
     trace_way = "wavefront" if getattr(trace, "wavefront", None) is not None else "megakernel"
     tuned_ms = getattr(trace, "tuned_ms", None)
     renderer.release()
