@@ -92,6 +92,34 @@ def no_path_steps(text: str) -> str:
     return _sub(text, "#define LIFT_PATH_STEPS\n", "")
 
 
+def no_textures(text: str) -> str:
+    """Diagnostic: every texture lookup returns white (what bilinear lookups in the images buffer cost)."""
+    return _sub(text, "vec3 texture_tint(uint id, vec2 uv) {", "vec3 texture_tint(uint id, vec2 uv) { return vec3(1.0);")
+
+
+def no_srgb_decode(text: str) -> str:
+    """Diagnostic: texels squared instead of the exact sRGB curve (what its pow() per channel costs)."""
+    return _sub(text, "vec3 srgb_to_linear(vec3 c) {", "vec3 srgb_to_linear(vec3 c) { return c * c;")
+
+
+def env_uniform(text: str) -> str:
+    """Diagnostic: environment light samples uniform on the sphere instead of by the map's
+    luminance (what the two binary searches over its CDFs cost; the MIS weights no longer match)."""
+    return _sub(text, "if (u_env_map_size.x > 0u) return sample_env_map(u, wi, pdf) && pdf > 0.0 && pdf < 1e30;", "")
+
+
+def env_constant(text: str) -> str:
+    """Diagnostic: the environment's radiance without its map (what the bilinear map lookup costs)."""
+    return _sub(text, "if (u_env_map_size.x > 0u) return u_env_radiance * env_map_lookup(", "if (false) return u_env_radiance * env_map_lookup(")
+
+
+def no_light_samples(text: str) -> str:
+    """Diagnostic: no next-event estimation at all (no light sample, no shadow ray)."""
+    return _sub(text, "bool sample_light(vec3 p, vec3 u, out LightSample ls) {",
+                "bool sample_light(vec3 p, vec3 u, out LightSample ls) { ls.pdf = 0.0; return false; }\n"
+                "bool unused_sample_light(vec3 p, vec3 u, out LightSample ls) {")
+
+
 def bdpt_unpacked(text: str) -> str:
     """bdpt's stored light subpath with its directions as floats (BDPT_PACK_NORMALS 0) rather
     than one octahedral word each: what the packing saves in local memory, at some rounding."""
@@ -284,6 +312,12 @@ VARIANTS = {
     "s8x8_local": (shape(8, 8, shared=False), {}, True),
     "nosteps": (compose(no_path_steps, shape(8, 4)), {}, True),
     "noshadow": (compose(no_shadow_rays, shape(8, 4)), {}, False),
+    "notex": (no_textures, {}, False),
+    "nosrgb": (no_srgb_decode, {}, False),
+    "env_uniform": (env_uniform, {}, False),
+    "env_const": (env_constant, {}, False),
+    "env_both": (compose(env_uniform, env_constant), {}, False),
+    "nolight": (no_light_samples, {}, False),
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),

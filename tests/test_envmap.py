@@ -274,3 +274,38 @@ def test_diffuse_sphere_under_the_map_matches_the_irradiance_integral():
     var = (a - b)[inside] ** 2 / 4
     z = (mean - expected) / np.sqrt(np.maximum(var.mean(axis=0), 1e-12))
     assert np.mean(np.abs(z) > 4) < 0.01
+
+
+# ---- the search guides: the same cell as a search of the whole cdf -----------------------------
+def test_guided_search_finds_the_cell_of_the_whole_search_at_every_bucket_edge():
+    from lift_gl.scene.envmap import _density_and_cdf, search_cdf, search_guides
+
+    rng = np.random.default_rng(5)
+    n = 97   # not a power of two: u * n rounds inexactly
+    weights = rng.random((4, n)) ** 8          # skewed: many cells share a bucket
+    weights[1, 10:80] = 0.0                     # a run of empty cells
+    weights[2] = 0.0                            # an empty row (uniform)
+    weights[3, :] = 1e-9
+    weights[3, 50] = 1.0                        # one cell holds nearly everything
+    _, cdfs = _density_and_cdf(weights)
+    cdfs = cdfs.astype(np.float32)
+    guides = search_guides(cdfs)
+    # u at every bucket edge k / n and the float32 values just around it, plus random ones
+    edges = (np.arange(n + 1) / n).astype(np.float32)
+    u = np.concatenate([edges, np.nextafter(edges, np.float32(0)), np.nextafter(edges, np.float32(1)),
+                        rng.random(20000).astype(np.float32)])
+    u = u[(u >= 0) & (u < 1)]
+    for cdf, guide in zip(cdfs, guides):
+        bucket = np.minimum((u * np.float32(n)).astype(np.uint32), n - 1)   # float32, as the shader
+        lo, span = guide[bucket] & 0xFFFF, guide[bucket] >> 16
+        cell = search_cdf(cdf, u)
+        assert np.all((lo <= cell) & (cell <= lo + span))
+        # a guide narrows the search: buckets of the skewed rows span few cells on average
+        assert span.mean() < 8
+
+
+def test_guides_refuse_a_map_wider_than_their_words():
+    from lift_gl.scene.envmap import GUIDE_MAX_CELLS, search_guides
+
+    with pytest.raises(ValueError, match="at most"):
+        search_guides(np.linspace(0, 1, GUIDE_MAX_CELLS + 2, dtype=np.float32))

@@ -306,3 +306,48 @@ def test_tuning_waits_for_the_clock_and_times_close_ways_longer(monkeypatch):
 class _StubWavefront:
     def release(self):
         pass
+
+
+def test_tuning_times_no_frame_while_the_gpu_clock_is_low(monkeypatch):
+    """Where NVML reads the SM clock, frames at under TUNING_CLOCK of its maximum run the
+    megakernel untimed, until TUNING_CLOCK_WAIT_S have passed. Fake clock, NVML and frame times."""
+    import lift_gl.gl.context as context
+    import lift_gl.passes.trace as trace_mod
+
+    monkeypatch.setattr(context, "is_software", lambda ctx: False)
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setattr(trace_mod, "TUNING_DELAY_S", 0.0)
+    monkeypatch.setattr(trace_mod, "TUNING_CLOSE", 0.0)
+    clock = {"now": 0.0, "mhz": 345}
+
+    class FakeNvml:
+        def sm_mhz(self):
+            return clock["mhz"]
+
+        def max_sm_mhz(self):
+            return 1980
+
+    def fake_run(uniforms, visibility, as_wavefront):
+        ways.append(as_wavefront)
+        clock["now"] += 0.010 if as_wavefront else 0.020
+
+    monkeypatch.setattr(trace_mod, "time", SimpleNamespace(perf_counter=lambda: clock["now"]))
+    n = 2 * trace_mod.TUNING_FRAMES
+    for clock_rises in (True, False):
+        r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
+        try:
+            clock.update(now=0.0, mhz=345)
+            ways = []
+            r.trace._run = fake_run
+            r.trace._tuning_clock = FakeNvml()
+            r.render(spp=5)   # idle clock: megakernel frames, untimed
+            assert ways == [False] * 5 and all(len(t) == 0 for t in r.trace.tuning.values())
+            if clock_rises:
+                clock["mhz"] = 1900
+            else:   # never rises: timed once TUNING_CLOCK_WAIT_S have passed
+                clock["now"] += trace_mod.TUNING_CLOCK_WAIT_S
+            r.render(spp=n)
+            assert r.trace.tuning is None and r.trace.wavefront is not None   # the faster way kept
+            assert ways[5:] == [trace_mod.tuning_way(i) == "wavefront" for i in range(n)]
+        finally:
+            r.release()

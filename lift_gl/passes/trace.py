@@ -33,7 +33,7 @@ $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways
 A plugin with LIFT_PATH_STEPS may run as a wavefront instead (a dispatch per path vertex over
 the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
 forces it; auto (the default) on a GPU times both ways on its first frames (after the
-clock has had TUNING_DELAY_S to rise) and keeps the faster (on an H100 each won on some
+clock has had TUNING_DELAY_S to rise and, where NVML reads it, once it has) and keeps the faster (on an H100 each won on some
 scenes, docs/gpu.md), on a CPU rasterizer stays off.
 """
 from __future__ import annotations
@@ -56,10 +56,16 @@ from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_m
 # The timing starts TUNING_DELAY_S after the first frame (the megakernel runs until then): an
 # idle GPU's clock takes a few hundred milliseconds to rise (report/gpu_clock.py), and one
 # call's dining room, timed from its first frame at the idle clock, kept the slower way.
+# Where NVML reads the SM clock (report/gpu_clock.py), a frame is timed only once the clock is
+# at TUNING_CLOCK of its maximum, waiting at most TUNING_CLOCK_WAIT_S: with the delay alone, one
+# of four processes of a sixth-session device call still timed the dining room's first frames
+# at 2-4x their steady time and kept the slower way.
 TUNING_FRAMES = 4
 TUNING_CLOSE = 0.05
 TUNING_ROUNDS = 3
 TUNING_DELAY_S = 0.3
+TUNING_CLOCK = 0.9
+TUNING_CLOCK_WAIT_S = 3.0
 
 
 def tuning_way(frame: int) -> str:
@@ -244,6 +250,8 @@ class TracePass:
         self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
         self.tuned_ms = None  # once chosen: each way's median frame ms
         self._tuning_from = None  # when the timed frames may start (TUNING_DELAY_S)
+        self._tuning_clock = None  # the GPU's SM clock reader (NVML), made when tuning starts
+        self._clock_low_since = None  # when it first read low (TUNING_CLOCK_WAIT_S)
         if mode != "off":
             self.wavefront_fallback = fallback_reason(plugin, self.source.text, defines)
             if self.wavefront_fallback is None:
@@ -259,13 +267,16 @@ class TracePass:
         if self.tuning is None:
             self._run(uniforms, visibility, self.wavefront is not None)
             return
-        if TUNING_DELAY_S > 0:   # the first frames, while the GPU's clock rises: not timed
+        # the first frames, and any while the GPU's clock is still low: not timed
+        early = False
+        if TUNING_DELAY_S > 0:
             now = time.perf_counter()
             if self._tuning_from is None:
                 self._tuning_from = now + TUNING_DELAY_S
-            if now < self._tuning_from:
-                self._run(uniforms, visibility, False)
-                return
+            early = now < self._tuning_from
+        if early or not self._clock_is_up():
+            self._run(uniforms, visibility, False)
+            return
         # Choosing: this frame's way in the order A B B A (a GPU's clock rising over these
         # frames then slows both alike), its wall time between two finishes (a timer query
         # could not nest in the renderer's per-pass one)
@@ -281,6 +292,20 @@ class TracePass:
             close = abs(ms[0] - ms[1]) < TUNING_CLOSE * min(ms)
             if not close or timed + 1 >= 2 * TUNING_FRAMES * TUNING_ROUNDS:
                 self._keep_the_faster()
+
+    def _clock_is_up(self) -> bool:
+        """Whether the SM clock reads at least TUNING_CLOCK of its maximum (true without NVML,
+        and once it has read low for TUNING_CLOCK_WAIT_S)."""
+        if self._tuning_clock is None:
+            from ..report.gpu_clock import ClockReader
+            self._tuning_clock = ClockReader(self.ctx.info.get("GL_RENDERER", ""))
+        mhz, peak = self._tuning_clock.sm_mhz(), self._tuning_clock.max_sm_mhz()
+        if mhz is None or not peak or mhz >= TUNING_CLOCK * peak:
+            return True
+        now = time.perf_counter()
+        if self._clock_low_since is None:
+            self._clock_low_since = now
+        return now - self._clock_low_since >= TUNING_CLOCK_WAIT_S
 
     def _keep_the_faster(self) -> None:
         """The median of each way's timed frames decides; a megakernel kept frees the wavefront's slots."""

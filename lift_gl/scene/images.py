@@ -7,8 +7,10 @@ Layout, in words:
 - texture descriptors, 4 words per texture t at 4t: first texel word, width, height, flags
   (bit 0: sRGB-encoded);
 - texels of every texture, RGBA8 packed in one word (R in the low byte), rows from the top;
-- environment map: texels as float32 RGB (rows from the top); the marginal density (H) and
-  cdf (H + 1); the conditional densities (H x W) and cdfs (H x (W + 1)) (envmap.py).
+- environment map: texels as float32 RGBA (A unused: one 16-byte read a texel, the block
+  starting at a multiple of 4 words; rows from the top); the marginal density (H), cdf (H + 1)
+  and search guide (H); the conditional densities (H x W); the conditional cdfs (H x (W + 1))
+  and search guides (H x W) (envmap.py).
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import warnings
 
 import numpy as np
 
-from .envmap import build_distribution
+from .envmap import build_distribution, search_guides
 from .model import Scene, Texture
 
 # llvmpipe's GL_MAX_SHADER_STORAGE_BLOCK_SIZE (128 MiB), the smallest seen (FACTS.md).
@@ -64,7 +66,7 @@ def pack_images(scene: Scene, max_bytes: int = MAX_BUFFER_BYTES) -> tuple[np.nda
     env_words = 0
     if env_image is not None:
         h, w = env_image.shape[:2]
-        env_words = h * w * 3 + (2 * h + 1) + h * w + h * (w + 1)
+        env_words = 3 + h * w * 4 + (3 * h + 1) + h * w + h * (w + 1) + h * w
     textures = _fit(scene.textures, max_bytes // 4 - env_words - 4 * len(scene.textures))
 
     parts: list[np.ndarray] = []
@@ -84,14 +86,25 @@ def pack_images(scene: Scene, max_bytes: int = MAX_BUFFER_BYTES) -> tuple[np.nda
     if env_image is not None:
         h, w = env_image.shape[:2]
         dist = build_distribution(env_image)
-        blocks = [np.ascontiguousarray(env_image[:, :, :3], dtype=np.float32).reshape(-1),
-                  np.concatenate([dist.marginal_pdf, dist.marginal_cdf]).astype(np.float32),
-                  dist.conditional_pdf.astype(np.float32).reshape(-1),
-                  dist.conditional_cdf.astype(np.float32).reshape(-1)]
+        pad = -offset % 4   # the texels start at a multiple of 4 words (images4 in scene_data.glsl)
+        parts.append(np.zeros(pad, np.uint32))
+        offset += pad
+        texels = np.zeros((h, w, 4), np.float32)
+        texels[:, :, :3] = env_image[:, :, :3]
+        marginal_cdf = dist.marginal_cdf.astype(np.float32)
+        conditional_cdf = dist.conditional_cdf.astype(np.float32)
+        def words(a):
+            return np.ascontiguousarray(a).view(np.uint32).reshape(-1)
+
+        blocks = [words(texels),
+                  np.concatenate([words(dist.marginal_pdf.astype(np.float32)), words(marginal_cdf),
+                                  search_guides(marginal_cdf)]),
+                  words(dist.conditional_pdf.astype(np.float32)),
+                  np.concatenate([words(conditional_cdf), search_guides(conditional_cdf).reshape(-1)])]
         starts = []
         for block in blocks:
             starts.append(offset)
-            parts.append(block.view(np.uint32))
+            parts.append(block)
             offset += len(block)
         to_world = _orthonormal(env.to_world)
         uniforms.update({

@@ -62,16 +62,19 @@ uint pick_light(float u) {
 // ---- Environment map: piecewise-constant 2D distribution over the lat-long image ----
 // Layout and conventions: lift_gl/scene/images.py and envmap.py.
 uniform uvec2 u_env_map_size;     // width, height; 0: no map (constant u_env_radiance)
-uniform uvec4 u_env_map_offsets;  // words of: texels (RGB float), marginal pdf + cdf, conditional pdfs, conditional cdfs
+uniform uvec4 u_env_map_offsets;  // words of: texels (RGBA float), marginal pdf + cdf + guide, conditional pdfs, conditional cdfs + guides
 uniform mat3 u_env_to_world;      // the map's frame to world (orthonormal)
 uniform mat3 u_env_from_world;
 
 float env_word(uint i) { return uintBitsToFloat(images[i]); }
 
 // The last i in [0, n - 1] with cdf[i] <= u, for u in [0, 1) and cdf[n] = 1: then
-// cdf[i] <= u < cdf[i + 1], so the chosen cell never has zero probability.
-uint env_search_cdf(uint cdf, uint n, float u) {
-    uint lo = 0u, hi = n - 1u;
+// cdf[i] <= u < cdf[i + 1], so the chosen cell never has zero probability. The binary search
+// runs between the first and last cell of u's bucket in the guide table (words from `guide`,
+// envmap.search_guides): the same cell as a search of the whole cdf, in a step or two.
+uint env_search_cdf(uint cdf, uint guide, uint n, float u) {
+    uint g = images[guide + min(uint(u * float(n)), n - 1u)];
+    uint lo = g & 0xffffu, hi = lo + (g >> 16u);
     while (lo < hi) {
         uint mid = (lo + hi + 1u) >> 1u;
         if (env_word(cdf + mid) <= u) lo = mid; else hi = mid - 1u;
@@ -91,8 +94,7 @@ vec2 env_map_uv(vec3 d) {
 }
 
 vec3 env_texel(int x, int y) {
-    uint i = u_env_map_offsets.x + 3u * uint(y * int(u_env_map_size.x) + x);
-    return vec3(env_word(i), env_word(i + 1u), env_word(i + 2u));
+    return uintBitsToFloat(images4[(u_env_map_offsets.x >> 2u) + uint(y * int(u_env_map_size.x) + x)].xyz);
 }
 
 // Bilinear between texel centres, repeating in u, clamped in v.
@@ -121,11 +123,11 @@ float env_map_pdf_uv(vec2 uv) {
 bool sample_env_map(vec2 u, out vec3 wi, out float pdf) {
     uint w = u_env_map_size.x, h = u_env_map_size.y;
     uint marginal_cdf = u_env_map_offsets.y + h;
-    uint y = env_search_cdf(marginal_cdf, h, u.x);
+    uint y = env_search_cdf(marginal_cdf, marginal_cdf + h + 1u, h, u.x);
     float c0 = env_word(marginal_cdf + y), c1 = env_word(marginal_cdf + y + 1u);
     float dv = clamp((u.x - c0) / (c1 - c0), 0.0, 1.0);
     uint row_cdf = u_env_map_offsets.w + y * (w + 1u);
-    uint x = env_search_cdf(row_cdf, w, u.y);
+    uint x = env_search_cdf(row_cdf, u_env_map_offsets.w + h * (w + 1u) + y * w, w, u.y);
     float d0 = env_word(row_cdf + x), d1 = env_word(row_cdf + x + 1u);
     float du = clamp((u.y - d0) / (d1 - d0), 0.0, 1.0);
     vec2 uv = vec2((float(x) + du) / float(w), (float(y) + dv) / float(h));

@@ -249,6 +249,10 @@ layout(std430, binding = 8) buffer Stats { uint stats[]; };
 // lift/textures.glsl and lift/lights.glsl read it).
 layout(std430, binding = 9) readonly buffer Images { uint images[]; };
 #endif
+#ifdef HAS_ENVIRONMENT_MAP
+// The same buffer read 16 bytes at a time: the environment map's RGBA float texels.
+layout(std430, binding = 9) readonly buffer Images4 { uvec4 images4[]; };
+#endif
 
 // The G-buffer visibility texel's material, and its instance record (NO_INSTANCE: world
 // geometry): with instances w holds the material in 16 bits and the instance + 1 above.
