@@ -318,6 +318,8 @@ VARIANTS = {
     "env_const": (env_constant, {}, False),
     "env_both": (compose(env_uniform, env_constant), {}, False),
     "nolight": (no_light_samples, {}, False),
+    "unpaired": (undefine("LIFT_TRACE_PAIRED"), {}, True),
+    "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),

@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, resolve_width, stack_defines as bvh_stack_defines
+from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, paired_defines as bvh_paired_defines, resolve_width, \
+    stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
@@ -181,6 +182,7 @@ class Renderer:
             if self.packed.bvh_quantized:
                 defines["LIFT_BVH_QUANTIZED"] = True
             defines.update(self._bvh_stack_defines(self.plugin))
+            defines.update(bvh_paired_defines(is_software(self.ctx)))
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines
@@ -579,8 +581,11 @@ class Renderer:
             return []
         what = "node groups" if d.get("LIFT_BVH_GROUP_STACK") else "child entries"
         shared = f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs" if "LIFT_BVH_SHARED_DEPTH" in d else ""
+        paired = ("a path vertex's shadow ray and next ray traced in one loop" if d.get("LIFT_TRACE_PAIRED")
+                  else "shadow and next rays traced apart")
         return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}{shared} "
-                "($LIFT_GL_BVH_STACK_ENTRIES, a manifest's bvh_stack choose)"]
+                "($LIFT_GL_BVH_STACK_ENTRIES, a manifest's bvh_stack choose); "
+                f"{paired} ($LIFT_GL_TRACE_PAIRED)"]
 
     def _explain_memory(self) -> list[str]:
         """The scene's storage buffers, each with its size, and how a big scene was split."""

@@ -260,6 +260,12 @@ void main() {
     if (u_mode == 0) {   // through the BVH
         found = trace_closest(ray, hit);
         occluded = trace_occluded(ray);
+    } else if (u_mode == 2) {   // trace_shadow_and_next: ray i as the shadow ray, ray (7i + 3) % n as the next
+        uint j = (7u * i + 3u) % u_num_rays;
+        vec4 c = rays[2u * j], e = rays[2u * j + 1u];
+        bool shadow_wanted = i % 3u != 1u, next_wanted = i % 3u != 2u;   // both, the next only, the shadow only
+        occluded = trace_shadow_and_next(shadow_wanted, ray, next_wanted, Ray(c.xyz, e.xyz, c.w, e.w), hit);
+        found = hit.prim != NO_HIT;
     } else {             // ray i against triangle i alone (the single-triangle entry point)
         hit.t = ray.tmax;
         hit.prim = NO_HIT;
@@ -283,10 +289,12 @@ def gl():
 
 
 def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=None, defines=None,
-             single_triangles=False):
+             single_triangles=False, paired=False):
     """Trace rays with lift/bvh.glsl; returns (t, prim, occluded, found, bary). `defines`: more
     (the 4-wide tree's LIFT_BVH_WIDTH, a shared stack: tests/test_wide_bvh.py).
-    `single_triangles`: ray i against triangle i alone, no BVH (tests/test_watertight.py)."""
+    `single_triangles`: ray i against triangle i alone, no BVH (tests/test_watertight.py).
+    `paired`: trace_shadow_and_next with ray i as the shadow ray and ray (7i + 3) % n as the
+    next one, both wanted where i % 3 == 0, the next only at 1, the shadow only at 2."""
     from lift_gl.shaders import assemble, compile_compute
 
     defines = dict({"HAS_SPHERES": True} if spheres is not None else {}, **(defines or {}))
@@ -311,7 +319,7 @@ def run_glsl(ctx, nodes, tris_reordered, o, d, tmin=0.0, tmax=np.inf, spheres=No
     out.bind_to_storage_buffer(11)
     buffers.append(out)
     values = {"u_num_triangles": len(tris_reordered), "u_num_spheres": 0 if spheres is None else len(spheres),
-              "u_num_rays": n, "u_mode": 1 if single_triangles else 0}
+              "u_num_rays": n, "u_mode": 1 if single_triangles else 2 if paired else 0}
     for name, value in values.items():
         if prog.get(name, None) is not None:
             prog[name].value = value

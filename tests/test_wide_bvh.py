@@ -142,6 +142,26 @@ def _case_triangles(case: str):
     return _packed_triangles(case)
 
 
+def _stack_placement(stack: str) -> dict:
+    """Where a test's stack lives: shared (a column for each of the test kernel's 64
+    invocations), with only its top 3 entries there (shared3), or a local array."""
+    shared = stack.startswith(("shared", "groups")) and stack != "groups_local"
+    extra = {"LIFT_BVH_SHARED_STACK": 64} if shared else {}
+    if stack.endswith("shared3"):
+        extra["LIFT_BVH_SHARED_DEPTH"] = 3
+    return extra
+
+
+def _wide_defines(wide, layout: str, stack: str) -> dict:
+    """The wide traversal with the stack the renderer declares for this tree (wide.stack_size;
+    node groups: as many entries as the tree has levels)."""
+    tight = dict(WIDE[layout], LIFT_BVH_STACK_SIZE=stack_size(wide.stack_bound), **_stack_placement(stack))
+    if stack.startswith("groups"):
+        assert 1 < wide.levels < wide.stack_bound
+        tight.update(LIFT_BVH_GROUP_STACK=True, LIFT_BVH_STACK_SIZE=wide.levels)
+    return tight
+
+
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
 @pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q"), ("shared3", "4"),
                                            ("shared3", "4q"), ("groups", "4"), ("groups", "4q"), ("groups_local", "4"),
@@ -156,16 +176,9 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=7)
-    shared = stack.startswith(("shared", "groups")) and stack != "groups_local"
-    extra = {"LIFT_BVH_SHARED_STACK": 64} if shared else {}   # the test kernel's 64 invocations
-    if stack.endswith("shared3"):
-        extra["LIFT_BVH_SHARED_DEPTH"] = 3
+    extra = _stack_placement(stack)
     t2, p2, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d, defines=extra)
-    # the wide traversal with the stack the renderer declares for this tree (wide.stack_size)
-    tight = dict(WIDE[layout], LIFT_BVH_STACK_SIZE=stack_size(wide.stack_bound), **extra)
-    if stack.startswith("groups"):
-        assert 1 < wide.levels < wide.stack_bound
-        tight.update(LIFT_BVH_GROUP_STACK=True, LIFT_BVH_STACK_SIZE=wide.levels)
+    tight = _wide_defines(wide, layout, stack)
     t4, p4, occ4, found4, _ = run_glsl(gl, wide.rows, tris, o, d, defines=tight)
     assert found2.mean() > 0.3
     if extra:   # the binary traversal on a shared (or spilling) stack finds what it finds on a local one
@@ -211,6 +224,42 @@ def test_glsl_any_hit_orders_agree(gl, case, layout, order):
     _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax, defines=defines)
     assert 0.1 < occ2.mean() < 0.9
     np.testing.assert_array_equal(occ4, occ2)
+
+
+@pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
+@pytest.mark.parametrize("stack", ["local", "shared", "groups", "groups_shared3"])
+@pytest.mark.parametrize("layout", ["4", "4q"])
+def test_glsl_shadow_and_next_in_one_loop_answer_as_two_traversals(gl, case, stack, layout):
+    """trace_shadow_and_next with LIFT_TRACE_PAIRED (one traversal loop: the shadow ray, then the
+    next ray) finds the closest hit, its t and barycentrics bit for bit, and the occlusion that
+    trace_closest and trace_occluded find apart; with neither ray, or one, wanted. With spheres
+    on the soup (a sphere may block the shadow ray before the tree is entered)."""
+    nodes, tris = _case_triangles(case)
+    wide = wide_layout(nodes, layout)
+    lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
+    o, d = _scene_rays(lo, hi, seed=11)
+    n = len(o)
+    spheres = None
+    if case == "soup":
+        rng = np.random.default_rng(3)
+        spheres = np.concatenate([lo + (hi - lo) * rng.random((6, 3)), 0.05 * np.ones((6, 1))], axis=1).astype(np.float32)
+    base = _wide_defines(wide, layout, stack)
+    # shadow intervals ending before, at and after the nearest hit, as pt's end at their light
+    t0, _, _, found0, _ = run_glsl(gl, wide.rows, tris, o, d, spheres=spheres, defines=base)
+    tmax = (np.where(found0, t0, 1.0).astype(np.float64) * np.random.default_rng(4).uniform(0.5, 1.5, n)).astype(np.float32)
+    t, prim, occ, found, bary = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax, spheres=spheres, defines=base)
+    tp, primp, occp, foundp, baryp = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax, spheres=spheres, paired=True,
+                                              defines=dict(base, LIFT_TRACE_PAIRED=True))
+    i = np.arange(n)
+    j = (7 * i + 3) % n
+    shadow, nxt = i % 3 != 1, i % 3 != 2
+    assert 0.1 < occ[shadow].mean() < 0.9 and 0.3 < found[j[nxt]].mean()
+    np.testing.assert_array_equal(occp, occ & shadow)
+    np.testing.assert_array_equal(foundp, found[j] & nxt)
+    np.testing.assert_array_equal(primp[nxt], prim[j[nxt]])
+    np.testing.assert_array_equal(tp[nxt], t[j[nxt]])
+    np.testing.assert_array_equal(baryp[nxt], bary[j[nxt]])
+    assert (primp[~nxt] == NO_HIT).all()
 
 
 def test_pack_scene_width_and_fallbacks(monkeypatch):
@@ -408,3 +457,46 @@ def test_plugin_asks_for_its_stack_entries(monkeypatch, tmp_path):
     finally:
         r.release()
         reference.release()
+
+
+@pytest.mark.parametrize("scene_name", ["cornell.toml", "showcase.toml"])   # area light; spheres, textures, sky
+@pytest.mark.parametrize("entries, wavefront", [("children", "off"), ("groups", "off"), ("children", "on")])
+def test_pt_with_the_pair_in_one_loop_renders_the_same_image(monkeypatch, scene_name, entries, wavefront):
+    """pt's vertex traces its shadow ray and next ray with trace_shadow_and_next: the image with
+    them in one loop ($LIFT_GL_TRACE_PAIRED on, GPUs' default) is the one traced apart, bit for
+    bit, on the megakernel and the wavefront."""
+    from lift_gl.accel.wide import PAIRED_ENV_VAR
+    from lift_gl.renderer import Renderer
+
+    monkeypatch.setenv("LIFT_GL_BVH_STACK", "shared")
+    monkeypatch.setenv("LIFT_GL_BVH_STACK_ENTRIES", entries)
+    monkeypatch.setenv("LIFT_GL_WAVEFRONT", wavefront)
+    monkeypatch.setenv(WIDTH_ENV_VAR, "4")
+    scene = load_scene(REPO / "scenes" / scene_name)
+    images = {}
+    for paired in ("off", "on"):
+        monkeypatch.setenv(PAIRED_ENV_VAR, paired)
+        r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+        try:
+            assert ("LIFT_TRACE_PAIRED" in r.defines) == (paired == "on")
+            assert ("LIFT_BVH_GROUP_STACK" in r.defines) == (entries == "groups")
+            assert (r.trace.wavefront is not None) == (wavefront == "on")
+            images[paired] = r.render(spp=4)
+        finally:
+            r.release()
+    assert np.isfinite(images["on"]).all() and images["on"].max() > 0
+    np.testing.assert_array_equal(images["on"], images["off"])
+
+
+def test_paired_setting(monkeypatch):
+    from lift_gl.accel.wide import PAIRED_ENV_VAR, paired_defines
+
+    monkeypatch.delenv(PAIRED_ENV_VAR, raising=False)
+    assert paired_defines(software=True) == {} and paired_defines(software=False) == {"LIFT_TRACE_PAIRED": True}
+    monkeypatch.setenv(PAIRED_ENV_VAR, "on")
+    assert paired_defines(software=True) == {"LIFT_TRACE_PAIRED": True}
+    monkeypatch.setenv(PAIRED_ENV_VAR, "off")
+    assert paired_defines(software=False) == {}
+    monkeypatch.setenv(PAIRED_ENV_VAR, "sometimes")
+    with pytest.raises(LiftError, match=PAIRED_ENV_VAR):
+        paired_defines(software=False)

@@ -249,6 +249,7 @@ class TracePass:
         # "faster": both ways timed on the first frames, alternately, then the faster kept
         self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
         self.tuned_ms = None  # once chosen: each way's median frame ms
+        self.tuning_frames_ms = None  # and each of its timed frames
         self._tuning_from = None  # when the timed frames may start (TUNING_DELAY_S)
         self._tuning_clock = None  # the GPU's SM clock reader (NVML), made when tuning starts
         self._clock_low_since = None  # when it first read low (TUNING_CLOCK_WAIT_S)
@@ -310,6 +311,7 @@ class TracePass:
     def _keep_the_faster(self) -> None:
         """The median of each way's timed frames decides; a megakernel kept frees the wavefront's slots."""
         ms = {k: 1e3 * float(np.median(t)) for k, t in self.tuning.items()}
+        self.tuning_frames_ms = {k: [1e3 * s for s in t] for k, t in self.tuning.items()}   # for benchmarks
         self.tuning = None
         self.tuned_ms = ms
         if ms["wavefront"] >= ms["megakernel"]:

@@ -142,6 +142,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # how the trace pass ran: the megakernel or a wavefront ($LIFT_GL_WAVEFRONT; auto's timings)
     trace_way = "wavefront" if getattr(trace, "wavefront", None) is not None else "megakernel"
     tuned_ms = getattr(trace, "tuned_ms", None)
+    tuning_frames_ms = getattr(trace, "tuning_frames_ms", None)
     renderer.release()
 
     counting = make(count_rays=True)
@@ -169,6 +170,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             "gpu_buffers": [{"name": n, "binding": b, "bytes": int(size)} for n, b, size in buffers],
             "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
             "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
+            "wavefront_tuning_frames_ms": tuning_frames_ms,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
             # the per-pass run, and the warm-up before them
             "sm_clock": {"frames_mhz": frame_mhz, "passes_mhz": pass_mhz, "warm_up": warm}}

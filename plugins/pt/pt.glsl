@@ -69,6 +69,10 @@ bool path_step(inout PathState path, inout Rng rng) {
     vec3 wo = to_local(frame, wo_world);
 
     // ---- Next event estimation: one light sample, weighted against BSDF sampling ----
+    // Its shadow ray is traced below, with the next ray (trace_shadow_and_next).
+    bool shadow_wanted = false;
+    Ray shadow_ray = path.ray;
+    vec3 L_light = vec3(0.0);   // what the light sample adds if its shadow ray is unblocked
 #if defined(HAS_EMISSIVE) || defined(HAS_ENVIRONMENT) || defined(HAS_DISTANT_LIGHTS)
     if (!bsdf_is_delta(m)) {
         LightSample ls;
@@ -79,10 +83,12 @@ bool path_step(inout PathState path, inout Rng rng) {
             vec3 f = bsdf_eval(m, wo, wi);
             // Through the true surface of an opaque one: nothing (BSDF sampling agrees).
             if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
-            if (any(greaterThan(f, vec3(0.0))) && !trace_occluded(spawn_shadow_ray(s, ls.wi, ls.dist))) {
+            if (any(greaterThan(f, vec3(0.0)))) {
                 // A delta light (distant) can't be found by BSDF sampling: no MIS.
                 float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
-                path.L += path.throughput * f * ls.radiance * (w / ls.pdf);
+                L_light = path.throughput * f * ls.radiance * (w / ls.pdf);
+                shadow_ray = spawn_shadow_ray(s, ls.wi, ls.dist);
+                shadow_wanted = true;
             }
         }
     }
@@ -90,24 +96,31 @@ bool path_step(inout PathState path, inout Rng rng) {
 
     // ---- BSDF sampling: the next direction ----
     BsdfSample bs;
-    if (!bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs)) return false;
+    bool goes_on = bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs);
     vec3 wi_world = to_world(frame, bs.wi);
     // A reflection that the shading normal allows but the true surface does not.
-    if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) return false;
-    path.throughput *= bs.weight;
-    path.bsdf_pdf_prev = bs.pdf;
-    path.specular_prev = bs.is_delta;
-    path.p_prev = s.p;
-
-    // ---- Russian roulette: end dim paths, reweight the survivors ----
-    if (depth + 1 >= rr_depth) {
-        float survive = clamp(max(path.throughput.r, max(path.throughput.g, path.throughput.b)), rr_min_survival, 1.0);
-        if (rng_next(rng) >= survive) return false;
-        path.throughput /= survive;
+    if (goes_on && is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) goes_on = false;
+    if (goes_on) {
+        path.throughput *= bs.weight;
+        path.bsdf_pdf_prev = bs.pdf;
+        path.specular_prev = bs.is_delta;
+        path.p_prev = s.p;
+        // ---- Russian roulette: end dim paths, reweight the survivors ----
+        if (depth + 1 >= rr_depth) {
+            float survive = clamp(max(path.throughput.r, max(path.throughput.g, path.throughput.b)), rr_min_survival, 1.0);
+            if (rng_next(rng) >= survive) goes_on = false;
+            else path.throughput /= survive;
+        }
     }
 
-    path.ray = spawn_ray(s, wi_world);
-    trace_closest(path.ray, path.hit);
+    // ---- The shadow ray and the next ray ----
+    Ray next_ray = goes_on ? spawn_ray(s, wi_world) : path.ray;
+    Hit next_hit;
+    if (!trace_shadow_and_next(shadow_wanted, shadow_ray, goes_on, next_ray, next_hit) && shadow_wanted)
+        path.L += L_light;
+    if (!goes_on) return false;
+    path.ray = next_ray;
+    path.hit = next_hit;
     path.depth = depth + 1;
     return true;
 }

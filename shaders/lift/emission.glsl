@@ -39,8 +39,7 @@ bool sample_light_point(vec3 u, out LightPoint lp) {
 #ifdef HAS_ENVIRONMENT
     if (u.x < kind.x) {
         float pdf;
-        if (!sample_env_direction(u.yz, lp.p, pdf)) return false;
-        lp.radiance = env_radiance(lp.p);
+        if (!sample_env_direction(u.yz, lp.p, pdf, lp.radiance)) return false;
         lp.pdf = kind.x * pdf;
         lp.infinite = true;
         return lp.pdf > 0.0 && lp.pdf < 1e30;

@@ -119,8 +119,10 @@ float env_map_pdf_uv(vec2 uv) {
     return env_word(u_env_map_offsets.y + y) * env_word(u_env_map_offsets.z + y * w + x);
 }
 
-// A direction (world) with its solid-angle pdf (the map's choice only, not the kind's).
-bool sample_env_map(vec2 u, out vec3 wi, out float pdf) {
+// A direction (world) with its solid-angle pdf (the map's choice only, not the kind's) and the
+// map's value there, looked up at the sampled (u, v) rather than at the direction's (which
+// would cost an atan and an acos to find the same point again, up to their rounding).
+bool sample_env_map(vec2 u, out vec3 wi, out float pdf, out vec3 texel) {
     uint w = u_env_map_size.x, h = u_env_map_size.y;
     uint marginal_cdf = u_env_map_offsets.y + h;
     uint y = env_search_cdf(marginal_cdf, marginal_cdf + h + 1u, h, u.x);
@@ -136,6 +138,7 @@ bool sample_env_map(vec2 u, out vec3 wi, out float pdf) {
     if (!(sin_theta > 0.0) || !(pdf_uv > 0.0)) return false;
     wi = normalize(u_env_to_world * env_map_direction(uv));
     pdf = pdf_uv / (2.0 * LIFT_PI * LIFT_PI * sin_theta);
+    texel = env_map_lookup(uv);
     return true;
 }
 
@@ -151,11 +154,18 @@ float env_map_pdf(vec3 wi) {
 vec3 env_radiance(vec3 wi);
 
 #ifdef HAS_ENVIRONMENT
-// A direction towards the environment (world) and its solid-angle pdf, the choice of the
-// environment among the kinds of light excluded: by the map's luminance, else uniform.
-bool sample_env_direction(vec2 u, out vec3 wi, out float pdf) {
+// A direction towards the environment (world), its solid-angle pdf, the choice of the
+// environment among the kinds of light excluded (by the map's luminance, else uniform), and
+// the radiance arriving from it (env_radiance(wi)).
+bool sample_env_direction(vec2 u, out vec3 wi, out float pdf, out vec3 radiance) {
+    radiance = u_env_radiance;
 #ifdef HAS_ENVIRONMENT_MAP
-    if (u_env_map_size.x > 0u) return sample_env_map(u, wi, pdf) && pdf > 0.0 && pdf < 1e30;
+    if (u_env_map_size.x > 0u) {
+        vec3 texel;
+        bool ok = sample_env_map(u, wi, pdf, texel) && pdf > 0.0 && pdf < 1e30;
+        radiance *= texel;
+        return ok;
+    }
 #endif
     wi = sample_uniform_sphere(u);
     pdf = pdf_uniform_sphere(wi);
@@ -217,8 +227,7 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     if (u.x < kind.x) {
         ls.dist = 1e30;
         float pdf;
-        if (!sample_env_direction(u.yz, ls.wi, pdf)) return false;
-        ls.radiance = env_radiance(ls.wi);
+        if (!sample_env_direction(u.yz, ls.wi, pdf, ls.radiance)) return false;
         ls.pdf = kind.x * pdf;
         return ls.pdf > 0.0 && ls.pdf < 1e30;
     }
