@@ -252,8 +252,9 @@ def test_tuning_frames_take_the_ways_in_the_order_abba(monkeypatch):
         r.trace._run = lambda uniforms, visibility, as_wavefront: ways.append(as_wavefront)
         # each frame takes 10 ms less than the last (a warming GPU), whichever way ran
         monkeypatch.setattr("lift_gl.passes.trace.time", SimpleNamespace(perf_counter=lambda: -0.005 * next(clock) ** 2))
-        r.render(spp=2 * TUNING_FRAMES)
-        assert ways == [tuning_way(i) == "wavefront" for i in range(2 * TUNING_FRAMES)]
+        r.render(spp=2 * TUNING_FRAMES + 1)
+        # the wavefront's first frame, untimed, then the timed ones
+        assert ways == [True] + [tuning_way(i) == "wavefront" for i in range(2 * TUNING_FRAMES)]
         ms = r.trace.tuned_ms
         assert ms is not None and abs(ms["megakernel"] - ms["wavefront"]) < 1e-9
     finally:
@@ -282,8 +283,8 @@ def test_tuning_waits_for_the_clock_and_times_close_ways_longer(monkeypatch):
         monkeypatch.setattr(trace_mod, "time", SimpleNamespace(perf_counter=lambda: clock["now"]))
         ways = []
         r.trace._run = fake_run
-        r.render(spp=5)   # 50 ms of megakernel frames: the delay, untimed
-        assert ways == [False] * 5 and all(len(t) == 0 for t in r.trace.tuning.values())
+        r.render(spp=5)   # 50 ms of frames, the wavefront's first among them: the delay, untimed
+        assert ways == [True] + [False] * 4 and all(len(t) == 0 for t in r.trace.tuning.values())
         n = 2 * trace_mod.TUNING_FRAMES
         r.render(spp=n)
         assert r.trace.tuning is not None                  # close: a second block
@@ -295,7 +296,7 @@ def test_tuning_waits_for_the_clock_and_times_close_ways_longer(monkeypatch):
             frame_s["wavefront"] = 0.007
             r2.trace._run = fake_run
             monkeypatch.setattr(trace_mod, "TUNING_DELAY_S", 0.0)
-            r2.render(spp=n)
+            r2.render(spp=n + 1)   # the wavefront's untimed first frame, then one block
             assert r2.trace.tuning is None and r2.trace.wavefront is not None
         finally:
             r2.release()
@@ -340,8 +341,8 @@ def test_tuning_times_no_frame_while_the_gpu_clock_is_low(monkeypatch):
             ways = []
             r.trace._run = fake_run
             r.trace._tuning_clock = FakeNvml()
-            r.render(spp=5)   # idle clock: megakernel frames, untimed
-            assert ways == [False] * 5 and all(len(t) == 0 for t in r.trace.tuning.values())
+            r.render(spp=5)   # idle clock: untimed frames (the wavefront's first, then the megakernel)
+            assert ways == [True] + [False] * 4 and all(len(t) == 0 for t in r.trace.tuning.values())
             if clock_rises:
                 clock["mhz"] = 1900
             else:   # never rises: timed once TUNING_CLOCK_WAIT_S have passed
