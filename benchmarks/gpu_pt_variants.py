@@ -227,10 +227,12 @@ def bdpt_splat_plain(text: str) -> str:
 
 def _counting(text: str, edits) -> str:
     """The image becomes three per-pixel counts (diag_r/g/b, incremented by `edits`: (anchor,
-    code put after it)); splats are off so nothing else lands in the frame."""
+    code put after it)); splats are off so nothing else lands in the frame, and pixels are not
+    taken from a queue (a lane's counts would run on over its pixels)."""
+    text = undefine("LIFT_PIXEL_QUEUE")(text)
     text = _sub(text, "#line 200001\n", "float diag_r = 0.0, diag_g = 0.0, diag_b = 0.0;\n#line 200001\n")
     text = _sub(text, "imageStore(u_frame_out, pixel, vec4(sum, valid));",
-                "imageStore(u_frame_out, pixel, vec4(diag_r, diag_g, diag_b, valid));")
+                "imageStore(u_frame_out, pixel, vec4(diag_r, diag_g, diag_b, valid));", 0)
     if "void splat(vec2 pixel_pos, vec3 value) {" in text:
         text = _sub(text, "void splat(vec2 pixel_pos, vec3 value) {", "void splat(vec2 pixel_pos, vec3 value) { return;", 0)
     for anchor, code in edits:
@@ -319,6 +321,8 @@ VARIANTS = {
     "env_both": (compose(env_uniform, env_constant), {}, False),
     "nolight": (no_light_samples, {}, False),
     "unpaired": (undefine("LIFT_TRACE_PAIRED"), {}, True),
+    "queue": (define("LIFT_PIXEL_QUEUE"), {}, True),
+    "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
@@ -518,6 +522,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
     from lift_gl.passes.gbuffer import GBufferPass, TracedGBufferPass
+    from lift_gl.passes.trace import reset_pixel_queue
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
 
@@ -569,6 +574,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     raster_pass = GBufferPass(ctx, size, r.defines, r.packed.num_triangles, r.packed.num_spheres) if gb else None
     traced_pass = TracedGBufferPass(ctx, size, r.defines) if gb else None
     jitter = frame_jitter(7, r.seed)
+    queue = ctx.buffer(reserve=4)
 
     def dispatch(name):
         prog, unif, (lx, ly) = programs[name]
@@ -580,6 +586,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         frame.bind_to_image(0, read=False, write=True)
         if splats is not None:
             splats.bind()
+        reset_pixel_queue(ctx, queue)   # the pixel queue (LIFT_PIXEL_QUEUE), where a variant has it
         prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
 
     def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
@@ -662,6 +669,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
                 *([raster_pass, traced_pass] if gb else [])]:
         obj.release()
+    queue.release()
     r.release()
     return result
 

@@ -613,7 +613,11 @@ class Renderer:
                 return (f" as a wavefront ($LIFT_GL_WAVEFRONT){timing}: a dispatch per path vertex over the live "
                         f"paths, {wave.memory_bytes / 2**20:.1f} MiB of path slots and queues")
             why = getattr(self.trace, "wavefront_fallback", None)
-            return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why})" if why else ""
+            queue = ("its lanes taking their next pixel from a queue as their paths end ($LIFT_GL_PIXEL_QUEUE)"
+                     if getattr(self.trace, "pixel_queue", None) is not None else "")
+            if why:
+                return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why}{'; ' + queue if queue else ''})"
+            return f" (megakernel, {queue})" if queue else ""
         from .opencl import describe_device
 
         return f" as an OpenCL kernel on {describe_device()}; G-buffer read back, frame written to GL"

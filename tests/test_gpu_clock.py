@@ -111,7 +111,7 @@ def test_bench_records_the_clock_field(tmp_path):
 
 
 def test_bench_times_frames_only_after_the_trace_pass_has_chosen_its_way(monkeypatch):
-    """On a GPU the trace pass's first 2 x TUNING_FRAMES frames time its two ways, each between
+    """With $LIFT_GL_WAVEFRONT faster the trace pass's first 2 x TUNING_FRAMES frames time its two ways, each between
     two finishes: lift-gl bench renders them before its timed frames, so even 2 timed frames
     come after the choice (wavefront_tuned_ms is set)."""
     import lift_gl.gl.context as context
@@ -121,6 +121,6 @@ def test_bench_times_frames_only_after_the_trace_pass_has_chosen_its_way(monkeyp
     from lift_gl.scene.loader import load_scene
 
     monkeypatch.setattr(context, "is_software", lambda ctx: False)   # wavefront_mode's view only
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "faster")
     case = bench_case(load_scene(REPO / "scenes" / "cornell.toml"), (32, 32), frames=2, repeat=1, denoisers=())
     assert case["wavefront_tuned_ms"] is not None and set(case["wavefront_tuned_ms"]) == {"megakernel", "wavefront"}

@@ -189,20 +189,19 @@ def test_bad_wavefront_setting_is_refused(monkeypatch):
         Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
 
 
-@pytest.mark.parametrize("software, expected", [(True, "off"), (False, "faster")])
-def test_auto_is_the_faster_way_on_gpus_and_the_megakernel_on_cpu_rasterizers(monkeypatch, software, expected):
+@pytest.mark.parametrize("software", [True, False])
+def test_auto_is_the_megakernel_and_faster_times_both(monkeypatch, software):
     import lift_gl.gl.context as context
     from lift_gl.passes.wavefront import wavefront_mode
 
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
     monkeypatch.setattr(context, "is_software", lambda ctx: software)
-    assert wavefront_mode(object()) == expected
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "off")
-    assert wavefront_mode(object()) == "off"
+    for setting, expected in (("auto", "off"), ("faster", "faster"), ("on", "on"), ("off", "off")):
+        monkeypatch.setenv(WAVEFRONT_ENV_VAR, setting)
+        assert wavefront_mode(object()) == expected
 
 
-def test_auto_on_a_gpu_times_both_ways_and_keeps_the_faster(monkeypatch):
-    """auto on a GPU: the first frames alternate between the megakernel and the wavefront (the
+def test_faster_times_both_ways_and_keeps_the_faster(monkeypatch):
+    """faster: the first frames alternate between the megakernel and the wavefront (the
     same samples either way), then the faster is kept; a megakernel kept frees the wavefront."""
     import lift_gl.gl.context as context
     from lift_gl.passes.trace import TUNING_FRAMES
@@ -212,7 +211,7 @@ def test_auto_on_a_gpu_times_both_ways_and_keeps_the_faster(monkeypatch):
     monkeypatch.setattr("lift_gl.passes.trace.TUNING_CLOSE", 0.0)    # one block of frames decides
     scene = load_scene(REPO / "scenes" / "cornell.toml")
     reference, _, _, _ = _render(monkeypatch, "off", scene, spp=2 * TUNING_FRAMES + 2)
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "faster")
     r = Renderer(scene, size=SIZE, integrator="pt", seed=7)
     try:
         assert r.trace.tuning is not None and r.trace.wavefront is not None
@@ -245,7 +244,7 @@ def test_tuning_frames_take_the_ways_in_the_order_abba(monkeypatch):
     monkeypatch.setattr(context, "is_software", lambda ctx: False)
     monkeypatch.setattr("lift_gl.passes.trace.TUNING_DELAY_S", 0.0)
     monkeypatch.setattr("lift_gl.passes.trace.TUNING_CLOSE", 0.0)
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "faster")
     r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
     try:
         ways, clock = [], iter(range(100))
@@ -269,7 +268,7 @@ def test_tuning_waits_for_the_clock_and_times_close_ways_longer(monkeypatch):
     import lift_gl.passes.trace as trace_mod
 
     monkeypatch.setattr(context, "is_software", lambda ctx: False)
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "faster")
     monkeypatch.setattr(trace_mod, "TUNING_DELAY_S", 0.05)
     r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt", seed=7)
     try:
@@ -316,7 +315,7 @@ def test_tuning_times_no_frame_while_the_gpu_clock_is_low(monkeypatch):
     import lift_gl.passes.trace as trace_mod
 
     monkeypatch.setattr(context, "is_software", lambda ctx: False)
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "auto")
+    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "faster")
     monkeypatch.setattr(trace_mod, "TUNING_DELAY_S", 0.0)
     monkeypatch.setattr(trace_mod, "TUNING_CLOSE", 0.0)
     clock = {"now": 0.0, "mhz": 345}

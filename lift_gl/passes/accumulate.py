@@ -65,6 +65,7 @@ class AccumulatePass:
         self.moments.bind_to_image(4, read=True, write=True)
         self.program["u_half_sign"].value = half_sign(self.frames)
         self.program.run(*groups(*self.size))
+        self.ctx.memory_barrier()  # the next frame's accumulation and the display read these images
         self.frames += 1
 
     def textures(self) -> tuple:

@@ -193,6 +193,7 @@ class TracedGBufferPass:
         self.normal_depth.bind_to_image(1, read=False, write=True)
         self.albedo.bind_to_image(2, read=False, write=True)
         self.program.run(*groups(*self.size, self.local_size))
+        self.ctx.memory_barrier()  # the trace pass fetches these images: no overlap on a GPU
 
     def release(self) -> None:
         for obj in (self.visibility, self.normal_depth, self.albedo, self.program):

@@ -129,6 +129,7 @@ class ReducedTracePass:
             self.program[name].value = unit
         self.reduced.bind_to_image(0, read=False, write=True)
         self.program.run(*groups(*self.reduced.size))
+        self.ctx.memory_barrier()  # the upsampling reads it
 
     def release(self) -> None:
         self.program.release()

@@ -21,6 +21,7 @@ class TonemapPass:
 
     def __init__(self, ctx, size):
         self.size = size
+        self.ctx = ctx
         self.program = shaders.compile_compute(ctx, shaders.assemble(SOURCE))
         self.display = ctx.texture(size, 4, dtype="f1")
 
@@ -37,6 +38,7 @@ class TonemapPass:
         accumulate.compensation.bind_to_image(2, read=True, write=False)
         self.display.bind_to_image(3, read=False, write=True)
         self.program.run(*groups(*self.size))
+        self.ctx.memory_barrier()  # what reads the display image comes next
 
     def read(self) -> np.ndarray:
         """uint8 (H, W, 3) sRGB, row 0 = top."""

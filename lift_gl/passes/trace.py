@@ -30,11 +30,14 @@ memory there, and on an H100 the two together made pt's trace pass 2.6-3.6x fast
 groups with local stacks (docs/gpu.md). CPU rasterizers keep 8x8 groups and local stacks.
 $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways).
 
-A plugin with LIFT_PATH_STEPS may run as a wavefront instead (a dispatch per path vertex over
-the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
-forces it; auto (the default) on a GPU times both ways on its first frames (after the
-clock has had TUNING_DELAY_S to rise and, where NVML reads it, once it has) and keeps the faster (on an H100 each won on some
-scenes, docs/gpu.md), on a CPU rasterizer stays off.
+A plugin with LIFT_PATH_STEPS (pt) runs, on GPUs, a megakernel whose lanes take their next
+pixel from a queue as soon as their pixel's paths end (path regeneration, LIFT_PIXEL_QUEUE:
+$LIFT_GL_PIXEL_QUEUE = on | off | auto, auto on GPUs), instead of idling until the longest path
+of their warp ends: the same image. It may also run as a wavefront (a dispatch per path vertex
+over the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
+forces it; faster times both ways on its first frames (after the clock has had TUNING_DELAY_S
+to rise and, where NVML reads it, once it has) and keeps the faster; auto is off (the queued
+megakernel matched or beat the wavefront on an H100, docs/gpu.md).
 """
 from __future__ import annotations
 
@@ -48,9 +51,9 @@ from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from .common import LOCAL_SIZE, env_choice, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
-from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, wavefront_mode
+from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 
-# Frames each way ($LIFT_GL_WAVEFRONT auto on a GPU) before the trace pass keeps the faster:
+# Frames each way ($LIFT_GL_WAVEFRONT faster) before the trace pass keeps the faster:
 # medians of 4 frames of 2-30 ms told the H100's ways apart by 6-27% (docs/gpu.md). Where the
 # medians are within TUNING_CLOSE of each other, another 4 each, up to TUNING_ROUNDS blocks.
 # The timing starts TUNING_DELAY_S after the first frame (the megakernel runs until then): an
@@ -67,6 +70,15 @@ TUNING_ROUNDS = 3
 TUNING_DELAY_S = 0.3
 TUNING_CLOCK = 0.9
 TUNING_CLOCK_WAIT_S = 3.0
+
+
+def fastest_half_mean(seconds) -> float:
+    """What a way's timed frames say: the mean of the faster half. A transient stall (seen on
+    an H100: four frames in a row of the classroom's tuning at 4x their time, both ways alike)
+    drops out, and under a steady drift the A B B A order still weighs both ways alike (the
+    faster half of A's frames 0, 3, 4, 7 is 4 and 7; of B's 1, 2, 5, 6 it is 5 and 6)."""
+    fast = np.sort(np.asarray(seconds, dtype=np.float64))
+    return float(fast[: max(1, (len(fast) + 1) // 2)].mean())
 
 
 def tuning_way(frame: int) -> str:
@@ -106,7 +118,84 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 #include "lift/primary_hit.glsl"
 #endif
 
+#if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS) && defined(LIFT_PIXEL_QUEUE)
+// Path regeneration (LIFT_PIXEL_QUEUE, GPUs; lift_gl/passes/trace.py): a lane takes its next
+// pixel from this queue as soon as its pixel's paths have ended, instead of idling until the
+// longest path of its warp ends. Pixels are numbered tile by tile (one work group's shape), so
+// a warp's first 32 are one tile. The host zeroes the queue before each dispatch.
+layout(std430, binding = 13) coherent buffer LiftPixelQueue {{ uint lift_queue_next; }};
+
+void lift_trace_pixel_queue() {{
+    const uint tile_w = {local_x}u, tile_h = {local_y}u, group = tile_w * tile_h;
+    uvec2 tiles = (uvec2(u_resolution) + uvec2(tile_w - 1u, tile_h - 1u)) / uvec2(tile_w, tile_h);
+    uint items = tiles.x * tiles.y * group;
+#ifdef HAS_MOTION
+    g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
+#endif
+    ivec2 pixel = ivec2(0);
+    Ray primary_ray;
+    Hit primary_hit;
+    Rng rng;
+    PathState path;
+    uint s = 0u;
+    vec3 sum = vec3(0.0);
+    float valid = 0.0;
+    bool busy = false;  // a pixel taken whose samples are not all done
+    while (true) {{
+        if (!busy) {{
+            uint item = atomicAdd(lift_queue_next, 1u);
+            if (item >= items) break;
+            uint tile = item / group, lane = item % group;
+            pixel = ivec2(uvec2(tile % tiles.x, tile / tiles.x) * uvec2(tile_w, tile_h) + uvec2(lane % tile_w, lane / tile_w));
+            if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) continue;
+            s = 0u;
+            sum = vec3(0.0);
+            valid = 0.0;
+            if (u_samples == 0u) {{
+                imageStore(u_frame_out, pixel, vec4(0.0));
+                continue;
+            }}
+            // the megakernel's samples of this pixel, in its order: the same sums
+            primary_ray = camera_ray(vec2(pixel) + u_jitter);
+            primary_hit = gbuffer_hit(pixel, primary_ray);
+            rng = rng_init_pixel_sample(uvec2(pixel), u_frame, 0u, u_sample_base, u_seed, u_stream);
+            path = path_start(primary_ray, primary_hit);
+            busy = true;
+        }}
+        if (path_step(path, rng)) continue;
+        vec3 L = path_radiance(path);
+        if (lift_is_finite(L)) {{
+            sum += L;
+            valid += 1.0;
+        }} else {{
+            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
+        }}
+        ++s;
+        if (s < u_samples) {{
+            rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+            path = path_start(primary_ray, primary_hit);
+            continue;
+        }}
+        imageStore(u_frame_out, pixel, vec4(sum, valid));
+        busy = false;
+    }}
+}}
+#endif
+
 void main() {{
+#if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS) && defined(LIFT_PIXEL_QUEUE)
+    lift_trace_pixel_queue();
+#ifdef LIFT_COUNT_RAYS
+    if (lift_rays_traced > 0u) {{
+        uint before = atomicAdd(stats[2], lift_rays_traced);
+        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
+    }}
+#endif
+    uint lane_probe = 0u;   // the driver's loop budget, as below
+    for (uint i = 0u; i < u_samples + 1u; ++i) lane_probe += 1u;
+    if (lane_probe < u_samples + 1u) atomicAdd(stats[4], 1u);
+    return;
+#endif
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
     vec3 sum = vec3(0.0);
@@ -187,6 +276,22 @@ void main() {{
 
 
 BVH_STACK_ENV_VAR = "LIFT_GL_BVH_STACK"
+# $LIFT_GL_PIXEL_QUEUE on | off | auto (GPUs): the megakernel of a plugin with LIFT_PATH_STEPS
+# takes pixels from a queue as its lanes' paths end (MAIN_TEMPLATE, lift_trace_pixel_queue).
+PIXEL_QUEUE_ENV_VAR = "LIFT_GL_PIXEL_QUEUE"
+PIXEL_QUEUE_BINDING = 13
+
+
+def reset_pixel_queue(ctx: moderngl.Context, queue: moderngl.Buffer) -> None:
+    """Zero the queue and bind it for the next dispatch. A barrier of every kind first: the
+    write must not land before the previous dispatch's last take from the queue, nor may the
+    next dispatch start while that one runs. (On an H100, a queue that each dispatch's last
+    work group emptied itself ran some frames 4-15x slower, its resets landing in the middle of
+    a dispatch; zeroed by the host after a buffer-update barrier only, a few hundred pixels of
+    frames after the first kept the frame before's values, differently from run to run.)"""
+    ctx.memory_barrier()
+    queue.write(b"\0\0\0\0")
+    queue.bind_to_storage_buffer(PIXEL_QUEUE_BINDING)
 GPU_LOCAL_SIZE = (8, 4)  # one warp of 32 a work group (docs/gpu.md has the shapes measured)
 
 
@@ -240,16 +345,23 @@ class TracePass:
         self.local_size, shared_stack = trace_layout(ctx)
         if shared_stack:
             defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
+        queue_mode = env_choice(PIXEL_QUEUE_ENV_VAR, ("on", "off"))
+        if queue_mode == "on" or (queue_mode == "auto" and not is_software(ctx)):
+            defines["LIFT_PIXEL_QUEUE"] = True
         self.source = shaders.assemble(generate_main(plugin, self.local_size), defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} host main>")
         self.program = shaders.compile_compute(ctx, self.source)
+        # the megakernel's pixel queue (MAIN_TEMPLATE): a plugin whose paths go a vertex at a time
+        self.pixel_queue = None
+        if "LIFT_PIXEL_QUEUE" in defines and plugin.primary == "gbuffer" and path_steps(self.source.text):
+            self.pixel_queue = ctx.buffer(reserve=4)
         self.frame = ctx.texture(size, 4, dtype="f4")
         self.wavefront = None
         self.wavefront_fallback = None  # why a wavefront asked for runs as the megakernel
         mode = wavefront_mode(ctx) if wavefront is None else ("on" if wavefront else "off")
         # "faster": both ways timed on the first frames, alternately, then the faster kept
         self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
-        self.tuned_ms = None  # once chosen: each way's median frame ms
+        self.tuned_ms = None  # once chosen: each way's frame ms (fastest_half_mean)
         self.tuning_frames_ms = None  # and each of its timed frames
         self._tuning_from = None  # when the timed frames may start (TUNING_DELAY_S)
         self._tuning_clock = None  # the GPU's SM clock reader (NVML), made when tuning starts
@@ -294,7 +406,7 @@ class TracePass:
         self.ctx.finish()
         self.tuning[way].append(time.perf_counter() - start)
         if (timed + 1) % (2 * TUNING_FRAMES) == 0:
-            ms = [float(np.median(t)) for t in self.tuning.values()]
+            ms = [fastest_half_mean(t) for t in self.tuning.values()]
             close = abs(ms[0] - ms[1]) < TUNING_CLOSE * min(ms)
             if not close or timed + 1 >= 2 * TUNING_FRAMES * TUNING_ROUNDS:
                 self._keep_the_faster()
@@ -314,8 +426,8 @@ class TracePass:
         return now - self._clock_low_since >= TUNING_CLOCK_WAIT_S
 
     def _keep_the_faster(self) -> None:
-        """The median of each way's timed frames decides; a megakernel kept frees the wavefront's slots."""
-        ms = {k: 1e3 * float(np.median(t)) for k, t in self.tuning.items()}
+        """Each way's fastest_half_mean decides; a megakernel kept frees the wavefront's slots."""
+        ms = {k: 1e3 * fastest_half_mean(t) for k, t in self.tuning.items()}
         self.tuning_frames_ms = {k: [1e3 * s for s in t] for k, t in self.tuning.items()}   # for benchmarks
         self.tuning = None
         self.tuned_ms = ms
@@ -337,13 +449,22 @@ class TracePass:
         self.frame.bind_to_image(0, read=False, write=True)
         if self.splats is not None:
             self.splats.bind()
+        if self.pixel_queue is not None:
+            reset_pixel_queue(self.ctx, self.pixel_queue)
         self.program.run(*groups(*self.size, self.local_size))
+        # The frame's image stores must be done before the accumulation loads them, and the next
+        # frame's dispatch must not overwrite it under the accumulation: on an H100 the plain
+        # megakernel without this barrier left a few thousand pixels of a 1080p frame after the
+        # first with another value from run to run.
+        self.ctx.memory_barrier()
         if self.splats is not None:
             self.splats.add_to(self.frame)
 
     def release(self) -> None:
         self.program.release()
         self.frame.release()
+        if self.pixel_queue is not None:
+            self.pixel_queue.release()
         if self.wavefront is not None:
             self.wavefront.release()
         if self.splats is not None:

@@ -95,6 +95,7 @@ class UpsamplePass:
             self.program[name].value = unit
         frame.bind_to_image(0, read=True, write=True)
         self.program.run(*groups(*self.size))
+        self.ctx.memory_barrier()  # the accumulation reads it
 
     def release(self) -> None:
         self.program.release()

@@ -23,13 +23,13 @@ images agree (bit for bit on llvmpipe, tests/test_wavefront.py, and on the H100)
 The megakernel runs instead (TracePass keeps it) for plugins without LIFT_PATH_STEPS, with
 primary = "camera" (their random numbers start before the path), with splats, and where the
 slots would not fit one storage buffer (llvmpipe: 128 MiB, about 840k pixels for pt).
-$LIFT_GL_WAVEFRONT = on | off | auto picks. On a GPU auto times both on the first frames and
-keeps the faster for the scene (TracePass): on an H100 the wavefront (4 vertices in the start
-kernel, 4 step dispatches) was 1.13-1.27x faster on Lift's cornell-box and classroom and the
-Covered Dragon and 0.94x on the dining room, where 95% of the paths end together at the first
-Russian roulette (docs/gpu.md, "A wavefront trace pass"); the images are the same either way.
-On CPU rasterizers auto is off: on llvmpipe it won by 1.03-1.10x on three small scenes, too
-little to change every CPU render's code path.
+$LIFT_GL_WAVEFRONT = on | off | faster | auto picks; auto is off. Until the seventh session
+auto on a GPU timed both ways on the first frames and kept the faster (on an H100 the
+wavefront, 4 vertices in the start kernel and 4 step dispatches, was 1.13-1.27x faster on
+Lift's cornell-box and classroom and the Covered Dragon, 0.94x on the dining room, docs/gpu.md
+"A wavefront trace pass"); since the megakernel takes pixels from a queue as its lanes' paths
+end (passes/trace.py), it matched or beat the wavefront on all four (0.99-1.12x), so the
+megakernel is the default and `faster` keeps that timing. The images are the same either way.
 """
 from __future__ import annotations
 
@@ -225,20 +225,22 @@ class SlotsTooBig(LiftError):
 
 
 def wavefront_mode(ctx: moderngl.Context) -> str:
-    """$LIFT_GL_WAVEFRONT resolved for this GL: "on", "off", or "faster" (auto on a GPU: the
-    trace pass times both ways on its first frames and keeps the faster, TracePass)."""
-    from ..gl.context import is_software
+    """$LIFT_GL_WAVEFRONT resolved: "on", "off" (auto: since the megakernel takes pixels from a
+    queue as its paths end, passes/trace.py, it matched or beat the wavefront on all four scenes
+    measured on an H100, docs/gpu.md), or "faster" (the trace pass times both ways on its first
+    frames and keeps the faster, TracePass)."""
+    mode = env_choice(WAVEFRONT_ENV_VAR, ("on", "off", "faster"))
+    return "off" if mode == "auto" else mode
 
-    mode = env_choice(WAVEFRONT_ENV_VAR, ("on", "off"))
-    if mode == "auto":
-        return "off" if is_software(ctx) else "faster"
-    return mode
 
+def path_steps(source_text: str) -> bool:
+    """Whether a program's plugin advances its paths a vertex at a time (defines LIFT_PATH_STEPS)."""
+    return _PATH_STEPS.search(source_text) is not None
 
 
 def fallback_reason(plugin, source_text: str, defines: dict) -> str | None:
     """Why this program runs as the megakernel whatever the setting (None: it need not)."""
-    if not _PATH_STEPS.search(source_text):
+    if not path_steps(source_text):
         return f"plugin {plugin.name} does not define LIFT_PATH_STEPS"
     if plugin.primary != "gbuffer":
         return "primary = \"camera\": the random numbers of the camera ray come before the path"

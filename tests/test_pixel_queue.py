@@ -1,0 +1,60 @@
+"""The megakernel's pixel queue (LIFT_PIXEL_QUEUE, lift_gl/passes/trace.py; GPUs' default): lanes
+take their next pixel from a queue as their paths end. Each pixel's samples are the megakernel's,
+in its order, so the image is the plain megakernel's bit for bit, frame after frame (the queue
+empties itself at the end of each dispatch), with several samples a frame too."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+from lift_gl.errors import LiftError
+from lift_gl.passes.trace import PIXEL_QUEUE_ENV_VAR
+from lift_gl.renderer import Renderer
+from lift_gl.scene.loader import load_scene
+
+
+def _render(monkeypatch, queue, scene_name, integrator="pt", spf=1, frames=3, size=(37, 29)):
+    monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, queue)
+    monkeypatch.setenv("LIFT_GL_WAVEFRONT", "off")
+    r = Renderer(load_scene(REPO / "scenes" / scene_name), size=size, integrator=integrator, seed=3,
+                 samples_per_frame=spf)
+    try:
+        return r.render(spp=frames * spf), r.trace.pixel_queue is not None, r.stats.dropped_samples
+    finally:
+        r.release()
+
+
+@pytest.mark.parametrize("scene_name, spf", [("cornell.toml", 1), ("showcase.toml", 1), ("cornell.toml", 3)])
+def test_pixel_queue_renders_the_megakernels_image(monkeypatch, scene_name, spf):
+    # 37x29: tiles overhang the image on both sides (pixels the queue must skip)
+    plain, had_queue, dropped = _render(monkeypatch, "off", scene_name, spf=spf)
+    queued, has_queue, dropped_q = _render(monkeypatch, "on", scene_name, spf=spf)
+    assert not had_queue and has_queue
+    assert np.isfinite(queued).all() and queued.max() > 0 and dropped == dropped_q
+    np.testing.assert_array_equal(queued, plain)
+
+
+def test_pixel_queue_only_where_paths_go_a_vertex_at_a_time(monkeypatch):
+    # drt traces whole paths in radiance(): no queue, the plain megakernel
+    image, has_queue, _ = _render(monkeypatch, "on", "cornell.toml", integrator="drt", frames=1)
+    assert not has_queue and image.max() > 0
+    monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, "sometimes")
+    with pytest.raises(LiftError, match=PIXEL_QUEUE_ENV_VAR):
+        Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+
+
+def test_pixel_queue_counts_the_same_rays(monkeypatch):
+    """LIFT_COUNT_RAYS (lift-gl bench's rays a second): a lane counts the rays of all its pixels
+    and adds them once; the total is the plain megakernel's."""
+    rays = {}
+    for queue in ("off", "on"):
+        monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, queue)
+        r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(37, 29), integrator="pt", seed=3,
+                     count_rays=True)
+        try:
+            r.render(spp=2)
+            rays[queue] = r.stats.rays
+        finally:
+            r.release()
+    assert rays["off"] > 2 * 37 * 29 and rays["on"] == rays["off"]
