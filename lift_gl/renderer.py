@@ -182,7 +182,7 @@ class Renderer:
             if self.packed.bvh_quantized:
                 defines["LIFT_BVH_QUANTIZED"] = True
             defines.update(self._bvh_stack_defines(self.plugin))
-            defines.update(bvh_paired_defines(is_software(self.ctx)))
+            defines.update(bvh_paired_defines(is_software(self.ctx), self.packed.bvh_levels))
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines

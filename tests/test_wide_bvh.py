@@ -489,14 +489,17 @@ def test_pt_with_the_pair_in_one_loop_renders_the_same_image(monkeypatch, scene_
 
 
 def test_paired_setting(monkeypatch):
-    from lift_gl.accel.wide import PAIRED_ENV_VAR, paired_defines
+    from lift_gl.accel.wide import PAIRED_ENV_VAR, PAIRED_FROM_LEVELS, paired_defines
 
     monkeypatch.delenv(PAIRED_ENV_VAR, raising=False)
-    assert paired_defines(software=True) == {} and paired_defines(software=False) == {"LIFT_TRACE_PAIRED": True}
+    deep, shallow = PAIRED_FROM_LEVELS, PAIRED_FROM_LEVELS - 1
+    assert paired_defines(software=True, levels=deep) == {}
+    assert paired_defines(software=False, levels=deep) == {"LIFT_TRACE_PAIRED": True}
+    assert paired_defines(software=False, levels=shallow) == {}
     monkeypatch.setenv(PAIRED_ENV_VAR, "on")
-    assert paired_defines(software=True) == {"LIFT_TRACE_PAIRED": True}
+    assert paired_defines(software=True, levels=shallow) == {"LIFT_TRACE_PAIRED": True}
     monkeypatch.setenv(PAIRED_ENV_VAR, "off")
-    assert paired_defines(software=False) == {}
+    assert paired_defines(software=False, levels=deep) == {}
     monkeypatch.setenv(PAIRED_ENV_VAR, "sometimes")
     with pytest.raises(LiftError, match=PAIRED_ENV_VAR):
-        paired_defines(software=False)
+        paired_defines(software=False, levels=deep)

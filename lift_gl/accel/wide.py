@@ -102,25 +102,27 @@ def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: 
 PAIRED_ENV_VAR = "LIFT_GL_TRACE_PAIRED"
 
 
-def paired_defines(software: bool, value: str | None = None) -> dict:
+def paired_defines(software: bool, levels: int, value: str | None = None) -> dict:
     """LIFT_TRACE_PAIRED where a path vertex's shadow ray and next ray go through one traversal
     loop (shaders/lift/bvh.glsl trace_shadow_and_next): `value`, else $LIFT_GL_TRACE_PAIRED:
-    on, off or auto (on GPUs, off on CPU rasterizers: PAIRED_GPU_ONLY says why)."""
+    on, off or auto (on GPUs for trees of at least PAIRED_FROM_LEVELS levels, off on CPU
+    rasterizers; the comment below says why)."""
     if value is None:
         value = os.environ.get(PAIRED_ENV_VAR, "auto")
     text = str(value).strip().lower() or "auto"
     if text not in ("on", "off", "auto"):
         raise LiftError(f"${PAIRED_ENV_VAR} must be on, off or auto, not {value!r}")
-    on = text == "on" or (text == "auto" and not software)
+    on = text == "on" or (text == "auto" and not software and levels >= PAIRED_FROM_LEVELS)
     return {"LIFT_TRACE_PAIRED": True} if on else {}
 
 
-# PAIRED_GPU_ONLY: on an H100 at 1920x1080 (docs/gpu.md "A shadow ray and the next ray in one
-# loop"), pt's megakernel trace with the pair in one loop ran 1.10x as fast as before on the
-# classroom, 1.01x on the dining room and 0.80x on the cornell-box (its traversals are a few
-# nodes long: the loop's second setup, run apart by each lane, costs more than the waits it
-# saves); pt's vertex written for it without the one loop was slower still (0.67-0.87x). On
-# llvmpipe the loop cost 5% and the vertex without it gained 1-3%: CPUs trace the pair apart.
+# On an H100 at 1920x1080 (docs/gpu.md "Seventh session"), with the megakernel's pixel queue,
+# pt's trace with a vertex's two rays in one loop ran 1.11x as fast as with two loops on the
+# classroom (16 levels), 1.04x on the dining room (18), 0.99x on the Covered Dragon (15) and
+# 0.92x on the cornell-box (4: its traversals are a few nodes long, and the loop's second
+# setup, run apart by each lane, costs more than the waits it saves). Four scenes: a rule, not
+# a law. On llvmpipe the one loop cost 5%: CPUs trace the two apart.
+PAIRED_FROM_LEVELS = 8
 
 # The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
 # pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at

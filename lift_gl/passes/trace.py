@@ -118,6 +118,33 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 #include "lift/primary_hit.glsl"
 #endif
 
+// A sample's radiance into its pixel's sum; a NaN or Inf one is dropped and counted, never
+// averaged in.
+void lift_add_sample(vec3 L, inout vec3 sum, inout float valid) {{
+    if (lift_is_finite(L)) {{
+        sum += L;
+        valid += 1.0;
+    }} else {{
+        atomicAdd(stats[0], 1u);
+    }}
+}}
+
+// What an invocation reports once, at its end: its rays (LIFT_COUNT_RAYS: a 64-bit count in two
+// words, a carry into stats[3] when stats[2] wraps around) and whether the driver's loop budget
+// cut its loops short (see lift_gl/passes/trace.py; a loop's first iteration always runs, so the
+// probe needs two to tell: kept, but counted and reported).
+void lift_report_invocation() {{
+#ifdef LIFT_COUNT_RAYS
+    if (lift_rays_traced > 0u) {{
+        uint before = atomicAdd(stats[2], lift_rays_traced);
+        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
+    }}
+#endif
+    uint probe = 0u;
+    for (uint i = 0u; i < u_samples + 1u; ++i) probe += 1u;
+    if (probe < u_samples + 1u) atomicAdd(stats[4], 1u);
+}}
+
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS) && defined(LIFT_PIXEL_QUEUE)
 // Path regeneration (LIFT_PIXEL_QUEUE, GPUs; lift_gl/passes/trace.py): a lane takes its next
 // pixel from this queue as soon as its pixel's paths have ended, instead of idling until the
@@ -163,13 +190,7 @@ void lift_trace_pixel_queue() {{
             busy = true;
         }}
         if (path_step(path, rng)) continue;
-        vec3 L = path_radiance(path);
-        if (lift_is_finite(L)) {{
-            sum += L;
-            valid += 1.0;
-        }} else {{
-            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
-        }}
+        lift_add_sample(path_radiance(path), sum, valid);
         ++s;
         if (s < u_samples) {{
             rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
@@ -185,15 +206,7 @@ void lift_trace_pixel_queue() {{
 void main() {{
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS) && defined(LIFT_PIXEL_QUEUE)
     lift_trace_pixel_queue();
-#ifdef LIFT_COUNT_RAYS
-    if (lift_rays_traced > 0u) {{
-        uint before = atomicAdd(stats[2], lift_rays_traced);
-        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
-    }}
-#endif
-    uint lane_probe = 0u;   // the driver's loop budget, as below
-    for (uint i = 0u; i < u_samples + 1u; ++i) lane_probe += 1u;
-    if (lane_probe < u_samples + 1u) atomicAdd(stats[4], 1u);
+    lift_report_invocation();
     return;
 #endif
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -215,13 +228,7 @@ void main() {{
     PathState path = path_start(primary_ray, primary_hit);
     while (s < u_samples) {{
         if (path_step(path, rng)) continue;
-        vec3 L = path_radiance(path);
-        if (lift_is_finite(L)) {{
-            sum += L;
-            valid += 1.0;
-        }} else {{
-            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
-        }}
+        lift_add_sample(path_radiance(path), sum, valid);
         ++s;
         rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
         path = path_start(primary_ray, primary_hit);
@@ -249,27 +256,10 @@ void main() {{
         ray = camera_ray_lens(vec2(pixel) + subpixel, lens);
         trace_closest(ray, hit);
 #endif
-        vec3 L = radiance(ray, hit, rng);
-        if (!lift_is_finite(L)) {{
-            atomicAdd(stats[0], 1u);  // dropped and counted, never averaged in
-            continue;
-        }}
-        sum += L;
-        valid += 1.0;
+        lift_add_sample(radiance(ray, hit, rng), sum, valid);
     }}
 #endif
-#ifdef LIFT_COUNT_RAYS
-    // A 64-bit count in two words: carry into stats[3] when stats[2] wraps around.
-    if (lift_rays_traced > 0u) {{
-        uint before = atomicAdd(stats[2], lift_rays_traced);
-        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
-    }}
-#endif
-    // ---- the driver's loop budget (see lift_gl/passes/trace.py) ----
-    // (A loop's first iteration always runs: the probe needs two to tell.)
-    uint probe = 0u;
-    for (uint i = 0u; i < u_samples + 1u; ++i) probe += 1u;
-    if (probe < u_samples + 1u) atomicAdd(stats[4], 1u);  // kept, but counted and reported
+    lift_report_invocation();
     imageStore(u_frame_out, pixel, vec4(sum, valid));
 }}
 """
