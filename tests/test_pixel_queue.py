@@ -58,3 +58,29 @@ def test_pixel_queue_counts_the_same_rays(monkeypatch):
         finally:
             r.release()
     assert rays["off"] > 2 * 37 * 29 and rays["on"] == rays["off"]
+
+
+def test_a_pixel_the_loop_limit_cuts_keeps_its_finished_samples(monkeypatch):
+    """llvmpipe ends an invocation's loops after 65535 iterations in all; with the queue a lane
+    runs the paths of many pixels in one loop, so the limit can end it in the middle of a pixel.
+    That pixel keeps the samples its lane finished (here none: valid 0), not the frame before's
+    values, and the cut is counted (Renderer.stats.loop_limited) as for the plain megakernel."""
+    from test_hostile_input import _fine_glowing_box
+
+    monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, "on")
+    monkeypatch.setenv("LIFT_GL_WAVEFRONT", "off")
+    r = Renderer(_fine_glowing_box(12), size=(32, 32), integrator="pt", seed=1, params={"max_depth": 400})
+    try:
+        assert r.trace.pixel_queue is not None
+        sentinel = np.full((32, 32, 4), -7.0, np.float32)
+        r.trace.frame.write(sentinel.tobytes())   # what a frame before would have left
+        r.render(spp=1)
+        frame = np.frombuffer(r.trace.frame.read(), np.float32).reshape(32, 32, 4)
+        assert r.stats.loop_limited > 0              # the limit did cut lanes here
+        assert not (frame == -7.0).any()             # no pixel kept the old values
+        assert set(np.unique(frame[..., 3])) <= {0.0, 1.0}
+        cut = frame[..., 3] == 0.0
+        assert cut.any() and (frame[cut] == 0.0).all()
+        assert (frame[~cut][:, :3] >= 1.0).all()   # the glowing box: every sample sees >= 1
+    finally:
+        r.release()

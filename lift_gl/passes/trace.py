@@ -200,6 +200,11 @@ void lift_trace_pixel_queue() {{
         imageStore(u_frame_out, pixel, vec4(sum, valid));
         busy = false;
     }}
+    // Still busy: the driver's loop limit ended the loop (llvmpipe: 65535 iterations an
+    // invocation; lift_report_invocation counts it). The samples done so far, as the plain
+    // megakernel keeps them. (Every pixel is taken: a dispatch has a lane for each, and a
+    // lane takes its first pixel before its loop can run out.)
+    if (busy) imageStore(u_frame_out, pixel, vec4(sum, valid));
 }}
 #endif
 
