@@ -118,6 +118,11 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 #include "lift/primary_hit.glsl"
 #endif
 
+// The random numbers of this frame's sample s of a pixel.
+Rng lift_sample_rng(ivec2 pixel, uint s) {{
+    return rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+}}
+
 // A sample's radiance into its pixel's sum; a NaN or Inf one is dropped and counted, never
 // averaged in.
 void lift_add_sample(vec3 L, inout vec3 sum, inout float valid) {{
@@ -185,7 +190,7 @@ void lift_trace_pixel_queue() {{
             // the megakernel's samples of this pixel, in its order: the same sums
             primary_ray = camera_ray(vec2(pixel) + u_jitter);
             primary_hit = gbuffer_hit(pixel, primary_ray);
-            rng = rng_init_pixel_sample(uvec2(pixel), u_frame, 0u, u_sample_base, u_seed, u_stream);
+            rng = lift_sample_rng(pixel, 0u);
             path = path_start(primary_ray, primary_hit);
             busy = true;
         }}
@@ -193,7 +198,7 @@ void lift_trace_pixel_queue() {{
         lift_add_sample(path_radiance(path), sum, valid);
         ++s;
         if (s < u_samples) {{
-            rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+            rng = lift_sample_rng(pixel, s);
             path = path_start(primary_ray, primary_hit);
             continue;
         }}
@@ -229,18 +234,18 @@ void main() {{
     Ray primary_ray = camera_ray(vec2(pixel) + u_jitter);
     Hit primary_hit = gbuffer_hit(pixel, primary_ray);
     uint s = 0u;
-    Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, 0u, u_sample_base, u_seed, u_stream);
+    Rng rng = lift_sample_rng(pixel, 0u);
     PathState path = path_start(primary_ray, primary_hit);
     while (s < u_samples) {{
         if (path_step(path, rng)) continue;
         lift_add_sample(path_radiance(path), sum, valid);
         ++s;
-        rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+        rng = lift_sample_rng(pixel, s);
         path = path_start(primary_ray, primary_hit);
     }}
 #else
     for (uint s = 0u; s < u_samples; ++s) {{
-        Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+        Rng rng = lift_sample_rng(pixel, s);
         Ray ray;
         Hit hit;
 #ifdef PRIMARY_GBUFFER

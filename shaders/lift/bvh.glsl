@@ -351,6 +351,18 @@ uint lift_bvh4_leaf_first(uint leaf) { return leaf & LIFT_BVH4_FIRST_MASK; }
 uint lift_bvh4_leaf_count(uint leaf) { return ((leaf >> 27u) & 15u) + 1u; }
 
 #ifndef LIFT_BVH_GROUP_STACK
+// The n hit children of node `cur` near to far: the nearest becomes cur, the others go on the
+// stack, the farthest first (the collapse bounds the pushes of any root path by
+// LIFT_BVH_STACK); and a pop. Macros: the stack may be a local array of the caller's.
+#define LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n) { \
+    uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w; \
+    LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3) \
+    if (n > 3u) { LIFT_BVH_STACK_SET(sp, e3); ++sp; } \
+    if (n > 2u) { LIFT_BVH_STACK_SET(sp, e2); ++sp; } \
+    if (n > 1u) { LIFT_BVH_STACK_SET(sp, e1); ++sp; } \
+    cur = e0; }
+#define LIFT_BVH4_POP(cur) { --sp; cur = LIFT_BVH_STACK_GET(sp); }
+
 // Closest hit below the root, as lift_bvh_closest for the binary tree: while-while, an inner
 // loop over wide nodes down to the next leaf entry. At each node the hit children are sorted
 // near to far (a 5-exchange network); the nearest is visited next and the others pushed, the
@@ -372,16 +384,10 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
             if (n == 0u) {
                 if (sp == 0) { live = false; break; }
-                { --sp; cur = LIFT_BVH_STACK_GET(sp); }
+                LIFT_BVH4_POP(cur)
                 continue;
             }
-            uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
-            LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3)
-            // the collapse bounds the pushes of any root path by LIFT_BVH_STACK
-            if (n > 3u) { LIFT_BVH_STACK_SET(sp, e3); ++sp; }
-            if (n > 2u) { LIFT_BVH_STACK_SET(sp, e2); ++sp; }
-            if (n > 1u) { LIFT_BVH_STACK_SET(sp, e1); ++sp; }
-            cur = e0;
+            LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
         }
         if (!live) break;
         uint first = lift_bvh4_leaf_first(cur);
@@ -395,7 +401,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             }
         }
         if (sp == 0) break;
-        { --sp; cur = LIFT_BVH_STACK_GET(sp); }
+        LIFT_BVH4_POP(cur)
     }
     return found;
 }
@@ -462,12 +468,12 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
                 cur = next;
             } else {
                 if (sp == 0) return false;
-                { --sp; cur = LIFT_BVH_STACK_GET(sp); }
+                LIFT_BVH4_POP(cur)
             }
         }
         if (lift_bvh4_any_leaf(cur, ray, shear, t)) return true;
         if (sp == 0) return false;
-        { --sp; cur = LIFT_BVH_STACK_GET(sp); }
+        LIFT_BVH4_POP(cur)
     }
     return false;
 }
@@ -503,6 +509,17 @@ uvec4 lift_bvh4_entries(uint n) {
     if ((g_ & 3u) == 0u) --sp; \
     else LIFT_BVH_STACK_SET(sp - 1, (g_ & 0xffffff00u) | ((g_ >> 2u) & 0x3cu) | ((g_ & 3u) - 1u)); \
     cur = lift_bvh4_pick(lift_bvh4_entries(g_ >> 8u), (g_ >> 2u) & 3u); }
+// The n hit children of node `cur` near to far: the nearest becomes cur, the others one group
+// entry. Sort keys: each an entry distance's bits (>= 0: they order as the distances do) with
+// its slot in the two low bits, a miss all ones (last).
+#define LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n) { \
+    uvec4 k = (floatBitsToUint(tn) & 0x7ffffffcu) | uvec4(0u, 1u, 2u, 3u); \
+    k |= uvec4(not(hit)) * 0xfffffffcu; \
+    uint a = min(k.x, k.y), b = max(k.x, k.y), c = min(k.z, k.w), d = max(k.z, k.w); \
+    uint k0 = min(a, c), x = max(a, c), y = min(b, d), k3 = max(b, d); \
+    uint k1 = min(x, y), k2 = max(x, y); \
+    if (n > 1u) { LIFT_BVH_STACK_SET(sp, lift_bvh4_group(cur, (k1 & 3u) | (k2 & 3u) << 2u | (k3 & 3u) << 4u, n - 1u)); ++sp; } \
+    cur = lift_bvh4_pick(e, k0 & 3u); }
 
 bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
     bool found = false;
@@ -520,15 +537,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
             uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
             if (n == 0u) { at_leaf = false; break; }
-            // near to far: sort keys, each an entry distance's bits (>= 0: they order as the
-            // distances do) with its slot in the two low bits, a miss all ones (last)
-            uvec4 k = (floatBitsToUint(tn) & 0x7ffffffcu) | uvec4(0u, 1u, 2u, 3u);
-            k |= uvec4(not(hit)) * 0xfffffffcu;
-            uint a = min(k.x, k.y), b = max(k.x, k.y), c = min(k.z, k.w), d = max(k.z, k.w);
-            uint k0 = min(a, c), x = max(a, c), y = min(b, d), k3 = max(b, d);
-            uint k1 = min(x, y), k2 = max(x, y);
-            if (n > 1u) { LIFT_BVH_STACK_SET(sp, lift_bvh4_group(cur, (k1 & 3u) | (k2 & 3u) << 2u | (k3 & 3u) << 4u, n - 1u)); ++sp; }
-            cur = lift_bvh4_pick(e, k0 & 3u);
+            LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
         }
         if (at_leaf) {
             uint first = lift_bvh4_leaf_first(cur);
@@ -612,22 +621,7 @@ bool lift_bvh_shadow_then_closest(uint root, bool shadow_wanted, Ray shadow, boo
             // near to far for both rays: the shadow ray's answer is the same in any order, and
             // one order keeps the two rays' lanes on one path through the loop (on an H100 that
             // was 1.02-1.06x faster than the shadow ray's slot order behind a branch)
-#ifdef LIFT_BVH_GROUP_STACK
-            uvec4 k = (floatBitsToUint(tn) & 0x7ffffffcu) | uvec4(0u, 1u, 2u, 3u);
-            k |= uvec4(not(hit)) * 0xfffffffcu;
-            uint a = min(k.x, k.y), b = max(k.x, k.y), c = min(k.z, k.w), d = max(k.z, k.w);
-            uint k0 = min(a, c), x = max(a, c), y = min(b, d), k3 = max(b, d);
-            uint k1 = min(x, y), k2 = max(x, y);
-            if (n > 1u) { LIFT_BVH_STACK_SET(sp, lift_bvh4_group(cur, (k1 & 3u) | (k2 & 3u) << 2u | (k3 & 3u) << 4u, n - 1u)); ++sp; }
-            cur = lift_bvh4_pick(e, k0 & 3u);
-#else
-            uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
-            LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3)
-            if (n > 3u) { LIFT_BVH_STACK_SET(sp, e3); ++sp; }
-            if (n > 2u) { LIFT_BVH_STACK_SET(sp, e2); ++sp; }
-            if (n > 1u) { LIFT_BVH_STACK_SET(sp, e1); ++sp; }
-            cur = e0;
-#endif
+            LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
         }
         bool done = false;
         if (at_leaf) {
@@ -644,13 +638,7 @@ bool lift_bvh_shadow_then_closest(uint root, bool shadow_wanted, Ray shadow, boo
         }
         if (!done) {
             if (sp == 0) done = true;
-            else {
-#ifdef LIFT_BVH_GROUP_STACK
-                LIFT_BVH4_POP(cur)
-#else
-                --sp; cur = LIFT_BVH_STACK_GET(sp);
-#endif
-            }
+            else LIFT_BVH4_POP(cur)
         }
         if (done) {
             if (!shadow_mode || !next_wanted) break;
