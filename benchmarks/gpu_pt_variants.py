@@ -130,9 +130,14 @@ def define(name: str):
     """The program with `name` #defined (e.g. LIFT_MOLLER_TRUMBORE: lift/bvh.glsl's other
     triangle test; the image may move by the rays through shared edges); "NAME VALUE" replaces
     a definition of NAME the renderer made."""
+    from lift_gl.shaders import DEFINE_EXTENSIONS
+
+    extension = DEFINE_EXTENSIONS.get(name.split()[0])
+    line = f"#extension {extension} : require\n" if extension else ""
+
     def edit(text):
         text = undefine(name.split()[0])(text)
-        return text.replace("\n", f"\n#define {name}\n", 1)  # after #version
+        return text.replace("\n", f"\n{line}#define {name}\n", 1)  # after #version
     return edit
 
 
@@ -324,6 +329,10 @@ VARIANTS = {
     "queue": (define("LIFT_PIXEL_QUEUE"), {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
+    # Aila & Laine's speculative while-while (lift/bvh.glsl): the same nearest hits, though a
+    # tie at one t may keep another of two triangles
+    "spec": (define("LIFT_BVH_SPECULATIVE"), {}, True),
+    "spec_groups24": (compose(define("LIFT_BVH_SPECULATIVE"), group_entries(24)), {}, True),
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
