@@ -130,14 +130,9 @@ def define(name: str):
     """The program with `name` #defined (e.g. LIFT_MOLLER_TRUMBORE: lift/bvh.glsl's other
     triangle test; the image may move by the rays through shared edges); "NAME VALUE" replaces
     a definition of NAME the renderer made."""
-    from lift_gl.shaders import DEFINE_EXTENSIONS
-
-    extension = DEFINE_EXTENSIONS.get(name.split()[0])
-    line = f"#extension {extension} : require\n" if extension else ""
-
     def edit(text):
         text = undefine(name.split()[0])(text)
-        return text.replace("\n", f"\n{line}#define {name}\n", 1)  # after #version
+        return text.replace("\n", f"\n#define {name}\n", 1)  # after #version
     return edit
 
 
@@ -146,6 +141,15 @@ def undefine(name: str):
     shaders' own definitions in terms of other macros)."""
     def edit(text):
         return re.sub(rf"#define {name}( \d+)?\n", "", text)
+    return edit
+
+
+def pragma(option: str):
+    """The program with `#pragma optionNV(option)` after #version: NVIDIA's GLSL compiler
+    options (unroll none, ifcvt none, inline none, maxregcount N; other drivers ignore them),
+    to tell how much of a variant's time is the compiler's choice of code shape."""
+    def edit(text):
+        return text.replace("\n", f"\n#pragma optionNV({option})\n", 1)  # after #version
     return edit
 
 
@@ -329,10 +333,10 @@ VARIANTS = {
     "queue": (define("LIFT_PIXEL_QUEUE"), {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
-    # Aila & Laine's speculative while-while (lift/bvh.glsl): the same nearest hits, though a
-    # tie at one t may keep another of two triangles
-    "spec": (define("LIFT_BVH_SPECULATIVE"), {}, True),
-    "spec_groups24": (compose(define("LIFT_BVH_SPECULATIVE"), group_entries(24)), {}, True),
+    # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
+    "nounroll": (pragma("unroll none"), {}, True),
+    "noifcvt": (pragma("ifcvt none"), {}, True),
+    "noinline": (pragma("inline none"), {}, True),
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
@@ -340,6 +344,10 @@ VARIANTS = {
     "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
     "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
     # the 4-wide tree's any-hit child orders (lift/bvh.glsl): the same shadow rays blocked
+    "shared1": (shared_depth(1), {}, True),
+    "shared2": (shared_depth(2), {}, True),
+    "shared4": (shared_depth(4), {}, True),
+    "shared6": (shared_depth(6), {}, True),
     "shared8": (shared_depth(8), {}, True),
     "shared16": (shared_depth(16), {}, True),
     "shared24": (shared_depth(24), {}, True),

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, paired_defines as bvh_paired_defines, resolve_width, \
-    speculative_defines as bvh_speculative_defines, stack_defines as bvh_stack_defines
+    stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
@@ -183,7 +183,6 @@ class Renderer:
                 defines["LIFT_BVH_QUANTIZED"] = True
             defines.update(self._bvh_stack_defines(self.plugin))
             defines.update(bvh_paired_defines(is_software(self.ctx), self.packed.bvh_levels))
-            defines.update(bvh_speculative_defines(self.ctx.extensions))
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines

@@ -40,14 +40,8 @@ class ShaderSource:
         return None, reported_line
 
 
-# Defines whose code needs a GL extension: its #extension line goes with the define (GLSL
-# allows #extension only before the first declaration, which the library's files may not be).
-DEFINE_EXTENSIONS = {"LIFT_BVH_SPECULATIVE": "GL_ARB_shader_group_vote"}
-
-
 def _defines_block(defines: dict | None) -> str:
-    lines = [f"#extension {DEFINE_EXTENSIONS[name]} : require" for name, value in sorted((defines or {}).items())
-             if name in DEFINE_EXTENSIONS and value is not False]
+    lines = []
     for name, value in sorted((defines or {}).items()):
         if value is True or value is None:
             lines.append(f"#define {name}")

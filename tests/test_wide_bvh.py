@@ -145,7 +145,6 @@ def _case_triangles(case: str):
 def _stack_placement(stack: str) -> dict:
     """Where a test's stack lives: shared (a column for each of the test kernel's 64
     invocations), with only its top 3 entries there (shared3), or a local array."""
-    stack = stack.removesuffix("_speculative")
     shared = stack.startswith(("shared", "groups")) and stack != "groups_local"
     extra = {"LIFT_BVH_SHARED_STACK": 64} if shared else {}
     if stack.endswith("shared3"):
@@ -157,8 +156,6 @@ def _wide_defines(wide, layout: str, stack: str) -> dict:
     """The wide traversal with the stack the renderer declares for this tree (wide.stack_size;
     node groups: as many entries as the tree has levels)."""
     tight = dict(WIDE[layout], LIFT_BVH_STACK_SIZE=stack_size(wide.stack_bound), **_stack_placement(stack))
-    if stack.endswith("_speculative"):
-        tight["LIFT_BVH_SPECULATIVE"] = True
     if stack.startswith("groups"):
         assert 1 < wide.levels < wide.stack_bound
         tight.update(LIFT_BVH_GROUP_STACK=True, LIFT_BVH_STACK_SIZE=wide.levels)
@@ -168,16 +165,12 @@ def _wide_defines(wide, layout: str, stack: str) -> dict:
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
 @pytest.mark.parametrize("stack, layout", [("local", "4"), ("shared", "4"), ("shared", "4q"), ("shared3", "4"),
                                            ("shared3", "4q"), ("groups", "4"), ("groups", "4q"), ("groups_local", "4"),
-                                           ("groups_shared3", "4"), ("local_speculative", "4"),
-                                           ("shared_speculative", "4q"), ("groups_speculative", "4"),
-                                           ("groups_shared3_speculative", "4q")])
+                                           ("groups_shared3", "4")])
 def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     """shared3: only the top 3 stack entries in shared memory, the deeper ones spilled to the
     local array (LIFT_BVH_SHARED_DEPTH; by default the whole stack is shared). groups: a stack
     of node groups (LIFT_BVH_GROUP_STACK) exactly as deep as the tree has levels: entries past
-    it would land in the next invocation's column (shared) or out of the array. speculative:
-    the closest-hit loop that postpones a leaf while other lanes walk nodes
-    (LIFT_BVH_SPECULATIVE): the same nearest hits, though it visits the leaves in another order."""
+    it would land in the next invocation's column (shared) or out of the array."""
     nodes, tris = _case_triangles(case)
     wide = wide_layout(nodes, layout)
     assert wide is not None
@@ -234,8 +227,7 @@ def test_glsl_any_hit_orders_agree(gl, case, layout, order):
 
 
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
-@pytest.mark.parametrize("stack", ["local", "shared", "groups", "groups_shared3", "local_speculative",
-                                   "groups_speculative"])
+@pytest.mark.parametrize("stack", ["local", "shared", "groups", "groups_shared3"])
 @pytest.mark.parametrize("layout", ["4", "4q"])
 def test_glsl_shadow_and_next_in_one_loop_answer_as_two_traversals(gl, case, stack, layout):
     """trace_shadow_and_next with LIFT_TRACE_PAIRED (one traversal loop: the shadow ray, then the

@@ -116,27 +116,6 @@ def paired_defines(software: bool, levels: int, value: str | None = None) -> dic
     return {"LIFT_TRACE_PAIRED": True} if on else {}
 
 
-SPECULATIVE_ENV_VAR = "LIFT_GL_BVH_SPECULATIVE"
-SPECULATIVE_EXTENSION = "GL_ARB_shader_group_vote"
-
-
-def speculative_defines(extensions, value: str | None = None) -> dict:
-    """LIFT_BVH_SPECULATIVE where the 4-wide traversal postpones a leaf while other lanes of its
-    subgroup still walk nodes (shaders/lift/bvh.glsl, Aila & Laine's speculative while-while):
-    `value`, else $LIFT_GL_BVH_SPECULATIVE: on or off (default). On needs the driver's
-    GL_ARB_shader_group_vote (`extensions`: the context's); without it, one clear error."""
-    if value is None:
-        value = os.environ.get(SPECULATIVE_ENV_VAR, "off")
-    text = str(value).strip().lower() or "off"
-    if text not in ("on", "off"):
-        raise LiftError(f"${SPECULATIVE_ENV_VAR} must be on or off, not {value!r}")
-    if text == "off":
-        return {}
-    if SPECULATIVE_EXTENSION not in extensions:
-        raise LiftError(f"${SPECULATIVE_ENV_VAR}=on needs {SPECULATIVE_EXTENSION}, which this OpenGL driver lacks")
-    return {"LIFT_BVH_SPECULATIVE": True}
-
-
 # On an H100 at 1920x1080 (docs/gpu.md "Seventh session"), with the megakernel's pixel queue,
 # pt's trace with a vertex's two rays in one loop ran 1.11x as fast as with two loops on the
 # classroom (16 levels), 1.04x on the dining room (18), 0.99x on the Covered Dragon (15) and

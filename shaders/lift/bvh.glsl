@@ -367,7 +367,6 @@ uint lift_bvh4_leaf_count(uint leaf) { return ((leaf >> 27u) & 15u) + 1u; }
 // loop over wide nodes down to the next leaf entry. At each node the hit children are sorted
 // near to far (a 5-exchange network); the nearest is visited next and the others pushed, the
 // farthest first. Leaf entries go on the stack like nodes and are never fetched as nodes.
-#ifndef LIFT_BVH_SPECULATIVE
 bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
     bool found = false;
     vec3 inv = lift_bvh_inv_dir(ray.dir);
@@ -406,7 +405,6 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
     }
     return found;
 }
-#endif  // !LIFT_BVH_SPECULATIVE
 
 #endif
 
@@ -523,7 +521,6 @@ uvec4 lift_bvh4_entries(uint n) {
     if (n > 1u) { LIFT_BVH_STACK_SET(sp, lift_bvh4_group(cur, (k1 & 3u) | (k2 & 3u) << 2u | (k3 & 3u) << 4u, n - 1u)); ++sp; } \
     cur = lift_bvh4_pick(e, k0 & 3u); }
 
-#ifndef LIFT_BVH_SPECULATIVE
 bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
     bool found = false;
     vec3 inv = lift_bvh_inv_dir(ray.dir);
@@ -560,8 +557,6 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
     return found;
 }
 
-#endif  // !LIFT_BVH_SPECULATIVE
-
 bool lift_bvh_any(uint root, Ray ray, float t) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
     uvec3 near = lift_bvh4_near_rows(inv);
@@ -594,61 +589,6 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
 }
 #endif  // LIFT_BVH_GROUP_STACK
 
-#ifdef LIFT_BVH_SPECULATIVE
-// ---- Speculative while-while (Aila & Laine 2009, section 3) ----------------------------
-// A lane that reaches a leaf entry does not test it at once: it postpones the leaf (one) and
-// goes on down through nodes while any lane of its subgroup still has no leaf, so the lanes
-// test their leaves together instead of waiting for each other in turn. The nodes visited
-// meanwhile are tested against the t found so far, which the postponed leaf may still lower:
-// more node visits, never a missed one, so the closest hit is the same (ties at one t may
-// keep another of two triangles). Needs GL_ARB_shader_group_vote (shaders.py writes its
-// #extension line with this define); the vote only times the loops, the answer is the
-// same whatever it says.
-#define LIFT_BVH4_DONE 0x7fffffffu   // cur's "no entry left": above every node id, below every leaf entry
-#define LIFT_BVH4_NEXT(cur) { if (sp == 0) cur = LIFT_BVH4_DONE; else LIFT_BVH4_POP(cur) }
-// One step of the node loop: cur (a node) visited, a leaf reached postponed when none is.
-#define LIFT_BVH4_SPECULATE(ray, t, leaf) { \
-    vec4 tn; \
-    uvec4 e; \
-    bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e); \
-    uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w); \
-    if (n == 0u) LIFT_BVH4_NEXT(cur) \
-    else LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n) \
-    if (cur > LIFT_BVH4_DONE && leaf == 0u) { leaf = cur; LIFT_BVH4_NEXT(cur) } }
-
-bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout vec2 bary_out) {
-    bool found = false;
-    vec3 inv = lift_bvh_inv_dir(ray.dir);
-    uvec3 near = lift_bvh4_near_rows(inv);
-    LiftRayShear shear = lift_ray_shear(ray.dir);
-    LIFT_BVH_STACK_DECLARE
-    int sp = 0;
-    uint cur = root;
-    uint leaf = 0u;   // a postponed leaf entry (0: none; a leaf entry has its top bit set)
-    while (cur != LIFT_BVH4_DONE || leaf != 0u) {
-        while (cur < LIFT_BVH4_DONE) {   // a wide node
-            LIFT_BVH4_SPECULATE(ray, t, leaf)
-            if (allInvocationsARB(leaf != 0u)) break;
-        }
-        while (leaf != 0u) {   // the postponed leaf, then any leaf entry cur holds
-            uint first = lift_bvh4_leaf_first(leaf);
-            uint count = lift_bvh4_leaf_count(leaf);
-            for (uint i = first; i < first + count; ++i) {
-                vec2 bary;
-                if (lift_intersect_triangle(ray, shear, i, t, bary)) {
-                    prim = i;
-                    bary_out = bary;
-                    found = true;
-                }
-            }
-            leaf = 0u;
-            if (cur > LIFT_BVH4_DONE) { leaf = cur; LIFT_BVH4_NEXT(cur) }
-        }
-    }
-    return found;
-}
-#endif  // LIFT_BVH_SPECULATIVE
-
 // ---- A shadow ray and the next path ray in one traversal loop ----------------------------
 // What lift_bvh_any(root, shadow, shadow.tmax) and then lift_bvh_closest(root, next, t, ...)
 // return (the next ray visiting the same nodes in the same order, the shadow ray its hit
@@ -657,7 +597,6 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
 // one traversal loop instead of two. Returns whether the shadow
 // ray is blocked (false when not wanted); the closest hit as lift_bvh_closest (with t, prim,
 // bary_out untouched when not wanted). trace_shadow_and_next below is the public call.
-#ifndef LIFT_BVH_SPECULATIVE
 bool lift_bvh_shadow_then_closest(uint root, bool shadow_wanted, Ray shadow, bool next_wanted, Ray next,
                                   inout float t_next, inout uint prim, inout vec2 bary_out) {
     bool shadow_mode = shadow_wanted;
@@ -717,61 +656,6 @@ bool lift_bvh_shadow_then_closest(uint root, bool shadow_wanted, Ray shadow, boo
     if (next_wanted) t_next = t;
     return occluded;
 }
-#else
-bool lift_bvh_shadow_then_closest(uint root, bool shadow_wanted, Ray shadow, bool next_wanted, Ray next,
-                                  inout float t_next, inout uint prim, inout vec2 bary_out) {
-    bool shadow_mode = shadow_wanted;
-    Ray ray = shadow_mode ? shadow : next;
-    float t = shadow_mode ? shadow.tmax : t_next;
-    vec3 inv = lift_bvh_inv_dir(ray.dir);
-    uvec3 near = lift_bvh4_near_rows(inv);
-    LiftRayShear shear = lift_ray_shear(ray.dir);
-    LIFT_BVH_STACK_DECLARE
-    int sp = 0;
-    uint cur = root;
-    uint leaf = 0u;
-    bool occluded = false;
-    bool live = shadow_wanted || next_wanted;
-    while (live) {
-        while (cur < LIFT_BVH4_DONE) {   // a wide node (speculative, as lift_bvh_closest)
-            LIFT_BVH4_SPECULATE(ray, t, leaf)
-            if (allInvocationsARB(leaf != 0u)) break;
-        }
-        bool done = false;
-        while (leaf != 0u) {
-            uint first = lift_bvh4_leaf_first(leaf);
-            uint count = lift_bvh4_leaf_count(leaf);
-            for (uint i = first; i < first + count; ++i) {
-                vec2 bary;
-                if (lift_intersect_triangle(ray, shear, i, t, bary)) {
-                    if (shadow_mode) { occluded = true; done = true; break; }
-                    prim = i;
-                    bary_out = bary;
-                }
-            }
-            leaf = 0u;
-            if (done) break;
-            if (cur > LIFT_BVH4_DONE) { leaf = cur; LIFT_BVH4_NEXT(cur) }
-        }
-        if (cur == LIFT_BVH4_DONE && leaf == 0u) done = true;
-        if (done) {
-            if (!shadow_mode || !next_wanted) break;
-            // the shadow ray is done: the next ray starts from the root
-            shadow_mode = false;
-            ray = next;
-            t = t_next;
-            inv = lift_bvh_inv_dir(ray.dir);
-            near = lift_bvh4_near_rows(inv);
-            shear = lift_ray_shear(ray.dir);
-            sp = 0;
-            cur = root;
-            leaf = 0u;
-        }
-    }
-    if (next_wanted) t_next = t;
-    return occluded;
-}
-#endif
 #else
 // Closest triangle hit in the tree under node `root`: the world BVH (root 0), or with
 // HAS_INSTANCES an instance's BLAS, the ray then in that instance's object space; updates t,
