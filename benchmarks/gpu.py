@@ -529,14 +529,17 @@ def measure(args) -> int:
     # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
     # per setting and round, merged by best_of like repeated runs.
     # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
-    # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py).
+    # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py),
+    # --bvh-stack with $LIFT_GL_BVH_STACK (passes/trace.py trace_layout).
     chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
                                                           ("width", WIDTH_VAR, args.bvh_width),
                                                           ("axes", AXES_VAR, args.bvh_axes),
                                                           ("bins", BINS_VAR, args.bvh_bins),
-                                                          ("entries", STACK_VAR, args.bvh_stack_entries)) if value]
+                                                          ("entries", STACK_VAR, args.bvh_stack_entries),
+                                                          ("stack", PLACE_VAR, args.bvh_stack)) if value]
     if len(chosen) > 1:
-        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries: one at a time")
+        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries, --bvh-stack: "
+                         "one at a time")
     axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
     splits = [v.strip() for v in values.split(",") if v.strip()] or [None]
     rounds = args.split_rounds if splits[0] is not None else 1
@@ -817,6 +820,7 @@ def wavefront_table(record: dict) -> str:
 
 SPLITS_VAR, WIDTH_VAR, AXES_VAR, BINS_VAR, STACK_VAR = ("LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH", "LIFT_GL_BVH_AXES",
                                                         "LIFT_GL_BVH_BINS", "LIFT_GL_BVH_STACK_ENTRIES")
+PLACE_VAR = "LIFT_GL_BVH_STACK"
 
 
 def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
@@ -975,6 +979,8 @@ def main(argv=None) -> int:
     m.add_argument("--bvh-bins", help="comma-separated $LIFT_GL_BVH_BINS values (e.g. 32,128): as --bvh-splits")
     m.add_argument("--bvh-stack-entries", help="comma-separated $LIFT_GL_BVH_STACK_ENTRIES values (children,groups): "
                    "as --bvh-splits")
+    m.add_argument("--bvh-stack", help="comma-separated $LIFT_GL_BVH_STACK values (shared,local,auto: where the trace "
+                   "pass keeps its stack): as --bvh-splits")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")

@@ -580,7 +580,13 @@ class Renderer:
         if "LIFT_BVH_STACK_SIZE" not in d:
             return []
         what = "node groups" if d.get("LIFT_BVH_GROUP_STACK") else "child entries"
-        shared = f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs" if "LIFT_BVH_SHARED_DEPTH" in d else ""
+        trace = getattr(self, "trace", None)
+        source = getattr(trace, "source", None)
+        if source is not None and "#define LIFT_BVH_SHARED_STACK " not in source.text:
+            shared = ", in a local array"   # CPU rasterizers; on GPUs pt's queued megakernel (passes/trace.py)
+        else:
+            shared = (f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs"
+                      if "LIFT_BVH_SHARED_DEPTH" in d else "")
         paired = ("a path vertex's shadow ray and next ray traced in one loop" if d.get("LIFT_TRACE_PAIRED")
                   else "shadow and next rays traced apart")
         return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}{shared} "

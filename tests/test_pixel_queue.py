@@ -84,3 +84,34 @@ def test_a_pixel_the_loop_limit_cuts_keeps_its_finished_samples(monkeypatch):
         assert (frame[~cut][:, :3] >= 1.0).all()   # the glowing box: every sample sees >= 1
     finally:
         r.release()
+
+
+def test_on_gpus_the_queued_megakernel_keeps_its_stack_local(monkeypatch):
+    """trace_layout on a GPU (is_software false): 8x4 groups with the stack in shared memory, but
+    the queued megakernel (pt) keeps its stack in a local array (docs/gpu.md "Eighth session");
+    drt's plain megakernel keeps shared memory; $LIFT_GL_BVH_STACK still decides where set. The
+    image is the same either way."""
+    import lift_gl.passes.trace as trace_mod
+
+    monkeypatch.setattr(trace_mod, "is_software", lambda ctx: False)
+    monkeypatch.delenv(trace_mod.BVH_STACK_ENV_VAR, raising=False)
+    monkeypatch.setenv("LIFT_GL_WAVEFRONT", "off")
+    monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, "auto")
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    images, layouts = {}, {}
+    for integrator, stack in (("pt", "auto"), ("pt", "shared"), ("drt", "auto")):
+        monkeypatch.setenv(trace_mod.BVH_STACK_ENV_VAR, stack)
+        r = Renderer(scene, size=(24, 16), integrator=integrator, seed=3)
+        try:
+            layouts[integrator, stack] = (r.trace.local_size, "#define LIFT_BVH_SHARED_STACK " in r.trace.source.text,
+                                          r.trace.pixel_queue is not None)
+            if integrator == "pt" and stack == "auto":
+                assert "in a local array" in r.explain()
+            images[integrator, stack] = r.render(spp=2)
+        finally:
+            r.release()
+    assert layouts["pt", "auto"] == ((8, 4), False, True)
+    assert layouts["pt", "shared"] == ((8, 4), True, True)
+    assert layouts["drt", "auto"] == ((8, 4), True, False)
+    assert images["pt", "auto"].max() > 0
+    np.testing.assert_array_equal(images["pt", "auto"], images["pt", "shared"])

@@ -33,7 +33,9 @@ $LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways
 A plugin with LIFT_PATH_STEPS (pt) runs, on GPUs, a megakernel whose lanes take their next
 pixel from a queue as soon as their pixel's paths end (path regeneration, LIFT_PIXEL_QUEUE:
 $LIFT_GL_PIXEL_QUEUE = on | off | auto, auto on GPUs), instead of idling until the longest path
-of their warp ends: the same image. It may also run as a wavefront (a dispatch per path vertex
+of their warp ends: the same image. That megakernel keeps its 8x4 groups but its stack in a
+local array on GPUs (trace_layout: 1.03-1.05x on an H100 and an H200, session 8). It may also
+run as a wavefront (a dispatch per path vertex
 over the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
 forces it; faster times both ways on its first frames (after the clock has had TUNING_DELAY_S
 to rise and, where NVML reads it, once it has) and keeps the faster; auto is off (the queued
@@ -298,12 +300,17 @@ def reset_pixel_queue(ctx: moderngl.Context, queue: moderngl.Buffer) -> None:
 GPU_LOCAL_SIZE = (8, 4)  # one warp of 32 a work group (docs/gpu.md has the shapes measured)
 
 
-def trace_layout(ctx: moderngl.Context) -> tuple[tuple[int, int], bool]:
+def trace_layout(ctx: moderngl.Context, pixel_queue: bool = False) -> tuple[tuple[int, int], bool]:
     """The trace program's work-group shape and whether its BVH stack is in shared memory:
-    GPUs 8x4 and shared, CPU rasterizers 8x8 and local; $LIFT_GL_BVH_STACK (shared, local,
-    auto) overrides the stack's place, and the shape follows it."""
+    GPUs 8x4 and shared, CPU rasterizers 8x8 and local; on GPUs a megakernel that takes its
+    pixels from the queue (`pixel_queue`) keeps 8x4 with the stack in a local array, which ran
+    its trace 1.03-1.05x faster on an H100 and an H200 (docs/gpu.md "Eighth session"; the plain
+    megakernel of drt lost 0.87-0.94x that way). $LIFT_GL_BVH_STACK (shared, local, auto)
+    overrides the stack's place, and the shape follows it (local: 8x8)."""
     mode = env_choice(BVH_STACK_ENV_VAR, ("shared", "local"))
-    shared = not is_software(ctx) if mode == "auto" else mode == "shared"
+    if mode == "auto" and not is_software(ctx):
+        return GPU_LOCAL_SIZE, not pixel_queue
+    shared = mode == "shared"
     return (GPU_LOCAL_SIZE if shared else (LOCAL_SIZE, LOCAL_SIZE)), shared
 
 
@@ -345,21 +352,27 @@ class TracePass:
             defines.update(splat_defines(ctx))
             self.splats = SplatBuffer(ctx, size)
             self.outputs = ("frame (with splats)",)
-        self.local_size, shared_stack = trace_layout(ctx)
-        if shared_stack:
-            defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
         queue_mode = env_choice(PIXEL_QUEUE_ENV_VAR, ("on", "off"))
         if queue_mode == "on" or (queue_mode == "auto" and not is_software(ctx)):
             defines["LIFT_PIXEL_QUEUE"] = True
             if is_software(ctx):   # CPU rasterizers (llvmpipe) end long-running loops
                 defines["LIFT_LOOP_LIMITED"] = True
-        self.source = shaders.assemble(generate_main(plugin, self.local_size), defines, include_dirs=[plugin.folder],
-                                       main_name=f"<{plugin.name} host main>")
-        self.program = shaders.compile_compute(ctx, self.source)
         # the megakernel's pixel queue (MAIN_TEMPLATE): a plugin whose paths go a vertex at a time
-        self.pixel_queue = None
-        if "LIFT_PIXEL_QUEUE" in defines and plugin.primary == "gbuffer" and path_steps(self.source.text):
-            self.pixel_queue = ctx.buffer(reserve=4)
+        # (known from its source: assembled once here to read it, the text only)
+        queued = ("LIFT_PIXEL_QUEUE" in defines and plugin.primary == "gbuffer"
+                  and path_steps(shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
+                                                  main_name=f"<{plugin.name} host main>").text))
+        # the wavefront's kernels keep the stack in shared memory on GPUs (trace_layout's plain rule)
+        wavefront_size, shared_stack = trace_layout(ctx)
+        if shared_stack:
+            defines["LIFT_BVH_SHARED_STACK"] = wavefront_size[0] * wavefront_size[1]
+        self.local_size, shared_stack = trace_layout(ctx, pixel_queue=queued)
+        megakernel_defines = {name: value for name, value in defines.items()
+                              if shared_stack or name != "LIFT_BVH_SHARED_STACK"}
+        self.source = shaders.assemble(generate_main(plugin, self.local_size), megakernel_defines,
+                                       include_dirs=[plugin.folder], main_name=f"<{plugin.name} host main>")
+        self.program = shaders.compile_compute(ctx, self.source)
+        self.pixel_queue = ctx.buffer(reserve=4) if queued else None
         self.frame = ctx.texture(size, 4, dtype="f4")
         self.wavefront = None
         self.wavefront_fallback = None  # why a wavefront asked for runs as the megakernel
@@ -377,7 +390,7 @@ class TracePass:
             if self.wavefront_fallback is None:
                 try:
                     self.wavefront = WavefrontTrace(ctx, size, plugin, defines, param_declarations(plugin),
-                                                    self.local_size, **(wavefront_options or {}))
+                                                    wavefront_size, **(wavefront_options or {}))
                 except SlotsTooBig as exc:  # known once the plugin's slot size is
                     self.wavefront_fallback = str(exc)
         if self.wavefront is None:
