@@ -153,6 +153,19 @@ def pragma(option: str):
     return edit
 
 
+def packed_local_stack(text: str) -> str:
+    """The local stack array (no LIFT_BVH_SHARED_STACK) as uvec4 elements, four entries each,
+    instead of one uint an element: NVIDIA's assembly declares local arrays in vec4 elements
+    (the binary's lmem_vec4), so a uint array may take four times its bytes."""
+    old = ("#define LIFT_BVH_STACK_DECLARE uint lift_bvh_stack[LIFT_BVH_STACK];\n"
+           "#define LIFT_BVH_STACK_SET(i, v) lift_bvh_stack[i] = (v)\n"
+           "#define LIFT_BVH_STACK_GET(i) lift_bvh_stack[i]\n")
+    new = ("#define LIFT_BVH_STACK_DECLARE uvec4 lift_bvh_stack4[(LIFT_BVH_STACK + 3) / 4];\n"
+           "#define LIFT_BVH_STACK_SET(i, v) lift_bvh_stack4[uint(i) >> 2u][uint(i) & 3u] = (v)\n"
+           "#define LIFT_BVH_STACK_GET(i) lift_bvh_stack4[uint(i) >> 2u][uint(i) & 3u]\n")
+    return _sub(text, old, new)
+
+
 def stack_entries(n: int):
     """The 4-wide traversal's stack declared with n entries instead of the tree's own bound
     (LIFT_BVH_STACK_SIZE, accel/wide.stack_size): what the shared memory it takes costs."""
@@ -321,6 +334,9 @@ VARIANTS = {
     "s8x4_local": (shape(8, 4, shared=False), {}, True),
     "s4x8_local": (shape(4, 8, shared=False), {}, True),
     "s8x8_local": (shape(8, 8, shared=False), {}, True),
+    "s32x1_local": (shape(32, 1, shared=False), {}, True),
+    "s16x4_local": (shape(16, 4, shared=False), {}, True),
+    "packed_local": (compose(shape(8, 4, shared=False), packed_local_stack), {}, True),
     "nosteps": (compose(no_path_steps, shape(8, 4)), {}, True),
     "noshadow": (compose(no_shadow_rays, shape(8, 4)), {}, False),
     "notex": (no_textures, {}, False),
