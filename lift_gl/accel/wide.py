@@ -142,7 +142,9 @@ DEFAULT_CPU_WIDTH = "4q"
 GROUP_STACK_FROM = 32
 # Node groups rarely go more than a few levels deep: with only the top 8 in shared memory (1 KiB
 # a work group) pt's trace pass ran 1.21x faster again on the dining room than with all 24 there,
-# 1.04x on the dragon, 1.02x on the classroom (H100; 12 entries: 1.13 / 0.98 / 0.98x).
+# 1.04x on the dragon, 1.02x on the classroom (H100; 12 entries: 1.13 / 0.98 / 0.98x). That was
+# pt's plain megakernel; the queued one it runs now keeps its whole stack in a local array on
+# GPUs (passes/trace.py trace_layout), and drt, hybrid and ao keep this.
 GROUP_SHARED_DEPTH = 8
 
 
