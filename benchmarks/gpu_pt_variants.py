@@ -336,6 +336,8 @@ VARIANTS = {
     "s8x8_local": (shape(8, 8, shared=False), {}, True),
     "s32x1_local": (shape(32, 1, shared=False), {}, True),
     "s16x4_local": (shape(16, 4, shared=False), {}, True),
+    "s4x4_local": (shape(4, 4, shared=False), {}, True),   # half a warp a work group
+    "s16x1_local": (shape(16, 1, shared=False), {}, True),
     "packed_local": (compose(shape(8, 4, shared=False), packed_local_stack), {}, True),
     "nosteps": (compose(no_path_steps, shape(8, 4)), {}, True),
     "noshadow": (compose(no_shadow_rays, shape(8, 4)), {}, False),
