@@ -1,0 +1,208 @@
+"""How many nodes of the 4-wide BVH a ray visits: each ray traversed on its own as
+shaders/lift/bvh.glsl traverses it (a stack; a node's hit children near to far; the closest hit,
+or for shadow rays the first hit found), emulated in numpy, next to the fewest any traversal
+must visit (the wide nodes whose box the ray crosses before its hit). The tree is the
+renderer's (scene/pack.py, 4-wide, splits as $LIFT_GL_BVH_SPLITS says).
+
+    python benchmarks/bvh_visits.py SCENE... [--rays 1000] [--seed 1] [--json FILE]
+
+Ray kinds: camera rays over a 16:9 image, bounce rays (cosine-distributed about the geometric
+normal at the camera rays' hits) and shadow rays from those hits, towards the scene's distant
+lights where it has some, else in cosine-distributed directions of unbounded length (an
+environment light's); for these the fewest nodes are those before the nearest hit (a
+closest-hit query's least), which an any-hit query may undercut by stopping at a farther one.
+A GPU runs 32 rays in lockstep: the "warp" column is the busiest lane's count in warps of 32
+random rays of a kind (warp_nodes). What it tells: whether a scene's rays are slow because they visit many
+nodes (the tree, the traversal order) or because each visit costs more (memory): a GPU's
+Mrays/s (benchmarks/gpu.py) divided into these counts. Needs no GPU.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from lift_gl.accel.bvh import _safe_inv, moller_trumbore  # noqa: E402
+from lift_gl.accel.wide import COUNT_SHIFT, LEAF_BIT, MAX_FIRST, MAX_LEAF_COUNT, WideBVH, decoded_boxes  # noqa: E402
+
+T_EPS = 1e-6   # a hit nearer than this along the ray is the surface the ray leaves
+
+
+class WideTree:
+    """The packed 4-wide tree's child boxes and entries, and its triangles in leaf order (float64)."""
+
+    def __init__(self, packed):
+        if packed.bvh_width != 4:
+            raise ValueError("the scene packed without a 4-wide tree (motion blur, instances or $LIFT_GL_BVH_WIDTH=2)")
+        wide = WideBVH(rows=packed.bvh_nodes, width=4, stack_bound=packed.bvh_stack, quantized=packed.bvh_quantized,
+                       levels=packed.bvh_levels)
+        lo, hi, entry = decoded_boxes(wide)
+        self.lo, self.hi = lo.astype(np.float64), hi.astype(np.float64)
+        self.entry = entry.astype(np.int64)
+        self.tris = packed.tri_pos[:packed.num_triangles, :, :3].astype(np.float64)
+
+    def slots(self, node: int, o, inv, t_max: float):
+        """Entry distances of node's four children and which the ray (0, t_max) enters."""
+        t0 = (self.lo[node] - o) * inv
+        t1 = (self.hi[node] - o) * inv
+        near = np.where(inv >= 0, t0, t1).max(axis=1)
+        far = np.where(inv >= 0, t1, t0).min(axis=1)
+        return near, np.maximum(near, 0.0) <= np.minimum(far, t_max)
+
+    def leaf(self, entry: int, o, d):
+        """Distances of the leaf's triangles hit by the ray (inf where missed), and how many."""
+        count = ((entry >> COUNT_SHIFT) & (MAX_LEAF_COUNT - 1)) + 1
+        first = entry & (MAX_FIRST - 1)
+        tri = self.tris[first:first + count]
+        t, _, _, ok = moller_trumbore(tri[:, 0], tri[:, 1], tri[:, 2], np.repeat(o[None], count, 0),
+                                      np.repeat(d[None], count, 0))
+        return np.where(ok & (t > T_EPS), t, np.inf), first, count
+
+
+def traverse(tree: WideTree, o, d, any_hit: bool = False, t_max: float = np.inf) -> dict:
+    """One ray through the tree as the GLSL traversal goes (children near to far, the nearest
+    next): its hit (t, row) and the wide nodes, leaves and triangles it visited."""
+    inv = _safe_inv(d[None])[0]
+    t, row = t_max, -1
+    stack, nodes, leaves, triangles = [0], 0, 0, 0
+    while stack:
+        entry = stack.pop()
+        if entry & LEAF_BIT:
+            hits, first, count = tree.leaf(entry, o, d)
+            leaves, triangles = leaves + 1, triangles + count
+            k = int(np.argmin(hits))
+            if hits[k] < t:
+                t, row = float(hits[k]), first + k
+                if any_hit:
+                    break
+            continue
+        nodes += 1
+        near, hit = tree.slots(entry, o, inv, t)
+        order = [i for i in np.argsort(near, kind="stable") if hit[i]]
+        stack.extend(int(tree.entry[entry, i]) for i in reversed(order))   # the nearest on top
+    return {"t": t, "row": row, "nodes": nodes, "leaves": leaves, "triangles": triangles}
+
+
+def fewest_nodes(tree: WideTree, o, d, t_end: float) -> int:
+    """The wide nodes whose box the segment (0, t_end) crosses: what any traversal that finds
+    the hit at t_end must visit (the root, and every interior child entered before t_end)."""
+    inv = _safe_inv(d[None])[0]
+    level, count = [0], 0
+    while level:
+        count += len(level)
+        nxt = []
+        for node in level:
+            _, hit = tree.slots(node, o, inv, t_end)
+            nxt += [int(e) for e, h in zip(tree.entry[node], hit) if h and not e & LEAF_BIT]
+        level = nxt
+    return count
+
+
+def warp_nodes(nodes: np.ndarray, rng, lanes: int = 32, draws: int = 4000) -> float:
+    """The mean over warps of their busiest lane's node visits, for warps of `lanes` rays drawn
+    at random from these: what a while-while loop on a SIMT GPU runs (its lanes step together
+    until the last is done) for incoherent rays; nodes.mean() / this is its SIMD efficiency.
+    (Neighbouring camera rays are more alike than random ones: for them it is an upper bound.)"""
+    return float(np.mean([rng.choice(nodes, lanes).max() for _ in range(draws)]))
+
+
+def _cosine_about(n: np.ndarray, rng) -> np.ndarray:
+    v = rng.standard_normal(n.shape)
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    v = n + v
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def scene_rays(scene, packed, tree: WideTree, n: int, rng) -> dict:
+    """{kind: (origins, directions, any_hit)}: camera, bounce and shadow rays (module docstring)."""
+    camera = packed.to_gpu_camera(scene.camera)
+    right, up, forward = camera.basis()
+    h = np.tan(np.radians(camera.fov_deg) / 2)
+    x = (rng.random(n) * 2 - 1) * h * 16 / 9
+    y = (rng.random(n) * 2 - 1) * h
+    d = forward[None] + x[:, None] * right[None] + y[:, None] * up[None]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.repeat(camera.position[None], n, 0)
+    first = [traverse(tree, o[i], d[i]) for i in range(n)]
+    hit = np.array([r["row"] >= 0 for r in first])
+    t = np.array([r["t"] for r in first])[hit]
+    p = o[hit] + t[:, None] * d[hit]
+    tri = tree.tris[np.array([r["row"] for r in first])[hit]]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True) + 1e-300
+    normal *= -np.sign((normal * d[hit]).sum(axis=1))[:, None]   # the side the camera ray came from
+    start = p + normal * 1e-4 * max(1.0, float(np.abs(p).max()))
+    rays = {"camera": (o, d, False), "bounce": (start, _cosine_about(normal, rng), False)}
+    lights = [light.direction for light in scene.distant_lights]
+    if lights:
+        towards = np.array(lights, np.float64)[np.arange(len(start)) % len(lights)]
+        facing = (towards * normal).sum(axis=1) > 0
+        rays["shadow"] = (start[facing], towards[facing], True)
+    else:
+        rays["shadow"] = (start, _cosine_about(normal, rng), True)
+    return rays
+
+
+def measure(path: str, n_rays: int, seed: int = 1) -> dict:
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.scene.pack import pack_scene
+
+    scene = load_scene(path)
+    packed = pack_scene(scene, bvh_width=4)
+    tree = WideTree(packed)
+    rng = np.random.default_rng(seed)
+    out = {"scene": path, "triangles": int(packed.num_source_triangles or packed.num_triangles),
+           "rows": int(packed.num_triangles), "wide_nodes": int(packed.bvh_nodes.shape[0]),
+           "levels": int(packed.bvh_levels), "kinds": {}}
+    for kind, (o, d, any_hit) in scene_rays(scene, packed, tree, n_rays, rng).items():
+        runs = [traverse(tree, o[i], d[i], any_hit) for i in range(len(o))]
+        nodes = np.array([r["nodes"] for r in runs], np.float64)
+        # for shadow rays, to the nearest hit: what a closest-hit query must visit (an any-hit one
+        # may stop sooner)
+        nearest = [traverse(tree, o[i], d[i])["t"] if any_hit else r["t"] for i, r in enumerate(runs)]
+        fewest = np.array([fewest_nodes(tree, o[i], d[i], t) for i, t in enumerate(nearest)], np.float64)
+        out["kinds"][kind] = {
+            "rays": len(runs), "hit": float(np.mean([r["row"] >= 0 for r in runs])),
+            "nodes_mean": float(nodes.mean()), "nodes_p90": float(np.quantile(nodes, 0.9)),
+            "nodes_max": int(nodes.max()), "fewest_nodes_mean": float(fewest.mean()),
+            "warp_nodes": warp_nodes(nodes, rng),
+            "leaves_mean": float(np.mean([r["leaves"] for r in runs])),
+            "triangles_mean": float(np.mean([r["triangles"] for r in runs]))}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("--rays", type=int, default=1000, help="camera rays a scene (bounce and shadow rays from their hits)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args(argv)
+    results = []
+    print("| scene | levels | ray kind | rays | wide nodes visited: mean / p90 / max | fewest possible | a warp of 32 "
+          "random rays (busiest lane) | leaves | triangles |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for path in args.scenes:
+        if not Path(path).exists():
+            print(f"(skipped: {path} does not exist)")
+            continue
+        r = measure(path, args.rays, args.seed)
+        results.append(r)
+        for kind, k in r["kinds"].items():
+            print(f"| {Path(path).parent.name if Path(path).stem == 'scene' else Path(path).stem} | {r['levels']} | {kind} "
+                  f"| {k['rays']} | {k['nodes_mean']:.1f} / {k['nodes_p90']:.0f} / {k['nodes_max']} "
+                  f"| {k['fewest_nodes_mean']:.1f} | {k['warp_nodes']:.1f} | {k['leaves_mean']:.2f} "
+                  f"| {k['triangles_mean']:.1f} |")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(results, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
