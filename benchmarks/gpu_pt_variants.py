@@ -326,6 +326,7 @@ def compose(*edits):
 # (stack placement and traversal loops on main's bvh.glsl) are this script at 242c491.
 VARIANTS = {
     "base": (None, {}, True),
+    "s8x4": (shape(8, 4), {}, True),   # the stack in shared memory (pt's queued megakernel before session 8)
     "s8x8": (shape(8, 8), {}, True),
     "s16x4": (shape(16, 4), {}, True),
     "s4x8": (shape(4, 8), {}, True),
