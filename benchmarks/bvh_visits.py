@@ -26,7 +26,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from gpu import scene_name  # noqa: E402
 from lift_gl.accel.bvh import _safe_inv, moller_trumbore  # noqa: E402
 from lift_gl.accel.wide import COUNT_SHIFT, LEAF_BIT, MAX_FIRST, MAX_LEAF_COUNT, WideBVH, decoded_boxes  # noqa: E402
 
@@ -194,7 +196,7 @@ def main(argv=None) -> int:
         r = measure(path, args.rays, args.seed)
         results.append(r)
         for kind, k in r["kinds"].items():
-            print(f"| {Path(path).parent.name if Path(path).stem == 'scene' else Path(path).stem} | {r['levels']} | {kind} "
+            print(f"| {scene_name(path)} | {r['levels']} | {kind} "
                   f"| {k['rays']} | {k['nodes_mean']:.1f} / {k['nodes_p90']:.0f} / {k['nodes_max']} "
                   f"| {k['fewest_nodes_mean']:.1f} | {k['warp_nodes']:.1f} | {k['leaves_mean']:.2f} "
                   f"| {k['triangles_mean']:.1f} |")

@@ -188,6 +188,8 @@ def measure(path: str, size, reps: int, backend: str = "auto") -> dict | None:
 
 
 def main(argv=None) -> int:
+    from lift_gl.cli import _size
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="+")
     ap.add_argument("--size", default="1920x1080")
@@ -195,7 +197,7 @@ def main(argv=None) -> int:
     ap.add_argument("--backend", default="auto")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
-    size = tuple(int(v) for v in args.size.lower().split("x"))
+    size = _size(args.size)
     results = []
     print("| scene | bounce rays | plain ms (Mrays/s) | queued ms (Mrays/s) | queued speed-up | answers that differ |")
     print("|---|---|---|---|---|---|")
@@ -207,8 +209,7 @@ def main(argv=None) -> int:
         if r is None:
             continue
         results.append(r)
-        name = Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem
-        print(f"| {name} | {r['rays']:,} | {r['plain']['median_ms']:.3f} ({r['plain']['mrays_per_s']:,.0f}) "
+        print(f"| {gpu_bench.scene_name(path)} | {r['rays']:,} | {r['plain']['median_ms']:.3f} ({r['plain']['mrays_per_s']:,.0f}) "
               f"| {r['queue']['median_ms']:.3f} ({r['queue']['mrays_per_s']:,.0f}) | {r['queue_speedup']:.2f}x "
               f"| {r['mismatched_answers']} |", flush=True)
     if args.json:
