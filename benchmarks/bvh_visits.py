@@ -12,7 +12,9 @@ lights where it has some, else in cosine-distributed directions of unbounded len
 environment light's); for these the fewest nodes are those before the nearest hit (a
 closest-hit query's least), which an any-hit query may undercut by stopping at a farther one.
 A GPU runs 32 rays in lockstep: the "warp" column is the busiest lane's count in warps of 32
-random rays of a kind (warp_nodes). What it tells: whether a scene's rays are slow because they visit many
+random rays of a kind (warp_nodes); the second table runs the bounce rays of 8x4 pixel tiles,
+as the trace pass groups them, in lockstep (tile_bounce_warps: the steps a warp takes, the
+lanes busy and the distinct fetches a step). What it tells: whether a scene's rays are slow because they visit many
 nodes (the tree, the traversal order) or because each visit costs more (memory): a GPU's
 Mrays/s (benchmarks/gpu.py) divided into these counts. Needs no GPU.
 """
@@ -66,9 +68,10 @@ class WideTree:
         return np.where(ok & (t > T_EPS), t, np.inf), first, count
 
 
-def traverse(tree: WideTree, o, d, any_hit: bool = False, t_max: float = np.inf) -> dict:
+def traverse(tree: WideTree, o, d, any_hit: bool = False, t_max: float = np.inf, steps: list | None = None) -> dict:
     """One ray through the tree as the GLSL traversal goes (children near to far, the nearest
-    next): its hit (t, row) and the wide nodes, leaves and triangles it visited."""
+    next): its hit (t, row) and the wide nodes, leaves and triangles it visited; `steps`, if
+    given, gets each visit in order (("node", id) or ("leaf", first row))."""
     inv = _safe_inv(d[None])[0]
     t, row = t_max, -1
     stack, nodes, leaves, triangles = [0], 0, 0, 0
@@ -77,6 +80,8 @@ def traverse(tree: WideTree, o, d, any_hit: bool = False, t_max: float = np.inf)
         if entry & LEAF_BIT:
             hits, first, count = tree.leaf(entry, o, d)
             leaves, triangles = leaves + 1, triangles + count
+            if steps is not None:
+                steps.append(("leaf", first))
             k = int(np.argmin(hits))
             if hits[k] < t:
                 t, row = float(hits[k]), first + k
@@ -84,6 +89,8 @@ def traverse(tree: WideTree, o, d, any_hit: bool = False, t_max: float = np.inf)
                     break
             continue
         nodes += 1
+        if steps is not None:
+            steps.append(("node", entry))
         near, hit = tree.slots(entry, o, inv, t)
         order = [i for i in np.argsort(near, kind="stable") if hit[i]]
         stack.extend(int(tree.entry[entry, i]) for i in reversed(order))   # the nearest on top
@@ -111,6 +118,54 @@ def warp_nodes(nodes: np.ndarray, rng, lanes: int = 32, draws: int = 4000) -> fl
     until the last is done) for incoherent rays; nodes.mean() / this is its SIMD efficiency.
     (Neighbouring camera rays are more alike than random ones: for them it is an upper bound.)"""
     return float(np.mean([rng.choice(nodes, lanes).max() for _ in range(draws)]))
+
+
+def lockstep(sequences: list) -> dict:
+    """A warp's lanes stepping together through their visit sequences (traverse's `steps`), a
+    visit a step, until the longest is done: the steps, and per step the lanes still busy and the
+    distinct nodes or leaves they fetch (lanes at one node share a fetch)."""
+    steps = max(len(q) for q in sequences)
+    busy = distinct = 0
+    for k in range(steps):
+        now = [q[k] for q in sequences if k < len(q)]
+        busy += len(now)
+        distinct += len(set(now))
+    return {"steps": steps, "busy_per_step": busy / steps, "fetches_per_step": distinct / steps}
+
+
+def tile_bounce_warps(scene, packed, tree: WideTree, tiles: int, rng, size=(1920, 1080), tile=(8, 4)) -> dict:
+    """Warps as the trace pass forms them: the bounce rays (cosine-distributed) from the camera
+    rays' hits of `tiles` random 8x4 pixel tiles of a `size` image, run in lockstep (tiles where
+    fewer than half the camera rays hit are skipped). Means over the tiles of lockstep()."""
+    camera = packed.to_gpu_camera(scene.camera)
+    right, up, forward = camera.basis()
+    h = np.tan(np.radians(camera.fov_deg) / 2)
+    (w_px, h_px), (tx, ty) = size, tile
+    results = []
+    for _ in range(tiles):
+        x0, y0 = rng.integers(0, w_px - tx), rng.integers(0, h_px - ty)
+        px = np.array([(x0 + i, y0 + j) for j in range(ty) for i in range(tx)], np.float64)
+        ndc = (px + 0.5) / np.array([w_px, h_px]) * 2 - 1
+        d = forward[None] + ndc[:, :1] * h * w_px / h_px * right[None] + ndc[:, 1:] * h * up[None]
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        sequences = []
+        for di in d:
+            first = traverse(tree, camera.position, di)
+            if first["row"] < 0:
+                continue
+            tri = tree.tris[first["row"]]
+            n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+            n = n / (np.linalg.norm(n) + 1e-300) * -np.sign(n @ di)
+            p = camera.position + first["t"] * di
+            start = p + n * 1e-4 * max(1.0, float(np.abs(p).max()))
+            steps = []
+            traverse(tree, start, _cosine_about(n[None], rng)[0], steps=steps)
+            sequences.append(steps)
+        if 2 * len(sequences) >= tx * ty:
+            results.append(lockstep(sequences))
+    if not results:
+        return {"tiles": 0}
+    return {"tiles": len(results), **{k: float(np.mean([r[k] for r in results])) for k in results[0]}}
 
 
 def _cosine_about(n: np.ndarray, rng) -> np.ndarray:
@@ -150,7 +205,7 @@ def scene_rays(scene, packed, tree: WideTree, n: int, rng) -> dict:
     return rays
 
 
-def measure(path: str, n_rays: int, seed: int = 1) -> dict:
+def measure(path: str, n_rays: int, seed: int = 1, tiles: int = 40) -> dict:
     from lift_gl.scene.loader import load_scene
     from lift_gl.scene.pack import pack_scene
 
@@ -175,6 +230,7 @@ def measure(path: str, n_rays: int, seed: int = 1) -> dict:
             "warp_nodes": warp_nodes(nodes, rng),
             "leaves_mean": float(np.mean([r["leaves"] for r in runs])),
             "triangles_mean": float(np.mean([r["triangles"] for r in runs]))}
+    out["bounce_warps"] = tile_bounce_warps(scene, packed, tree, tiles, rng)
     return out
 
 
@@ -183,6 +239,7 @@ def main(argv=None) -> int:
     ap.add_argument("scenes", nargs="+")
     ap.add_argument("--rays", type=int, default=1000, help="camera rays a scene (bounce and shadow rays from their hits)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--tiles", type=int, default=40, help="8x4 pixel tiles whose bounce rays run in lockstep")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     results = []
@@ -193,13 +250,21 @@ def main(argv=None) -> int:
         if not Path(path).exists():
             print(f"(skipped: {path} does not exist)")
             continue
-        r = measure(path, args.rays, args.seed)
+        r = measure(path, args.rays, args.seed, args.tiles)
         results.append(r)
         for kind, k in r["kinds"].items():
             print(f"| {scene_name(path)} | {r['levels']} | {kind} "
                   f"| {k['rays']} | {k['nodes_mean']:.1f} / {k['nodes_p90']:.0f} / {k['nodes_max']} "
                   f"| {k['fewest_nodes_mean']:.1f} | {k['warp_nodes']:.1f} | {k['leaves_mean']:.2f} "
                   f"| {k['triangles_mean']:.1f} |")
+    print("\n| scene | 8x4 tiles | bounce-ray warp: steps (node or leaf visits in lockstep) | lanes busy a step "
+          "| distinct fetches a step |")
+    print("|---|---|---|---|---|")
+    for r in results:
+        w = r["bounce_warps"]
+        if w["tiles"]:
+            print(f"| {scene_name(r['scene'])} | {w['tiles']} | {w['steps']:.1f} | {w['busy_per_step']:.1f} "
+                  f"| {w['fetches_per_step']:.1f} |")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(results, indent=1))

@@ -48,3 +48,20 @@ def test_measure_reports_every_ray_kind():
     for k in r["kinds"].values():
         assert k["rays"] > 0 and k["nodes_mean"] >= 1 and k["nodes_max"] >= k["nodes_p90"] > 0
         assert k["nodes_mean"] <= k["warp_nodes"] <= k["nodes_max"]
+
+
+def test_lockstep_counts_steps_busy_lanes_and_shared_fetches():
+    same = [[("node", 0), ("node", 3), ("leaf", 8)]] * 32
+    assert bvh_visits.lockstep(same) == {"steps": 3, "busy_per_step": 32.0, "fetches_per_step": 1.0}
+    apart = [[("node", 100 * i + k) for k in range(i + 1)] for i in range(4)]   # 1, 2, 3, 4 visits
+    assert bvh_visits.lockstep(apart) == {"steps": 4, "busy_per_step": 10 / 4, "fetches_per_step": 10 / 4}
+
+
+def test_tile_warps_take_the_steps_of_their_longest_ray():
+    skip_without_shared(REPO / "scenes" / "covered_dragon.toml")
+    scene = load_scene(REPO / "scenes" / "covered_dragon.toml")
+    packed = pack_scene(scene, bvh_width=4)
+    tree = bvh_visits.WideTree(packed)
+    w = bvh_visits.tile_bounce_warps(scene, packed, tree, 16, np.random.default_rng(2), size=(160, 90))
+    assert w["tiles"] >= 3
+    assert 1 <= w["fetches_per_step"] <= w["busy_per_step"] <= 32 and w["steps"] >= w["busy_per_step"] / 32
