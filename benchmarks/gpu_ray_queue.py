@@ -49,7 +49,8 @@ uint lift_next_bounce_pixel(uint n_pix) {
 }
 
 // gpu.py's bounce rays, each lane taking its next pixel inside the traversal loop as soon as
-// its ray is done: lift_bvh_closest's while-while loop with the ray set up in it.
+// its ray is done: lift_bvh_closest's while-while loop (its loops: lift/bvh.glsl's
+// LIFT_BVH4_DESCEND and LIFT_BVH4_CLOSEST_LEAF) with the ray set up in it.
 void queued_bounce_rays() {
     uint n_pix = uint(u_resolution.x) * uint(u_resolution.y);
     Ray ray;
@@ -58,6 +59,8 @@ void queued_bounce_rays() {
     LiftRayShear shear;
     float t = 0.0;
     bool found = false;
+    uint prim;        // the hit's row and barycentrics (LIFT_BVH4_CLOSEST_LEAF): not needed here
+    vec2 bary_out;
     LIFT_BVH_STACK_DECLARE
     int sp = 0;
     uint cur = 0u;
@@ -82,22 +85,8 @@ void queued_bounce_rays() {
             busy = true;
         }
         bool at_leaf = true;
-        while ((cur & LIFT_BVH4_LEAF) == 0u) {
-            vec4 tn;
-            uvec4 e;
-            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
-            uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
-            if (n == 0u) { at_leaf = false; break; }
-            LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
-        }
-        if (at_leaf) {
-            uint first = lift_bvh4_leaf_first(cur);
-            uint count = lift_bvh4_leaf_count(cur);
-            for (uint i = first; i < first + count; ++i) {
-                vec2 bary;
-                if (lift_intersect_triangle(ray, shear, i, t, bary)) found = true;
-            }
-        }
+        LIFT_BVH4_DESCEND(at_leaf)
+        if (at_leaf) LIFT_BVH4_CLOSEST_LEAF
         if (sp == 0) busy = false;
         else LIFT_BVH4_POP(cur)
     }

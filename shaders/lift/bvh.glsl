@@ -350,6 +350,34 @@ const float LIFT_BVH4_MISS = uintBitsToFloat(0x7f800000u);   // +inf: misses sor
 uint lift_bvh4_leaf_first(uint leaf) { return leaf & LIFT_BVH4_FIRST_MASK; }
 uint lift_bvh4_leaf_count(uint leaf) { return ((leaf >> 27u) & 15u) + 1u; }
 
+// The while-while traversals' two inner loops, shared by the closest-hit traversal of either
+// stack kind, the one loop of a shadow ray and the next ray, and benchmarks/gpu_ray_queue.py.
+// Macros over the caller's names: cur, sp and the stack, ray, inv, near, shear, t (and for the
+// leaf: prim, bary_out, found). LIFT_BVH4_DESCEND: from node `cur` down to the next leaf entry,
+// its hit children near to far (LIFT_BVH4_VISIT_NEAR_FAR, per stack kind below); at_leaf false
+// where a node's children all missed. LIFT_BVH4_CLOSEST_LEAF: leaf entry cur's triangles
+// against (ray.tmin, t), the nearer hits kept.
+#define LIFT_BVH4_DESCEND(at_leaf) \
+    while ((cur & LIFT_BVH4_LEAF) == 0u) { \
+        vec4 tn; \
+        uvec4 e; \
+        bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e); \
+        uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w); \
+        if (n == 0u) { at_leaf = false; break; } \
+        LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n) \
+    }
+#define LIFT_BVH4_CLOSEST_LEAF { \
+    uint first = lift_bvh4_leaf_first(cur); \
+    uint count = lift_bvh4_leaf_count(cur); \
+    for (uint i = first; i < first + count; ++i) { \
+        vec2 bary; \
+        if (lift_intersect_triangle(ray, shear, i, t, bary)) { \
+            prim = i; \
+            bary_out = bary; \
+            found = true; \
+        } \
+    } }
+
 #ifndef LIFT_BVH_GROUP_STACK
 // The n hit children of node `cur` near to far: the nearest becomes cur, the others go on the
 // stack, the farthest first (the collapse bounds the pushes of any root path by
@@ -390,16 +418,7 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
             LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
         }
         if (!live) break;
-        uint first = lift_bvh4_leaf_first(cur);
-        uint count = lift_bvh4_leaf_count(cur);
-        for (uint i = first; i < first + count; ++i) {
-            vec2 bary;
-            if (lift_intersect_triangle(ray, shear, i, t, bary)) {
-                prim = i;
-                bary_out = bary;
-                found = true;
-            }
-        }
+        LIFT_BVH4_CLOSEST_LEAF
         if (sp == 0) break;
         LIFT_BVH4_POP(cur)
     }
@@ -531,26 +550,8 @@ bool lift_bvh_closest(uint root, Ray ray, inout float t, inout uint prim, inout 
     uint cur = root;
     while (true) {
         bool at_leaf = true;
-        while ((cur & LIFT_BVH4_LEAF) == 0u) {
-            vec4 tn;
-            uvec4 e;
-            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
-            uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
-            if (n == 0u) { at_leaf = false; break; }
-            LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
-        }
-        if (at_leaf) {
-            uint first = lift_bvh4_leaf_first(cur);
-            uint count = lift_bvh4_leaf_count(cur);
-            for (uint i = first; i < first + count; ++i) {
-                vec2 bary;
-                if (lift_intersect_triangle(ray, shear, i, t, bary)) {
-                    prim = i;
-                    bary_out = bary;
-                    found = true;
-                }
-            }
-        }
+        LIFT_BVH4_DESCEND(at_leaf)
+        if (at_leaf) LIFT_BVH4_CLOSEST_LEAF
         if (sp == 0) break;
         LIFT_BVH4_POP(cur)
     }
@@ -612,17 +613,10 @@ bool lift_bvh_shadow_then_closest(uint root, bool shadow_wanted, Ray shadow, boo
     bool live = shadow_wanted || next_wanted;
     while (live) {
         bool at_leaf = true;
-        while ((cur & LIFT_BVH4_LEAF) == 0u) {   // a wide node: test its children
-            vec4 tn;
-            uvec4 e;
-            bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
-            uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
-            if (n == 0u) { at_leaf = false; break; }
-            // near to far for both rays: the shadow ray's answer is the same in any order, and
-            // one order keeps the two rays' lanes on one path through the loop (on an H100 that
-            // was 1.02-1.06x faster than the shadow ray's slot order behind a branch)
-            LIFT_BVH4_VISIT_NEAR_FAR(hit, tn, e, n)
-        }
+        // near to far for both rays: the shadow ray's answer is the same in any order, and one
+        // order keeps the two rays' lanes on one path through the loop (on an H100 that was
+        // 1.02-1.06x faster than the shadow ray's slot order behind a branch)
+        LIFT_BVH4_DESCEND(at_leaf)
         bool done = false;
         if (at_leaf) {
             uint first = lift_bvh4_leaf_first(cur);
