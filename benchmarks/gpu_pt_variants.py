@@ -105,7 +105,10 @@ def no_srgb_decode(text: str) -> str:
 def env_uniform(text: str) -> str:
     """Diagnostic: environment light samples uniform on the sphere instead of by the map's
     luminance (what the two binary searches over its CDFs cost; the MIS weights no longer match)."""
-    return _sub(text, "if (u_env_map_size.x > 0u) return sample_env_map(u, wi, pdf) && pdf > 0.0 && pdf < 1e30;", "")
+    return _sub(text, "bool ok = sample_env_map(u, wi, pdf, texel) && pdf > 0.0 && pdf < 1e30;\n"
+                      "        radiance *= texel;\n        return ok;",
+                "wi = sample_uniform_sphere(u);\n        pdf = pdf_uniform_sphere(wi);\n"
+                "        radiance = env_radiance(wi);\n        return true;")
 
 
 def env_constant(text: str) -> str:
