@@ -43,3 +43,17 @@ def test_stack_variants_and_the_too_short_ones(monkeypatch, shared_dir):  # the 
         assert variants.stack_too_short(base, packed) is None
     finally:
         r.release()
+
+
+def test_every_pt_variant_edit_finds_its_text():
+    """Each pt variant's source edit still finds the text it edits (a shader change had left
+    env_uniform editing code that no longer existed: the variant then failed on the GPU machine).
+    The showcase has an environment map and textures, which those edits need."""
+    r = Renderer(load_scene(REPO / "scenes" / "showcase.toml"), size=(8, 8), integrator="pt")
+    try:
+        base = r.trace.source.text
+        for name, (edit, _, _) in variants.VARIANTS.items():
+            if edit is not None and not name.startswith("bdpt"):
+                assert isinstance(edit(base), str), name   # _sub raises where its text is missing
+    finally:
+        r.release()
