@@ -1,6 +1,6 @@
 """GPU frame times per pass and ray throughput by ray kind, for the GPU machine (issue 10).
 
-    python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt]
+    python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt,pt:rr_depth=1]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
                                      [--bvh-splits off,auto | --bvh-width 2,4 | --bvh-axes longest,all
                                       [--split-rounds 2]]
@@ -516,6 +516,8 @@ def measure(args) -> int:
     from lift_gl.scene.loader import load_scene
 
     sizes = [_size(s.strip()) for s in args.sizes.split(",")]
+    from lift_gl.report.configurations import parse_spec
+    # each item a plugin with optional settings, as lift-gl compare takes them: pt:rr_depth=1
     integrators = [s.strip() for s in args.integrators.split(",") if s.strip() not in ("", "none")]
     ctx = create_context(args.backend)
     machine = describe_machine(ctx)
@@ -610,11 +612,12 @@ def measure(args) -> int:
                     print(f"{name} {size[0]}x{size[1]} rays{tag}: " + ", ".join(
                         f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()) + _clock_text(rays), flush=True)
             for integrator in integrators:
+                plugin, settings = parse_spec(integrator)
                 for v, k in orders():
                     _set_splits(v, previous_splits, axis_var)
                     tag = f" [{axis}={v}]" if v is not None else ""
                     try:
-                        case = bench_case(scene, size, integrator, {"max_depth": args.max_depth}, args.frames,
+                        case = bench_case(scene, size, plugin, {"max_depth": args.max_depth, **settings}, args.frames,
                                           args.repeat, args.backend)
                     except LiftError as exc:  # e.g. bdpt refuses an environment map
                         print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: not run: {str(exc).splitlines()[0]}",
@@ -624,7 +627,7 @@ def measure(args) -> int:
                         save()
                         continue
                     case.update(kind="frame", scene_name=name, scene=portable(path), integrator=integrator,
-                                triangles=scene.triangle_count, load_seconds=load_s)
+                                plugin=plugin, settings=settings, triangles=scene.triangle_count, load_seconds=load_s)
                     runs[v, k]["results"].append(case)
                     save()
                     print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame "
@@ -890,7 +893,7 @@ def render_tables(records: list[dict]) -> str:
             qa = first["pass_ms_query"] if not records[0]["machine"].get("software_gl") else first["pass_ms_sync"]
             qb = None if r is None else (r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"])
             cells.append("–" if qb is None else f"{qb['trace'] / qa['trace']:.3f}")
-        paper = LIFT_PAPER_MS.get(key[2], {}).get(key[0]) if key[1] == (1920, 1080) else None
+        paper = LIFT_PAPER_MS.get(first.get("plugin", key[2]), {}).get(key[0]) if key[1] == (1920, 1080) else None
         cells.append("–" if paper is None else f"{paper}")
         if clocked:
             cells.append(" / ".join(str(_lowest_mhz(t[key]) or "–") if key in t else "–" for t in frames))
@@ -962,7 +965,8 @@ def main(argv=None) -> int:
     m = sub.add_parser("measure")
     m.add_argument("scenes", nargs="+")
     m.add_argument("--sizes", default="1280x720,1920x1080")
-    m.add_argument("--integrators", default="pt,bdpt", help="comma-separated; none: only the ray kinds")
+    m.add_argument("--integrators", default="pt,bdpt",
+                   help="comma-separated, each with optional :NAME=VALUE settings (pt,pt:rr_depth=1); none: only the ray kinds")
     m.add_argument("--max-depth", type=int, default=32)
     m.add_argument("--frames", type=int, default=16)
     m.add_argument("--repeat", type=int, default=2)

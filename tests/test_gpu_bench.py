@@ -94,3 +94,19 @@ def test_ab_compares_defines_on_the_wide_tree(tmp_path, monkeypatch, shared_dir)
     assert len(set(case["primary_hits"].values())) == 1 and case["primary_hits"]["bin"] > 0.5 * 40 * 24
     blocked = case["shadow_blocked"]
     assert len(set(blocked.values())) == 1 and 0 < blocked["bin"] < case["primary_hits"]["bin"]
+
+
+def test_measure_takes_plugin_settings_as_compare_does(tmp_path):
+    """`--integrators pt,pt:rr_depth=1:rr_min_survival=0` (Lift's roulette): two cases, the
+    settings reach the plugin (Russian roulette from the first bounce traces fewer rays a path
+    than from the fourth: paths that stay in the box trace at least 7 with the default)."""
+    out = tmp_path / "m.json"
+    assert gpu.main(["measure", "scenes/cornell.toml", "--sizes", "32x24", "--no-rays", "--frames", "2",
+                     "--repeat", "1", "--max-depth", "8",
+                     "--integrators", "pt,pt:rr_depth=1:rr_min_survival=0", "--out", str(out)]) == 0
+    import json
+    cases = {r["integrator"]: r for r in json.loads(out.read_text())["results"]}
+    assert set(cases) == {"pt", "pt:rr_depth=1:rr_min_survival=0"}
+    lift = cases["pt:rr_depth=1:rr_min_survival=0"]
+    assert lift["plugin"] == "pt" and lift["settings"] == {"rr_depth": "1", "rr_min_survival": "0"}
+    assert lift["rays_per_path"] < 0.8 * cases["pt"]["rays_per_path"]
