@@ -556,7 +556,8 @@ def stack_too_short(source: str, packed) -> str | None:
     return f"{m.group(1)} stack entries, the tree needs {need} ({'levels' if groups else 'stack_bound'})"
 
 
-def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt", trees=None):
+def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt", trees=None,
+              settings=None):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
@@ -566,7 +567,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     from lift_gl.scene.loader import load_scene
 
     scene = load_scene(path)
-    r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth}, ctx=ctx)
+    r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth, **(settings or {})}, ctx=ctx)
     if base_tree is not None and r.packed.bvh_width != 2 \
             and "LIFT_BVH_WIDTH" not in (Path(base_tree) / "shaders" / "lift" / "bvh.glsl").read_text():
         raise SystemExit(f"{base_tree} traverses only the binary BVH and this scene's is {r.packed.bvh_width}-wide: "
@@ -754,8 +755,12 @@ def main(argv=None) -> int:
     ap.add_argument("--base-tree", type=Path, help="another checkout: variant `main` is its trace program")
     ap.add_argument("--tree", action="append", default=[], metavar="NAME=CHECKOUT",
                     help="variant NAME is the plugin of that checkout, as `tree` is of --base-tree (repeatable)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="plugin setting of every variant, e.g. rr_depth=1 (repeatable)")
     ap.add_argument("--backend", default="auto")
     args = ap.parse_args(argv)
+    from lift_gl.report.configurations import parse_spec
+    settings = parse_spec(":".join([args.integrator, *args.set]))[1]
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
     trees = dict(t.split("=", 1) for t in args.tree)
     trees = {k: Path(v) for k, v in trees.items()}
@@ -766,11 +771,11 @@ def main(argv=None) -> int:
             raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
     ctx = create_context(args.backend)
     record = {"gl": describe(ctx), "integrator": args.integrator, "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
-              "variants": names, "results": []}
+              "settings": settings, "variants": names, "results": []}
     for path in args.scenes:
         start = time.perf_counter()
         res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree,
-                        args.integrator, trees)
+                        args.integrator, trees, settings)
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())

@@ -57,3 +57,17 @@ def test_every_pt_variant_edit_finds_its_text():
                 assert isinstance(edit(base), str), name   # _sub raises where its text is missing
     finally:
         r.release()
+
+
+def test_settings_reach_every_variant():
+    """--set rr_depth=1 (Lift's roulette): the variants run with it, so the counted rays a
+    pixel fall against the default's (roulette from the fourth bounce)."""
+    from lift_gl.gl.context import create_context
+
+    ctx = create_context("auto")
+    counts = {}
+    for label, settings in (("default", None), ("rr1", {"rr_depth": "1", "rr_min_survival": "0"})):
+        res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (32, 24), 8, ["base", "count_rays"], 1,
+                                 None, settings=settings)
+        counts[label] = sum(res["variants"]["count_rays"]["mean_counts_rgb"])
+    assert counts["rr1"] < 0.8 * counts["default"]
