@@ -83,8 +83,12 @@ def shape(x: int, y: int, shared: bool = True):
 
 
 def no_shadow_rays(text: str) -> str:
-    """Diagnostic: every shadow ray unblocked (what tracing them costs)."""
-    return _sub(text, "bool trace_occluded(Ray ray) {", "bool trace_occluded(Ray ray) { return false; }\nbool unused_occluded(Ray ray) {")
+    """Diagnostic: every shadow ray unblocked (what tracing them costs), traced alone or in one
+    loop with the next ray (trace_shadow_and_next, LIFT_TRACE_PAIRED: before session 9 this edit
+    missed that loop, so on trees that pair the two rays it changed nothing)."""
+    text = _sub(text, "bool trace_occluded(Ray ray) {", "bool trace_occluded(Ray ray) { return false; }\nbool unused_occluded(Ray ray) {")
+    head = "bool trace_shadow_and_next(bool shadow_wanted, Ray shadow, bool next_wanted, Ray next, out Hit hit) {"
+    return _sub(text, head, head + "\n    shadow_wanted = false;")
 
 
 def no_path_steps(text: str) -> str:

@@ -71,3 +71,15 @@ def test_settings_reach_every_variant():
                                  None, settings=settings)
         counts[label] = sum(res["variants"]["count_rays"]["mean_counts_rgb"])
     assert counts["rr1"] < 0.8 * counts["default"]
+
+
+def test_noshadow_unblocks_shadow_rays_in_the_paired_loop(monkeypatch):
+    """noshadow must reach the shadow rays that trace_shadow_and_next traces with the next ray
+    (LIFT_TRACE_PAIRED, forced on here): with every shadow ray unblocked the box's shadowed
+    floor gets light, so the image is brighter than the base's."""
+    from lift_gl.gl.context import create_context
+
+    monkeypatch.setenv("LIFT_GL_TRACE_PAIRED", "on")
+    ctx = create_context("auto")
+    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (32, 24), 4, ["base", "noshadow"], 1, None)
+    assert res["variants"]["noshadow"]["mean_rgb"] > 1.02 * res["variants"]["base"]["mean_rgb"]
