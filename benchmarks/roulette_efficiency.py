@@ -45,6 +45,12 @@ def frame_ms(records: list[dict]) -> dict:
     return out
 
 
+def image_stats(image: np.ndarray) -> dict:
+    """What tells a broken image from a noisy one: mean, largest value, share of black pixels."""
+    return {"mean": float(image.mean()), "max": float(image.max()),
+            "black": float(np.mean(image.max(axis=-1) <= 0.0)), "p999": float(np.quantile(image, 0.999))}
+
+
 def measure_scene(path: str, configs: list[str], size, spp: int, seeds: int, ref_spp: int, backend="auto") -> dict:
     from lift_gl.metrics import rel_mse
     from lift_gl.renderer import Renderer
@@ -54,26 +60,32 @@ def measure_scene(path: str, configs: list[str], size, spp: int, seeds: int, ref
     scene = load_scene(path)
     start = time.perf_counter()
     r = Renderer(scene, size=size, integrator="pt", backend=backend, seed=1_000_003)
-    reference = r.render(spp=ref_spp)
+    r.render(spp=1)   # as lift-gl compare does: shader JIT and first use, then a reset
+    r.reset()
+    for _ in range(-(-ref_spp // spp)):   # in calls of `spp`: a GPU never holds thousands of frames queued
+        reference = r.render(spp=min(spp, ref_spp - r.stats.spp))
     r.release()
     out = {"scene": portable(path), "scene_name": scene_name(path), "size": list(size), "spp": spp,
-           "ref_spp": ref_spp, "reference_seconds": time.perf_counter() - start, "configs": {}}
+           "ref_spp": ref_spp, "reference_seconds": time.perf_counter() - start,
+           "reference_stats": image_stats(reference), "configs": {}}
     if not np.isfinite(reference).all():
         raise SystemExit(f"{path}: the reference holds NaN or infinite values")
     for spec in configs:
         plugin, params = parse_spec(spec)
         r = Renderer(scene, size=size, integrator=plugin, backend=backend, params=params, seed=1)
-        errors, dropped = [], 0
+        r.render(spp=1)
+        errors, dropped, stats = [], 0, []
         for seed in range(1, seeds + 1):
             r.reset(seed=seed)
             image = r.render(spp=spp)
             errors.append(rel_mse(image, reference))
+            stats.append(image_stats(image))
             dropped += int(r.stats.dropped_samples)
         r.release()
         e = np.array(errors)
         out["configs"][spec] = {"rel_mse": errors, "rel_mse_mean": float(e.mean()),
                                 "rel_mse_sem": float(e.std(ddof=1) / np.sqrt(len(e))) if len(e) > 1 else None,
-                                "per_sample": float(e.mean() * spp), "dropped_samples": dropped}
+                                "per_sample": float(e.mean() * spp), "dropped_samples": dropped, "image_stats": stats}
         print(f"{out['scene_name']} {spec}: relMSE {e.mean():.4g} (seeds {', '.join(f'{x:.4g}' for x in e)})", flush=True)
     return out
 

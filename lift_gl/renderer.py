@@ -59,6 +59,11 @@ GBUFFER_AOVS = ("albedo", "normal", "depth")
 AOVS = GBUFFER_AOVS + ("history", "rejection", "variance", "irradiance")
 PREV_POSITIONS_BINDING = 17  # shaders/passes/motion_vectors.glsl
 MODE_WORDS = {"every": "every frame", "final": "final frame"}
+# Frames one render() call queues on the GPU before it waits for them (ctx.finish). On an H100
+# (driver 580.159) 8192 frames of the dining room queued by one call came back black, and so did
+# the next renderer's image in that process; waiting every 64 gave the right image (session 9,
+# docs/gpu.md "Ninth session"). CPU rasterizers did not show it.
+MAX_QUEUED_FRAMES = 64
 
 
 @dataclass
@@ -782,7 +787,7 @@ class Renderer:
         if spp is None and seconds is None:
             spp = 16
         start = time.perf_counter()
-        done = 0
+        done = frames = 0
         while True:
             if spp is not None and done >= spp:
                 break
@@ -793,7 +798,8 @@ class Renderer:
             n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
             self.render_frame(n)
             done += n
-            if seconds is not None or progress is not None:
+            frames += 1
+            if seconds is not None or progress is not None or frames % MAX_QUEUED_FRAMES == 0:
                 self.ctx.finish()
             if progress is not None:
                 progress(self, done)

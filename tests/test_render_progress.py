@@ -57,3 +57,19 @@ def test_a_timed_render_adds_at_least_one_frame():
     r.render(seconds=1e-12)
     assert r.stats.spp == 2
     r.release()
+
+
+def test_a_long_render_waits_for_the_gpu_every_few_frames(monkeypatch):
+    """render(spp=N) waits for the GPU (ctx.finish) at least every MAX_QUEUED_FRAMES frames, not
+    only at its end: an H100 handed 8192 queued frames at once returned a black image."""
+    import lift_gl.renderer as renderer_module
+
+    monkeypatch.setattr(renderer_module, "MAX_QUEUED_FRAMES", 4)
+    r = Renderer(load_scene(CORNELL), size=(16, 16), seed=5)
+    finishes = []
+    real_finish = type(r.ctx).finish
+    monkeypatch.setattr(type(r.ctx), "finish", lambda ctx: (finishes.append(r.stats.spp), real_finish(ctx)))
+    r.render(spp=10)
+    r.release()
+    assert r.samples_per_frame == 1
+    assert finishes[:2] == [4, 8] and finishes[-1] == 10   # every 4 frames, and at the end
