@@ -3,10 +3,13 @@
 # benchmarks/gpu.py on Lift's cornell-box, dining-room and classroom and the Covered Dragon.
 #
 #   SHARED=../shared [TREES="base=/path/a layout=/path/b"] [LABEL=new] [ROUNDS=1]
-#   [SIZES=1280x720,1920x1080] [EXTRA="gpu.py measure options"] [MITSUBA_XML=scene.xml]
+#   [SIZES=1280x720,1920x1080] [INTEGRATORS=pt,pt:rr_depth=1:rr_min_survival=0]
+#   [EXTRA="gpu.py measure options"] [MITSUBA_XML=scene.xml]
 #   [BDPT=1] [BDPT_EXTRA="..."] bash benchmarks/gpu_device.sh OUTDIR
 #
-# 1. pt and the ray kinds for each version of the renderer: those in TREES (other checkouts,
+# 1. pt (with its own Russian roulette and with Lift's, from the first bounce: the work per
+#    frame of the paper's times, docs/gpu.md "Ninth session") and the ray kinds for each
+#    version of the renderer: those in TREES (other checkouts,
 #    label=path) and this checkout (LABEL), ROUNDS times, in reversed order every other round
 #    so that no version always runs first;
 # 2. with MITSUBA_XML (from benchmarks/export_mitsuba.py), Mitsuba 3 on that scene at the
@@ -35,7 +38,7 @@ for round in $(seq 1 "${ROUNDS:-1}"); do
     order=("${versions[@]}")
     if [ $((round % 2)) = 0 ]; then readarray -t order < <(printf '%s\n' "${versions[@]}" | tac); fi
     for v in "${order[@]}"; do
-        measure "${v%%=*}" "${v#*=}" "$out/${v%%=*}_$round.json" --integrators pt ${EXTRA:-}
+        measure "${v%%=*}" "${v#*=}" "$out/${v%%=*}_$round.json" --integrators "${INTEGRATORS:-pt,pt:rr_depth=1:rr_min_survival=0}" ${EXTRA:-}
     done
 done
 if [ -n "${MITSUBA_XML:-}" ]; then
