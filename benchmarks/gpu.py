@@ -512,20 +512,25 @@ def measure(args) -> int:
     from lift_gl.gl.context import create_context, describe
     from lift_gl.renderer import Renderer
     from lift_gl.report.bench import bench_case
+    from lift_gl.report.configurations import parse_spec
     from lift_gl.report.machine import describe_machine, machine_line
     from lift_gl.scene.loader import load_scene
 
     sizes = [_size(s.strip()) for s in args.sizes.split(",")]
-    from lift_gl.report.configurations import parse_spec
-    # each item a plugin with optional settings, as lift-gl compare takes them: pt:rr_depth=1
+    # each item a plugin with optional settings, as lift-gl compare takes them (pt:rr_depth=1),
+    # checked before anything runs
     integrators = [s.strip() for s in args.integrators.split(",") if s.strip() not in ("", "none")]
+    from lift_gl.errors import LiftError
+    try:
+        specs = {integrator: parse_spec(integrator) for integrator in integrators}
+    except LiftError as exc:
+        raise SystemExit(f"--integrators: {exc}") from None
     ctx = create_context(args.backend)
     machine = describe_machine(ctx)
     from lift_gl.gl.context import is_software
     machine["software_gl"] = bool(is_software(ctx))
     print(f"machine: {machine_line(machine)}; {describe(ctx)}; lift_gl from {Path(lift_gl.__file__).parent.parent}",
           flush=True)
-    from lift_gl.errors import LiftError
 
     # --bvh-splits A,B: the same cases with the BVH built under each setting (accel/presplit.py),
     # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
@@ -612,7 +617,7 @@ def measure(args) -> int:
                     print(f"{name} {size[0]}x{size[1]} rays{tag}: " + ", ".join(
                         f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()) + _clock_text(rays), flush=True)
             for integrator in integrators:
-                plugin, settings = parse_spec(integrator)
+                plugin, settings = specs[integrator]
                 for v, k in orders():
                     _set_splits(v, previous_splits, axis_var)
                     tag = f" [{axis}={v}]" if v is not None else ""
