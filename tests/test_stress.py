@@ -153,6 +153,7 @@ def test_near_specular_alpha_1e4_converges_to_the_smooth_bsdfs():
     (0.5, 1000, {}),                                        # Russian roulette from bounce 4
     (0.8, 5, {"rr_depth": 10000}),                          # no roulette: the truncated series
     (0.05, 1000, {"rr_depth": 0, "rr_min_survival": 0.01}),  # survival 0.05 at every bounce
+    (0.7, 1000, {"rr_depth": 1, "rr_min_survival": 0.0}),    # Lift's roulette (docs/gpu.md)
 ])
 def test_glowing_box_is_the_geometric_series(albedo, max_depth, params):
     scene = load("furnace_box")
