@@ -318,6 +318,30 @@ def bdpt_shared_vertices(n: int):
     return edit
 
 
+QUEUE_COUNTERS_MAX = 64   # uints the harness's queue buffer holds (queue_spread variants)
+
+
+def queue_spread(k: int):
+    """The pixel queue as k counters instead of one (fewer atomics on one address): counter c
+    owns tiles c, c + k, c + 2k... (a tile stays one warp's 32 pixels), a work group starts at
+    its own counter and moves to the next when that one's tiles are gone. The same pixels, each
+    once; the order differs, not the image."""
+    assert 1 <= k <= QUEUE_COUNTERS_MAX
+
+    def edit(text):
+        text = _sub(text, "coherent buffer LiftPixelQueue { uint lift_queue_next; };",
+                    f"coherent buffer LiftPixelQueue {{ uint lift_queue_next[{k}]; }};")
+        return _sub(text, "uint item = atomicAdd(lift_queue_next, 1u);",
+                    "uint item = items;\n"
+                    f"            uint first_counter = (gl_WorkGroupID.x + gl_WorkGroupID.y * gl_NumWorkGroups.x) % {k}u;\n"
+                    f"            for (uint k = 0u; k < {k}u && item >= items; ++k) {{\n"
+                    f"                uint c = (first_counter + k) % {k}u;\n"
+                    "                uint n = atomicAdd(lift_queue_next[c], 1u);\n"
+                    f"                item = (c + {k}u * (n / group)) * group + n % group;\n"
+                    "            }")
+    return edit
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -357,6 +381,9 @@ VARIANTS = {
     "nolight": (no_light_samples, {}, False),
     "unpaired": (undefine("LIFT_TRACE_PAIRED"), {}, True),
     "queue": (define("LIFT_PIXEL_QUEUE"), {}, True),
+    "queue_spread4": (queue_spread(4), {}, True),
+    "queue_spread16": (queue_spread(16), {}, True),
+    "queue_spread64": (queue_spread(64), {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
@@ -618,7 +645,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     raster_pass = GBufferPass(ctx, size, r.defines, r.packed.num_triangles, r.packed.num_spheres) if gb else None
     traced_pass = TracedGBufferPass(ctx, size, r.defines) if gb else None
     jitter = frame_jitter(7, r.seed)
-    queue = ctx.buffer(reserve=4)
+    queue = ctx.buffer(reserve=4 * QUEUE_COUNTERS_MAX)   # queue_spread's counters
 
     def dispatch(name):
         prog, unif, (lx, ly) = programs[name]
@@ -631,6 +658,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         if splats is not None:
             splats.bind()
         reset_pixel_queue(ctx, queue)   # the pixel queue (LIFT_PIXEL_QUEUE), where a variant has it
+        queue.write(bytes(4 * QUEUE_COUNTERS_MAX))   # every counter of queue_spread too
         prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
 
     def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
@@ -668,10 +696,13 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         ctx.finish()
         return (time.perf_counter_ns() - start if cpu else query.elapsed) / 1e6
 
-    # images first (one dispatch each), then the timing rounds
+    # images first (one dispatch each), then the timing rounds; the frame is filled with NaN
+    # before each, so that a variant that leaves pixels unwritten cannot pass for exact
     images = {}
     refresh()
+    unwritten = np.full((h, w, 4), np.nan, np.float32).tobytes()
     for name in names:
+        frame.write(unwritten)
         dispatch(name)
         resolve_splats()
         images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()

@@ -83,3 +83,19 @@ def test_noshadow_unblocks_shadow_rays_in_the_paired_loop(monkeypatch):
     ctx = create_context("auto")
     res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (32, 24), 4, ["base", "noshadow"], 1, None)
     assert res["variants"]["noshadow"]["mean_rgb"] > 1.02 * res["variants"]["base"]["mean_rgb"]
+
+
+def test_queue_spread_takes_every_pixel_once_and_an_unwritten_pixel_shows(monkeypatch):
+    """The queue_spread variants (k counters) give the base's image exactly; a variant that
+    skips pixels is caught, as the harness fills the frame with NaN before each image."""
+    from lift_gl.gl.context import create_context
+
+    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
+    monkeypatch.setitem(variants.VARIANTS, "skips", (lambda text: variants._sub(
+        text, "uint item = atomicAdd(lift_queue_next, 1u);", "uint item = 2u * atomicAdd(lift_queue_next, 1u);"), {}, True))
+    ctx = create_context("auto")
+    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 4,
+                             ["base", "queue_spread4", "queue_spread64", "skips"], 1, None)
+    v = res["variants"]
+    assert v["queue_spread4"]["max_abs_diff_vs_first"] == 0 and v["queue_spread64"]["max_abs_diff_vs_first"] == 0
+    assert not v["skips"]["finite"]
