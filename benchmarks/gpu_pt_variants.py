@@ -318,7 +318,7 @@ def bdpt_shared_vertices(n: int):
     return edit
 
 
-QUEUE_COUNTERS_MAX = 64   # uints the harness's queue buffer holds (queue_spread variants)
+QUEUE_COUNTERS_MAX = 256  # uints the harness's queue buffer holds (queue_spread, queue_sm)
 
 
 def queue_spread(k: int):
@@ -340,6 +340,27 @@ def queue_spread(k: int):
                     f"                item = (c + {k}u * (n / group)) * group + n % group;\n"
                     "            }")
     return edit
+
+
+def queue_per_sm(text: str) -> str:
+    """The pixel queue as one counter per SM (GL_NV_shader_thread_group's gl_SMIDNV and
+    gl_SMCountNV), counter s owning the s-th of gl_SMCountNV runs of consecutive tiles: the
+    warps of one SM work on one part of the image at a time (its L1 sees one region), and an SM
+    whose run is done takes from the next. The same image; NVIDIA only."""
+    text = text.replace("\n", "\n#extension GL_NV_shader_thread_group : require\n", 1)   # after #version
+    text = _sub(text, "coherent buffer LiftPixelQueue { uint lift_queue_next; };",
+                f"coherent buffer LiftPixelQueue {{ uint lift_queue_next[{QUEUE_COUNTERS_MAX}]; }};")
+    return _sub(text, "uint item = atomicAdd(lift_queue_next, 1u);",
+                "uint item = items;\n"
+                f"            uint sms = min(gl_SMCountNV, {QUEUE_COUNTERS_MAX}u), all_tiles = tiles.x * tiles.y;\n"
+                "            uint run = (all_tiles + sms - 1u) / sms;\n"
+                "            for (uint k = 0u; k < sms && item >= items; ++k) {\n"
+                "                uint c = (gl_SMIDNV + k) % sms;\n"
+                "                if (lift_queue_next[c] >= run * group) continue;   // done: a read, not an atomic\n"
+                "                uint n = atomicAdd(lift_queue_next[c], 1u);\n"
+                "                uint tile = c * run + n / group;\n"
+                "                if (n / group < run && tile < all_tiles) item = tile * group + n % group;\n"
+                "            }")
 
 
 def compose(*edits):
@@ -384,6 +405,7 @@ VARIANTS = {
     "queue_spread4": (queue_spread(4), {}, True),
     "queue_spread16": (queue_spread(16), {}, True),
     "queue_spread64": (queue_spread(64), {}, True),
+    "queue_sm": (queue_per_sm, {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
