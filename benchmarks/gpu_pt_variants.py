@@ -363,6 +363,28 @@ def queue_per_sm(text: str) -> str:
                 "            }")
 
 
+def queue_morton(text: str) -> str:
+    """The pixel queue's tiles in Morton (Z) order instead of row by row: the warps running at
+    once work on a compact part of the image rather than a band across it. The order covers the
+    power-of-two square around the tile grid; items off the grid are skipped (another take
+    from the queue). The same image."""
+    return _sub(text, "uint item = atomicAdd(lift_queue_next, 1u);",
+                "uint item = items;\n"
+                "            uint side = 1u;\n"
+                "            while (side < max(tiles.x, tiles.y)) side *= 2u;\n"
+                "            for (;;) {\n"
+                "                uint n = atomicAdd(lift_queue_next, 1u);\n"
+                "                uint m = n / group;\n"
+                "                if (m >= side * side) break;\n"
+                "                uint tx = 0u, ty = 0u;\n"
+                "                for (uint b = 0u; b < 16u; ++b) {\n"
+                "                    tx |= ((m >> (2u * b)) & 1u) << b;\n"
+                "                    ty |= ((m >> (2u * b + 1u)) & 1u) << b;\n"
+                "                }\n"
+                "                if (tx < tiles.x && ty < tiles.y) { item = (ty * tiles.x + tx) * group + n % group; break; }\n"
+                "            }")
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -406,6 +428,7 @@ VARIANTS = {
     "queue_spread16": (queue_spread(16), {}, True),
     "queue_spread64": (queue_spread(64), {}, True),
     "queue_sm": (queue_per_sm, {}, True),
+    "queue_morton": (queue_morton, {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
