@@ -30,7 +30,6 @@ from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
 from .errors import DenoiserError, LiftError
-from .frame_pacing import FramePacer
 from .gl.context import create_context, describe, is_software
 from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
@@ -60,6 +59,11 @@ GBUFFER_AOVS = ("albedo", "normal", "depth")
 AOVS = GBUFFER_AOVS + ("history", "rejection", "variance", "irradiance")
 PREV_POSITIONS_BINDING = 17  # shaders/passes/motion_vectors.glsl
 MODE_WORDS = {"every": "every frame", "final": "final frame"}
+# Frames one render() call queues on the GPU before it waits for them (ctx.finish). On an H100
+# (driver 580.159) 8192 frames of the dining room queued by one call came back black, and so did
+# the next renderer's image in that process; waiting every 64 gave the right image (session 9,
+# docs/gpu.md "Ninth session"). CPU rasterizers did not show it.
+MAX_QUEUED_FRAMES = 64
 
 
 @dataclass
@@ -158,7 +162,6 @@ class Renderer:
         self.camera_uniforms = camera_uniforms(self.camera, self.size)
         uses_gbuffer = self.plugin.primary == "gbuffer"
         self.samples_per_frame = samples_per_frame or (1 if uses_gbuffer else 4)
-        self._pacer = FramePacer()   # when render() waits for the GPU (frame_pacing.py)
         self._samples_per_frame_asked = samples_per_frame  # None: the default of the plugin's primary
         self.use_timers = timers
         self._create_passes()
@@ -784,8 +787,7 @@ class Renderer:
         if spp is None and seconds is None:
             spp = 16
         start = time.perf_counter()
-        done = 0
-        self._pacer.start()
+        done = frames = 0
         while True:
             if spp is not None and done >= spp:
                 break
@@ -796,10 +798,9 @@ class Renderer:
             n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
             self.render_frame(n)
             done += n
-            # what is queued on the GPU stays bounded (lift_gl/frame_pacing.py says why)
-            if self._pacer.frame_queued() or seconds is not None or progress is not None:
+            frames += 1
+            if seconds is not None or progress is not None or frames % MAX_QUEUED_FRAMES == 0:
                 self.ctx.finish()
-                self._pacer.waited()
             if progress is not None:
                 progress(self, done)
         if self.denoise_mode == "final" and final and done > 0:
