@@ -60,9 +60,12 @@ AOVS = GBUFFER_AOVS + ("history", "rejection", "variance", "irradiance")
 PREV_POSITIONS_BINDING = 17  # shaders/passes/motion_vectors.glsl
 MODE_WORDS = {"every": "every frame", "final": "final frame"}
 # Frames one render() call queues on the GPU before it waits for them (ctx.finish). On an H100
-# (driver 580.159) 8192 frames of the dining room queued by one call came back black, and so did
-# the next renderer's image in that process; waiting every 64 gave the right image (session 9,
-# docs/gpu.md "Ninth session"). CPU rasterizers did not show it.
+# (driver 580.159) 8192 frames of the dining room queued by one call came back black, with the
+# pixel queue on or off, and so did the next renderer's image in that process; waiting every 64
+# gave the right image. 2048 of its frames (7.5 s of work), the cornell-box's 8192 (3.4 s) and 96
+# of bdpt's (64 a wait, 16 s) came back right: the cause is not known (docs/gpu.md "Ninth
+# session"). CPU rasterizers did not show it. Waiting after every frame instead made bdpt's
+# 1080p frames 2.7x slower there, so the bound is in frames.
 MAX_QUEUED_FRAMES = 64
 
 
