@@ -26,12 +26,11 @@ and instances (BLAS roots index the node array); see scene/pack.py.
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import LiftError
+from ..env_settings import env_choice
 
 WIDTH_ENV_VAR = "LIFT_GL_BVH_WIDTH"
 ROWS = 8                    # vec4 rows per 4-wide node
@@ -62,23 +61,12 @@ STACKS = ("children", "groups")
 GROUP_MAX_NODES = 1 << 24
 
 
-def _setting(var: str, value, choices: tuple[str, ...]) -> str:
-    """`value`, else $var, else auto: lower-cased, one of `choices` or "auto"; else one error
-    naming the variable."""
-    if value is None:
-        value = os.environ.get(var, "auto")
-    text = str(value).strip().lower() or "auto"
-    if text != "auto" and text not in choices:
-        raise LiftError(f"${var} must be {', '.join(choices)} or auto, not {value!r}")
-    return text
-
-
 def resolve_stack(value: str | None = None) -> str:
     """What the 4-wide traversal's stack entries are: `value`, else $LIFT_GL_BVH_STACK_ENTRIES,
     else auto; one of STACKS or "auto" (stack_defines decides per tree and device).
     children: one entry a child left to visit (as deep as stack_bound); groups: one entry a
     node with children left (as deep as the tree has levels, shaders/lift/bvh.glsl)."""
-    return _setting(STACK_ENV_VAR, value, STACKS)
+    return env_choice(STACK_ENV_VAR, STACKS, value)
 
 
 STACK_DEFINES = ("LIFT_BVH_GROUP_STACK", "LIFT_BVH_STACK_SIZE", "LIFT_BVH_SHARED_DEPTH")   # what stack_defines sets
@@ -113,7 +101,7 @@ def paired_defines(software: bool, levels: int, value: str | None = None) -> dic
     loop (shaders/lift/bvh.glsl trace_shadow_and_next): `value`, else $LIFT_GL_TRACE_PAIRED:
     on, off or auto (on GPUs for trees of at least PAIRED_FROM_LEVELS levels, off on CPU
     rasterizers; the comment below says why)."""
-    text = _setting(PAIRED_ENV_VAR, value, ("on", "off"))
+    text = env_choice(PAIRED_ENV_VAR, ("on", "off"), value)
     on = text == "on" or (text == "auto" and not software and levels >= PAIRED_FROM_LEVELS)
     return {"LIFT_TRACE_PAIRED": True} if on else {}
 
@@ -172,7 +160,7 @@ def resolve_width(value: str | int | None, software: bool | None = None) -> str:
     $LIFT_GL_BVH_WIDTH, else auto. auto: DEFAULT_GPU_WIDTH on GPUs, DEFAULT_CPU_WIDTH on CPU
     rasterizers (software True), 2 where the device is not known (software None: pack_scene
     called on its own)."""
-    text = _setting(WIDTH_ENV_VAR, value, LAYOUTS)
+    text = env_choice(WIDTH_ENV_VAR, LAYOUTS, value)
     if text == "auto":
         return "2" if software is None else DEFAULT_CPU_WIDTH if software else DEFAULT_GPU_WIDTH
     return text

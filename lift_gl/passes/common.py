@@ -1,12 +1,10 @@
 """What every pass shares: the scene's GPU buffers, uniform setting, and GPU timers."""
 from __future__ import annotations
 
-import os
 import time
 
 import numpy as np
 
-from ..errors import LiftError
 from ..scene.pack import PackedScene, still_motion
 from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chunks, plan_buffers
 
@@ -39,14 +37,6 @@ def groups(width: int, height: int, local=(LOCAL_SIZE, LOCAL_SIZE)) -> tuple[int
     """Work groups of `local` (x, y) invocations that cover width x height."""
     lx, ly = local
     return ((width + lx - 1) // lx, (height + ly - 1) // ly, 1)
-
-
-def env_choice(var: str, choices: tuple[str, ...]) -> str:
-    """$var, lower-cased, one of `choices` or "auto" (unset or empty: "auto"); else one error naming it."""
-    mode = os.environ.get(var, "auto").strip().lower() or "auto"
-    if mode != "auto" and mode not in choices:
-        raise LiftError(f"${var} must be {', '.join(choices)} or auto, not {mode!r}")
-    return mode
 
 
 def set_uniforms(program, values: dict) -> None:

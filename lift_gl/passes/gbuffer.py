@@ -22,7 +22,8 @@ import numpy as np
 
 from .. import shaders
 from .camera import near_far, view_projection
-from .common import env_choice, groups, set_uniforms
+from ..env_settings import env_choice
+from .common import groups, set_uniforms
 
 SHADER_DIR = shaders.SHADER_DIR / "passes"
 

@@ -51,7 +51,8 @@ import numpy as np
 from .. import shaders
 from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
-from .common import LOCAL_SIZE, env_choice, groups, set_uniforms
+from ..env_settings import env_choice
+from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 

@@ -39,7 +39,8 @@ import moderngl
 
 from .. import shaders
 from ..errors import LiftError
-from .common import env_choice, groups
+from ..env_settings import env_choice
+from .common import groups
 
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
