@@ -588,9 +588,7 @@ class Renderer:
         if "LIFT_BVH_STACK_SIZE" not in d:
             return []
         what = "node groups" if d.get("LIFT_BVH_GROUP_STACK") else "child entries"
-        trace = getattr(self, "trace", None)
-        source = getattr(trace, "source", None)
-        if source is not None and "#define LIFT_BVH_SHARED_STACK " not in source.text:
+        if getattr(getattr(self, "trace", None), "shared_stack", None) is False:
             shared = ", in a local array"   # CPU rasterizers; on GPUs pt's queued megakernel (passes/trace.py)
         else:
             shared = (f", the top {d['LIFT_BVH_SHARED_DEPTH']} in shared memory on GPUs"

@@ -298,6 +298,8 @@ def reset_pixel_queue(ctx: moderngl.Context, queue: moderngl.Buffer) -> None:
     ctx.memory_barrier()
     queue.write(b"\0\0\0\0")
     queue.bind_to_storage_buffer(PIXEL_QUEUE_BINDING)
+
+
 GPU_LOCAL_SIZE = (8, 4)  # one warp of 32 a work group (docs/gpu.md has the shapes measured)
 
 
@@ -367,9 +369,10 @@ class TracePass:
         wavefront_size, shared_stack = trace_layout(ctx)
         if shared_stack:
             defines["LIFT_BVH_SHARED_STACK"] = wavefront_size[0] * wavefront_size[1]
-        self.local_size, shared_stack = trace_layout(ctx, pixel_queue=queued)
+        # the megakernel's own: where its BVH stack lives (renderer.explain says it)
+        self.local_size, self.shared_stack = trace_layout(ctx, pixel_queue=queued)
         megakernel_defines = {name: value for name, value in defines.items()
-                              if shared_stack or name != "LIFT_BVH_SHARED_STACK"}
+                              if self.shared_stack or name != "LIFT_BVH_SHARED_STACK"}
         self.source = shaders.assemble(generate_main(plugin, self.local_size), megakernel_defines,
                                        include_dirs=[plugin.folder], main_name=f"<{plugin.name} host main>")
         self.program = shaders.compile_compute(ctx, self.source)

@@ -228,6 +228,7 @@ class OpenCLTracePass:
         self.source = opencl.assemble(generate_kernel(plugin), defines, include_dirs=[plugin.folder],
                                       main_name=f"<{plugin.name} host kernel>")
         self.kernel = opencl.build(self.source, plugin.manifest).lift_trace
+        self.shared_stack = False   # the kernel's BVH stack is a private array (renderer.explain says it)
         mf = self.cl.mem_flags
         packed = scene_buffers.packed
         self.scene = [self.cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR,
