@@ -17,6 +17,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from gpu import scene_name  # noqa: E402
 
 
 def render(path, size, frames, queue):
@@ -48,7 +51,7 @@ def main(argv=None) -> int:
             d = np.abs(images[a] - images[b])
             differing = int((d.max(axis=-1) > 0).sum())
             same &= differing == 0
-            print(f"{Path(path).parent.name if Path(path).stem == 'scene' else Path(path).stem} {a} {b}: "
+            print(f"{scene_name(path)} {a} {b}: "
                   f"max {float(d.max()):.3g}, pixels differing {differing}", flush=True)
     return 0 if same else 1
 
