@@ -62,8 +62,7 @@ def measure_scene(path: str, configs: list[str], size, spp: int, seeds: int, ref
     r = Renderer(scene, size=size, integrator="pt", backend=backend, seed=1_000_003)
     r.render(spp=1)   # as lift-gl compare does: shader JIT and first use, then a reset
     r.reset()
-    for _ in range(-(-ref_spp // spp)):   # in calls of `spp`: a GPU never holds thousands of frames queued
-        reference = r.render(spp=min(spp, ref_spp - r.stats.spp))
+    reference = r.render(spp=ref_spp)
     r.release()
     out = {"scene": portable(path), "scene_name": scene_name(path), "size": list(size), "spp": spp,
            "ref_spp": ref_spp, "reference_seconds": time.perf_counter() - start,
