@@ -385,6 +385,67 @@ def queue_morton(text: str) -> str:
                 "            }")
 
 
+def _group_invocations(text: str) -> int:
+    m = re.search(r"layout\(local_size_x = (\d+), local_size_y = (\d+)\) in;", text)
+    return int(m.group(1)) * int(m.group(2))
+
+
+def regen_primary(text: str) -> str:
+    """The queued megakernel without its pixel's camera ray and G-buffer hit kept for the
+    pixel's next sample: a later sample computes both again (a G-buffer read), so they are not
+    live across every traversal (registers; issue 10, tenth session). The same image."""
+    return _sub(text, "            rng = lift_sample_rng(pixel, s);\n            path = path_start(primary_ray, primary_hit);\n            continue;",
+                "            rng = lift_sample_rng(pixel, s);\n            Ray again = camera_ray(vec2(pixel) + u_jitter);\n"
+                "            path = path_start(again, gbuffer_hit(pixel, again));\n            continue;")
+
+
+def sum_shared(text: str) -> str:
+    """The queued megakernel's per-pixel sum and sample count in shared memory (16 bytes an
+    invocation) instead of registers live across every traversal. The same image."""
+    n = _group_invocations(text)
+    text = _sub(text, "void lift_trace_pixel_queue() {",
+                f"shared vec4 lift_pixel_sums[{n}];\nvoid lift_trace_pixel_queue() {{")
+    text = _sub(text, "    vec3 sum = vec3(0.0);\n    float valid = 0.0;\n    bool busy = false;",
+                "    bool busy = false;")
+    text = _sub(text, "            sum = vec3(0.0);\n            valid = 0.0;\n",
+                "            lift_pixel_sums[gl_LocalInvocationIndex] = vec4(0.0);\n")
+    text = _sub(text, "        lift_add_sample(path_radiance(path), sum, valid);\n        ++s;\n        if (s < u_samples) {",
+                "        {\n            vec4 acc = lift_pixel_sums[gl_LocalInvocationIndex];\n            vec3 sum = acc.xyz;\n"
+                "            float valid = acc.w;\n            lift_add_sample(path_radiance(path), sum, valid);\n"
+                "            lift_pixel_sums[gl_LocalInvocationIndex] = vec4(sum, valid);\n        }\n        ++s;\n        if (s < u_samples) {")
+    text = text.replace("    if (busy) imageStore(u_frame_out, pixel, vec4(sum, valid));",   # LIFT_LOOP_LIMITED's
+                        "    if (busy) imageStore(u_frame_out, pixel, lift_pixel_sums[gl_LocalInvocationIndex]);")
+    return _sub(text, "        imageStore(u_frame_out, pixel, vec4(sum, valid));\n        busy = false;",
+                "        imageStore(u_frame_out, pixel, lift_pixel_sums[gl_LocalInvocationIndex]);\n        busy = false;")
+
+
+def pending_shared(text: str) -> str:
+    """pt: what a vertex's light sample adds if its shadow ray is unblocked, kept in shared
+    memory across the traversal instead of three registers. The same image."""
+    n = _group_invocations(text)
+    text = _sub(text, "bool path_step(inout PathState path, inout Rng rng) {",
+                f"shared vec3 lift_pending_light[{n}];\nbool path_step(inout PathState path, inout Rng rng) {{")
+    return _sub(text, "    if (!trace_shadow_and_next(shadow_wanted, shadow_ray, goes_on, next_ray, next_hit) && shadow_wanted)\n        path.L += L_light;",
+                "    lift_pending_light[gl_LocalInvocationIndex] = L_light;\n"
+                "    if (!trace_shadow_and_next(shadow_wanted, shadow_ray, goes_on, next_ray, next_hit) && shadow_wanted)\n"
+                "        path.L += lift_pending_light[gl_LocalInvocationIndex];")
+
+
+def live_plus(count: int):
+    """Diagnostic of register pressure: `count` more floats live across pt's traversal (made
+    before it from the path's state, used after it only where u_frame is 0xffffffff, which no
+    frame is): what more live state costs, so roughly what less would gain. The same image."""
+    def edit(text):
+        made = "".join(f"    float lift_extra{i} = path.throughput[{i % 3}] * {1.0 + 0.01 * (i + 1)} + float(path.depth + {i});\n"
+                       for i in range(count))
+        used = " + ".join(f"lift_extra{i}" for i in range(count))
+        text = _sub(text, "    if (!trace_shadow_and_next(shadow_wanted, shadow_ray, goes_on, next_ray, next_hit) && shadow_wanted)",
+                    made + "    if (!trace_shadow_and_next(shadow_wanted, shadow_ray, goes_on, next_ray, next_hit) && shadow_wanted)")
+        return _sub(text, "    if (!goes_on) return false;\n    path.ray = next_ray;",
+                    f"    if (u_frame == 0xffffffffu) path.L += vec3({used});\n    if (!goes_on) return false;\n    path.ray = next_ray;")
+    return edit
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -429,6 +490,13 @@ VARIANTS = {
     "queue_spread64": (queue_spread(64), {}, True),
     "queue_sm": (queue_per_sm, {}, True),
     "queue_morton": (queue_morton, {}, True),
+    "regen_primary": (regen_primary, {}, True),
+    "sum_shared": (sum_shared, {}, True),
+    "pending_shared": (pending_shared, {}, True),
+    "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
+    "live_plus4": (live_plus(4), {}, True),
+    "live_plus8": (live_plus(8), {}, True),
+    "live_plus16": (live_plus(16), {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
@@ -492,22 +560,17 @@ COUNTING = ("count_rays", "bdpt_count_paths")
 
 def tree_plugin_source(renderer, tree: Path) -> str:
     """The trace program that checkout `tree`'s plugin (its plugins/NAME and shaders/) gives
-    with this renderer's host: same work groups, stack placement and defines."""
+    with this renderer's host: the megakernel's own defines (pixel queue, stack placement,
+    splats: TracePass.defines), work groups and main(). Built from this checkout, it is the
+    base program's text but for the paths of its includes (tested)."""
     from lift_gl import shaders
-    from lift_gl.passes.splat import splat_defines
     from lift_gl.passes.trace import generate_main
-    from lift_gl.plugins import param_defines
 
-    defines = dict(renderer.defines, **param_defines(renderer.plugin, renderer.params), PRIMARY_GBUFFER=True)
-    if renderer.plugin.splats:
-        defines.update(splat_defines(renderer.ctx))
     local = renderer.trace.local_size
-    if "LIFT_BVH_SHARED_STACK" in renderer.trace.source.text:
-        defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
     folder = tree / "plugins" / renderer.plugin.name
     main = generate_main(renderer.plugin, local).replace(
         renderer.plugin.entry_path.as_posix(), (folder / renderer.plugin.entry_path.name).resolve().as_posix())
-    return shaders.assemble(main, defines, include_dirs=[folder, tree / "shaders"],
+    return shaders.assemble(main, renderer.trace.defines, include_dirs=[folder, tree / "shaders"],
                             main_name=f"<{tree} trace main>").text
 
 

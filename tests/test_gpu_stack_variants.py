@@ -99,3 +99,42 @@ def test_queue_spread_takes_every_pixel_once_and_an_unwritten_pixel_shows(monkey
     v = res["variants"]
     assert v["queue_spread4"]["max_abs_diff_vs_first"] == 0 and v["queue_spread64"]["max_abs_diff_vs_first"] == 0
     assert not v["skips"]["finite"]
+
+
+def test_tree_variant_of_this_checkout_is_the_base_program(monkeypatch):
+    """`tree` (another checkout's plugin built as this renderer builds its own) must use the
+    megakernel's own defines: built from this very checkout it is the base program, pixel queue
+    on or off. (It took the renderer's defines before, which lack the pixel queue: on the H100
+    pt's old code then ran 0.54-0.94x, a false A/B.)"""
+    for queue in ("off", "on"):
+        monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", queue)
+        r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+        try:
+            assert ("#define LIFT_PIXEL_QUEUE" in r.trace.source.text) == (queue == "on")
+            assert variants.tree_plugin_source(r, REPO) == r.trace.source.text, queue
+        finally:
+            r.release()
+
+
+def test_live_state_variants_keep_the_image(monkeypatch):
+    """The tenth session's register-pressure variants (state moved to shared memory, the
+    camera ray made again, floats added to what lives across the traversal) change the program,
+    not the image, with the pixel queue on (their edits are in its loop)."""
+    from lift_gl.gl.context import create_context
+
+    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
+    monkeypatch.setenv("LIFT_GL_TRACE_PAIRED", "on")
+    names = ["base", "regen_primary", "sum_shared", "pending_shared", "slim", "live_plus8"]
+    base_text = None
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+    try:
+        base_text = r.trace.source.text
+        for name in names[1:]:
+            assert variants.VARIANTS[name][0](base_text) != base_text, name
+    finally:
+        r.release()
+    ctx = create_context("auto")
+    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 4, names, 1, None)
+    v = res["variants"]
+    for name in names[1:]:
+        assert v[name]["finite"] and v[name]["max_abs_diff_vs_first"] == 0, name

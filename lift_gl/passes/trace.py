@@ -373,6 +373,7 @@ class TracePass:
         self.local_size, self.shared_stack = trace_layout(ctx, pixel_queue=queued)
         megakernel_defines = {name: value for name, value in defines.items()
                               if self.shared_stack or name != "LIFT_BVH_SHARED_STACK"}
+        self.defines = megakernel_defines  # what the megakernel was built with (benchmarks rebuild it from them)
         self.source = shaders.assemble(generate_main(plugin, self.local_size), megakernel_defines,
                                        include_dirs=[plugin.folder], main_name=f"<{plugin.name} host main>")
         self.program = shaders.compile_compute(ctx, self.source)
