@@ -17,7 +17,7 @@ PROBES = {
     "dielectric": "float probe(Material m) { return dielectric_etap(m, vec3(0.0, 0.0, 1.0)); }",
     "rough dielectric": "vec3 probe(Material m, vec3 w) { return dielectric_rough_eval(m, w, w); }",
     "plastic": "vec3 probe(Material m, vec3 w) { return plastic_eval(m, w, w); }",
-    "rough plastic": "vec3 probe(Material m, vec3 w) { return plastic_specular_eval(m, w, w, 0.1); }",
+    "rough plastic": "vec3 probe(Material m, vec3 w) { float pdf; return plastic_specular_eval_pdf(m, w, w, 0.1, pdf); }",
     "textures": "vec4 probe(vec2 uv) { return texture_lookup(0u, uv); }",
     "environment map": "float probe(vec3 w) { return env_map_pdf(w); }",
     "beckmann": "vec3 probe(Material m, vec3 w) { return conductor_beckmann_eval(m, w, w); }",

@@ -230,9 +230,8 @@ VertexScatter vertex_scatter(PathVertex v, vec3 wi, bool importance) {
     if (vertex_blocks(m, v, v.wo, wi)) return vs;
     Frame frame = frame_from_normal(v.ns);
     vec3 wo_local = to_local(frame, v.wo), wi_local = to_local(frame, wi);
-    vs.f = bsdf_eval(m, wo_local, wi_local);
+    vs.f = bsdf_eval_pdf(m, wo_local, wi_local, vs.pdf_out);
     if (importance) vs.f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(v, v.wo, wi);
-    vs.pdf_out = bsdf_pdf(m, wo_local, wi_local);
     vs.pdf_back = bsdf_pdf(m, wi_local, wo_local);
     return vs;
 }

@@ -80,12 +80,13 @@ bool path_step(inout PathState path, inout Rng rng) {
         // every window draws the same random numbers; only the shadow ray is saved.
         if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls) && depth + 1 >= first_bounce()) {
             vec3 wi = to_local(frame, ls.wi);
-            vec3 f = bsdf_eval(m, wo, wi);
+            float pdf_bsdf;  // the density of BSDF sampling choosing wi, for the MIS weight
+            vec3 f = bsdf_eval_pdf(m, wo, wi, pdf_bsdf);
             // Through the true surface of an opaque one: nothing (BSDF sampling agrees).
             if (is_opaque(m) && !same_side_of_surface(s, wo_world, ls.wi)) f = vec3(0.0);
             if (any(greaterThan(f, vec3(0.0)))) {
                 // A delta light (distant) can't be found by BSDF sampling: no MIS.
-                float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, bsdf_pdf(m, wo, wi));
+                float w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, pdf_bsdf);
                 L_light = path.throughput * f * ls.radiance * (w / ls.pdf);
                 shadow_ray = spawn_shadow_ray(s, ls.wi, ls.dist);
                 shadow_wanted = true;

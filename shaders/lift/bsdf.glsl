@@ -158,28 +158,34 @@ bool conductor_beckmann_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
 #endif
 
 // ---- Rough conductor: GGX microfacet BRDF, f = D G2 F / (4 cos_o cos_i) ----
-vec3 conductor_rough_eval(Material m, vec3 wo, vec3 wi) {
+// f cos_i, and in `pdf` the density of conductor_rough_sample's direction.
+vec3 conductor_rough_eval_pdf(Material m, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
 #ifdef HAS_BECKMANN
-    if (bsdf_beckmann(m)) return conductor_beckmann_eval(m, wo, wi);
+    if (bsdf_beckmann(m)) {
+        pdf = conductor_beckmann_pdf(m, wo, wi);
+        return conductor_beckmann_eval(m, wo, wi);
+    }
 #endif
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
     vec3 h = normalize(wo + wi);
     float D = ggx_D(h, alpha);
-    float G = ggx_G2(wo, wi, alpha);
+    // Visible-normal density times the reflection Jacobian 1 / (4 wo.h); wo.h cancels.
+    pdf = ggx_G1(wo, alpha) * D / (4.0 * wo.z);
     // f cos_i: the cos_i of the BRDF's denominator cancels.
-    return conductor_fresnel(m, dot(wo, h)) * (D * G / (4.0 * wo.z));
+    return conductor_fresnel(m, dot(wo, h)) * (D * ggx_G2(wo, wi, alpha) / (4.0 * wo.z));
+}
+
+vec3 conductor_rough_eval(Material m, vec3 wo, vec3 wi) {
+    float pdf;
+    return conductor_rough_eval_pdf(m, wo, wi, pdf);
 }
 
 float conductor_rough_pdf(Material m, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
-#ifdef HAS_BECKMANN
-    if (bsdf_beckmann(m)) return conductor_beckmann_pdf(m, wo, wi);
-#endif
-    float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
-    vec3 h = normalize(wo + wi);
-    // Visible-normal density times the reflection Jacobian 1 / (4 wo.h); wo.h cancels.
-    return ggx_G1(wo, alpha) * ggx_D(h, alpha) / (4.0 * wo.z);
+    float pdf;
+    conductor_rough_eval_pdf(m, wo, wi, pdf);
+    return pdf;
 }
 
 bool conductor_rough_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
@@ -380,44 +386,46 @@ float plastic_specular_probability(Material m, float F_o) {
     return clamp(s / max(s + d, 1e-12), 0.1, 0.9);
 }
 
-// The diffuse part, times cos_i.
-vec3 plastic_diffuse_eval(Material m, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
-    float ior = m.eta_ior.w;
-    float t = (1.0 - fresnel_dielectric(wo.z, ior)) * (1.0 - fresnel_dielectric(wi.z, ior)) / (ior * ior);
-    return plastic_base_albedo(m) * (t * LIFT_INV_PI * wi.z);
-}
-
 #ifdef HAS_ROUGH_PLASTIC
-// The specular part of the rough coat, times cos_i, and the density of its VNDF sampling.
-vec3 plastic_specular_eval(Material m, vec3 wo, vec3 wi, float alpha) {
+// The specular part of the rough coat, times cos_i, and in `pdf` the density of its VNDF sampling.
+vec3 plastic_specular_eval_pdf(Material m, vec3 wo, vec3 wi, float alpha, out float pdf) {
     vec3 h = normalize(wo + wi);
+    float D = ggx_D(h, alpha);
+    pdf = ggx_G1(wo, alpha) * D / (4.0 * wo.z);
     float F = fresnel_dielectric(dot(wo, h), m.eta_ior.w);
-    return m.k_pad.rgb * (F * ggx_D(h, alpha) * ggx_G2(wo, wi, alpha) / (4.0 * wo.z));
-}
-
-float plastic_specular_pdf(vec3 wo, vec3 wi, float alpha) {
-    vec3 h = normalize(wo + wi);
-    return ggx_G1(wo, alpha) * ggx_D(h, alpha) / (4.0 * wo.z);
+    return m.k_pad.rgb * (F * D * ggx_G2(wo, wi, alpha) / (4.0 * wo.z));
 }
 #endif
 
-vec3 plastic_eval(Material m, vec3 wo, vec3 wi) {
+// f cos_i, and in `pdf` the density of plastic_sample's direction (both lobes).
+vec3 plastic_eval_pdf(Material m, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
-    vec3 f = plastic_diffuse_eval(m, wo, wi);
+    float ior = m.eta_ior.w;
+    float F_o = fresnel_dielectric(wo.z, ior);
+    // The diffuse part
+    float t = (1.0 - F_o) * (1.0 - fresnel_dielectric(wi.z, ior)) / (ior * ior);
+    vec3 f = plastic_base_albedo(m) * (t * LIFT_INV_PI * wi.z);
+    float P = plastic_specular_probability(m, F_o);
+    pdf = (1.0 - P) * pdf_cosine_hemisphere(wi);
 #ifdef HAS_ROUGH_PLASTIC
-    if (bsdf_alpha(m) > 0.0) f += plastic_specular_eval(m, wo, wi, max(bsdf_alpha(m), BSDF_MIN_ALPHA));
+    if (bsdf_alpha(m) > 0.0) {
+        float specular_pdf;
+        f += plastic_specular_eval_pdf(m, wo, wi, max(bsdf_alpha(m), BSDF_MIN_ALPHA), specular_pdf);
+        pdf += P * specular_pdf;
+    }
 #endif
     return f;
 }
 
+vec3 plastic_eval(Material m, vec3 wo, vec3 wi) {
+    float pdf;
+    return plastic_eval_pdf(m, wo, wi, pdf);
+}
+
 float plastic_pdf(Material m, vec3 wo, vec3 wi) {
-    if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
-    float P = plastic_specular_probability(m, fresnel_dielectric(wo.z, m.eta_ior.w));
-    float pdf = (1.0 - P) * pdf_cosine_hemisphere(wi);
-#ifdef HAS_ROUGH_PLASTIC
-    if (bsdf_alpha(m) > 0.0) pdf += P * plastic_specular_pdf(wo, wi, max(bsdf_alpha(m), BSDF_MIN_ALPHA));
-#endif
+    float pdf;
+    plastic_eval_pdf(m, wo, wi, pdf);
     return pdf;
 }
 
@@ -451,14 +459,40 @@ bool plastic_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
     }
     if (wi.z <= 0.0) return false;
     s.wi = wi;
-    s.pdf = plastic_pdf(m, wo, wi);
+    vec3 f = plastic_eval_pdf(m, wo, wi, s.pdf);
     if (!(s.pdf > 0.0)) return false;
-    s.weight = plastic_eval(m, wo, wi) / s.pdf;  // one-sample MIS over the two lobes
+    s.weight = f / s.pdf;  // one-sample MIS over the two lobes
     return true;
 }
 #endif  // HAS_PLASTIC
 
 // ================================ Dispatch ===========================================
+// bsdf_eval and bsdf_pdf of one pair of directions in one call, for next event estimation,
+// which needs both: one dispatch on the material's type, and what the two share (the half
+// vector, D, the Fresnel terms) computed once. The same values as the two calls
+// (tests/test_bsdf_eval_pdf.py).
+vec3 bsdf_eval_pdf(Material m, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
+    int type = bsdf_type(m);
+    if (type == MAT_DIFFUSE) {
+        pdf = diffuse_pdf(wo, wi);
+        return diffuse_eval(m, wo, wi);
+    }
+#ifdef HAS_ROUGH_CONDUCTOR
+    if (type == MAT_CONDUCTOR && bsdf_alpha(m) > 0.0) return conductor_rough_eval_pdf(m, wo, wi, pdf);
+#endif
+#ifdef HAS_ROUGH_DIELECTRIC
+    if (type == MAT_DIELECTRIC && bsdf_is_rough(m)) {
+        pdf = dielectric_rough_pdf(m, wo, wi);
+        return dielectric_rough_eval(m, wo, wi);
+    }
+#endif
+#ifdef HAS_PLASTIC
+    if (type == MAT_PLASTIC) return plastic_eval_pdf(m, wo, wi, pdf);
+#endif
+    return vec3(0.0);  // delta lobes, or a material not compiled in
+}
+
 vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
     int type = bsdf_type(m);
     if (type == MAT_DIFFUSE) return diffuse_eval(m, wo, wi);
