@@ -627,6 +627,10 @@ class Renderer:
             why = getattr(self.trace, "wavefront_fallback", None)
             queue = ("its lanes taking their next pixel from a queue as their paths end ($LIFT_GL_PIXEL_QUEUE)"
                      if getattr(self.trace, "pixel_queue", None) is not None else "")
+            carry = getattr(self.trace, "carry", None)
+            if carry is not None:
+                queue += (f"; paths under way when the queue runs out go on in the next frame "
+                          f"($LIFT_GL_CARRY_PATHS, {carry.buffer.size / 2**20:.1f} MiB for them)")
             if why:
                 return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why}{'; ' + queue if queue else ''})"
             return f" (megakernel, {queue})" if queue else ""
@@ -640,6 +644,9 @@ class Renderer:
         if seed is not None:
             self.seed = int(seed)
         self.accumulate.reset()
+        discard = getattr(getattr(self, "trace", None), "discard_parked", None)
+        if discard is not None:
+            discard()   # parked paths' samples belong to the accumulation just dropped
         self.buffers.reset_stats()
         for timer in (self.timers or {}).values():
             timer.total_ns = timer.count = 0
@@ -667,7 +674,10 @@ class Renderer:
             return PixelFilter("box", (0.5, 0.5))
         return self.scene.pixel_filter
 
-    def render_frame(self, samples: int | None = None) -> None:
+    def render_frame(self, samples: int | None = None, park: bool = False) -> None:
+        """One frame of `samples` per pixel. `park`: a still camera's paths still under way at
+        the frame's end may go on in the next frame's dispatch, which must follow with the same
+        camera (passes/carry.py; render() asks for it on every frame but the last)."""
         samples = samples or self.samples_per_frame
         jitter = filtered_jitter(frame_jitter(self.frame_index, self.seed), self.scene.pixel_filter,
                                  self.scene.film_size, self.size)
@@ -686,7 +696,11 @@ class Renderer:
                         u_jitter=jitter,
                         **filter_uniforms(self._compiled_pixel_filter(), self.scene.film_size, self.size))
         with self._timed("trace"):
-            self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None)
+            visibility = self.gbuffer.visibility if self.gbuffer is not None else None
+            if park and getattr(self.trace, "carry", None) is not None and self.reproject is None and self.reduced is None:
+                self.trace.run(uniforms, visibility, park=True)
+            else:
+                self.trace.run(uniforms, visibility)
         if self.reduced is not None:
             scale = int(self._reduced_setting("scale"))
             offset = block_offset(self.frame_index, scale)
@@ -701,7 +715,7 @@ class Renderer:
                                    history_cap(self.min_blend, samples), self.clamp_sigma)
             self.stats.reprojected += 1
         with self._timed("accumulate"):
-            self.accumulate.run(self.trace.frame)
+            self.accumulate.run(self.trace.frame, late=getattr(self.trace, "late", None))
         if self.reproject is not None:
             self._frame_camera, self._frame_scene = self.scene.camera, self.scene
         self.frame_index += 1
@@ -797,7 +811,9 @@ class Renderer:
             if seconds is not None and done > 0 and time.perf_counter() - start >= seconds:
                 break
             n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
-            self.render_frame(n)
+            # every frame but the last may leave paths to the next one (a timed render does not
+            # know its last frame)
+            self.render_frame(n, park=seconds is None and spp is not None and done + n < spp)
             done += n
             frames += 1
             if seconds is not None or progress is not None or frames % MAX_QUEUED_FRAMES == 0:

@@ -43,6 +43,7 @@ class AccumulatePass:
         self.ctx = ctx
         self.size = size
         self.program = shaders.compile_compute(ctx, shaders.assemble(SOURCE))
+        self._late_program = None  # with LIFT_LATE_SAMPLES: made on the first frame with late samples
         self.sum = ctx.texture(size, 4, dtype="f4")
         self.compensation = ctx.texture(size, 4, dtype="f4")
         self._pixel_fbo = None  # made on the first read_pixel (the viewer's pixel inspector)
@@ -57,14 +58,23 @@ class AccumulatePass:
             texture.write(zeros)
         self.frames = 0
 
-    def run(self, frame) -> None:
+    def run(self, frame, late=None) -> None:
+        """Add the frame; `late`: an image of samples of earlier frames' parked paths
+        (passes/carry.py), added with it and cleared."""
+        program = self.program
+        if late is not None:
+            if self._late_program is None:
+                self._late_program = shaders.compile_compute(
+                    self.ctx, shaders.assemble(SOURCE, defines={"LIFT_LATE_SAMPLES": True}))
+            program = self._late_program
+            late.bind_to_image(5, read=True, write=True)
         frame.bind_to_image(0, read=True, write=False)
         self.sum.bind_to_image(1, read=True, write=True)
         self.compensation.bind_to_image(2, read=True, write=True)
         self.half_difference.bind_to_image(3, read=True, write=True)
         self.moments.bind_to_image(4, read=True, write=True)
-        self.program["u_half_sign"].value = half_sign(self.frames)
-        self.program.run(*groups(*self.size))
+        program["u_half_sign"].value = half_sign(self.frames)
+        program.run(*groups(*self.size))
         self.ctx.memory_barrier()  # the next frame's accumulation and the display read these images
         self.frames += 1
 
@@ -126,6 +136,6 @@ class AccumulatePass:
         return (total[:3] / count if count > 0 else np.zeros(3)), count
 
     def release(self) -> None:
-        for obj in (self.program, *self.textures(), self._pixel_fbo):
+        for obj in (self.program, self._late_program, *self.textures(), self._pixel_fbo):
             if obj is not None:
                 obj.release()

@@ -52,6 +52,7 @@ from .. import shaders
 from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
+from .carry import CarriedPaths, carry_mode
 from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
@@ -160,6 +161,32 @@ void lift_report_invocation() {{
 // a warp's first 32 are one tile. The host zeroes the queue before each dispatch.
 layout(std430, binding = 13) coherent buffer LiftPixelQueue {{ uint lift_queue_next; }};
 
+#ifdef LIFT_CARRY_PATHS
+// Paths carried into the next frame (LIFT_CARRY_PATHS; lift_gl/passes/carry.py). Once the
+// queue has run out, a lane whose path is still under way parks it in one half of this buffer
+// and ends, instead of the frame waiting while the longest paths run alone on a few lanes. The
+// next frame's lanes resume the parked paths before they take new pixels, run each to its end
+// (a resumed path is never parked again) and write what they finish to u_late_out, which the
+// accumulation adds to the frame: per pixel, samples and their count (alpha), so a sample that
+// lands a frame late is counted once, and the mean stays exact.
+struct LiftParkedPath {{ PathState path; Rng rng; ivec2 pixel; uint s; Ray primary_ray; Hit primary_hit; }};
+layout(std430, binding = 15) coherent buffer LiftCarry {{
+    uint lift_carry_count[2];  // paths parked in each half (may pass the capacity: the extra ones ran on)
+    uint lift_carry_next[2];   // the next one to resume
+    LiftParkedPath lift_carried[];
+}};
+layout(rgba32f, binding = 1) uniform writeonly image2D u_late_out;
+uniform uint u_carry_side;      // this frame parks into half u_carry_side and resumes the other's
+uniform uint u_park;            // 0: every path runs to its end (a render's last frame)
+// Paths a half holds: the host sizes the buffer without knowing PathState's layout.
+uint lift_carry_capacity() {{ return uint(lift_carried.length()) / 2u; }}
+#ifdef LIFT_CARRY_PARK_ALWAYS
+#define LIFT_QUEUE_RAN_OUT true   // $LIFT_GL_CARRY_PATHS=always: every new path parks after its first vertex (tests)
+#else
+#define LIFT_QUEUE_RAN_OUT (lift_queue_next >= items)
+#endif
+#endif
+
 void lift_trace_pixel_queue() {{
     const uint tile_w = {local_x}u, tile_h = {local_y}u, group = tile_w * tile_h;
     uvec2 tiles = (uvec2(u_resolution) + uvec2(tile_w - 1u, tile_h - 1u)) / uvec2(tile_w, tile_h);
@@ -176,8 +203,32 @@ void lift_trace_pixel_queue() {{
     vec3 sum = vec3(0.0);
     float valid = 0.0;
     bool busy = false;  // a pixel taken whose samples are not all done
+    bool late = false;  // that pixel's sample was parked in the previous frame: its samples go to u_late_out
     while (true) {{
+#ifdef LIFT_CARRY_PATHS
         if (!busy) {{
+            uint side = 1u - u_carry_side;
+            uint parked = min(lift_carry_count[side], lift_carry_capacity());
+            if (lift_carry_next[side] < parked) {{
+                uint k = atomicAdd(lift_carry_next[side], 1u);
+                if (k < parked) {{
+                    LiftParkedPath c = lift_carried[side * lift_carry_capacity() + k];
+                    path = c.path;
+                    rng = c.rng;
+                    pixel = c.pixel;
+                    s = c.s;
+                    primary_ray = c.primary_ray;
+                    primary_hit = c.primary_hit;
+                    sum = vec3(0.0);
+                    valid = 0.0;
+                    late = true;
+                    busy = true;
+                }}
+            }}
+        }}
+#endif
+        if (!busy) {{
+            late = false;
             uint item = atomicAdd(lift_queue_next, 1u);
             if (item >= items) break;
             uint tile = item / group, lane = item % group;
@@ -197,7 +248,21 @@ void lift_trace_pixel_queue() {{
             path = path_start(primary_ray, primary_hit);
             busy = true;
         }}
-        if (path_step(path, rng)) continue;
+        if (path_step(path, rng)) {{
+#ifdef LIFT_CARRY_PATHS
+            if (u_park != 0u && !late && LIFT_QUEUE_RAN_OUT) {{
+                uint k = atomicAdd(lift_carry_count[u_carry_side], 1u);
+                if (k < lift_carry_capacity()) {{
+                    lift_carried[u_carry_side * lift_carry_capacity() + k] =
+                        LiftParkedPath(path, rng, pixel, s, primary_ray, primary_hit);
+                    imageStore(u_frame_out, pixel, vec4(sum, valid));  // the samples it finished
+                    busy = false;
+                    break;
+                }}
+            }}
+#endif
+            continue;
+        }}
         lift_add_sample(path_radiance(path), sum, valid);
         ++s;
         if (s < u_samples) {{
@@ -205,6 +270,10 @@ void lift_trace_pixel_queue() {{
             path = path_start(primary_ray, primary_hit);
             continue;
         }}
+#ifdef LIFT_CARRY_PATHS
+        if (late) imageStore(u_late_out, pixel, vec4(sum, valid));
+        else
+#endif
         imageStore(u_frame_out, pixel, vec4(sum, valid));
         busy = false;
     }}
@@ -214,6 +283,10 @@ void lift_trace_pixel_queue() {{
     // megakernel keeps them. (Every pixel is taken: a dispatch has a lane for each, and a
     // lane takes its first pixel before its loop can run out.) Only where a driver cuts
     // loops: on an H100 this one store made the cornell-box's trace 1.7x slower.
+#ifdef LIFT_CARRY_PATHS
+    if (busy && late) imageStore(u_late_out, pixel, vec4(sum, valid));
+    else
+#endif
     if (busy) imageStore(u_frame_out, pixel, vec4(sum, valid));
 #endif
 }}
@@ -373,6 +446,14 @@ class TracePass:
         self.local_size, self.shared_stack = trace_layout(ctx, pixel_queue=queued)
         megakernel_defines = {name: value for name, value in defines.items()
                               if self.shared_stack or name != "LIFT_BVH_SHARED_STACK"}
+        # paths still under way when the queue runs out go on in the next frame (passes/carry.py)
+        self.carry = None
+        carry = carry_mode() if queued else "off"
+        if carry != "off":
+            megakernel_defines["LIFT_CARRY_PATHS"] = True
+            if carry == "always":
+                megakernel_defines["LIFT_CARRY_PARK_ALWAYS"] = True
+            self.carry = CarriedPaths(ctx, size, int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)))
         self.defines = megakernel_defines  # what the megakernel was built with (benchmarks rebuild it from them)
         self.source = shaders.assemble(generate_main(plugin, self.local_size), megakernel_defines,
                                        include_dirs=[plugin.folder], main_name=f"<{plugin.name} host main>")
@@ -401,9 +482,23 @@ class TracePass:
         if self.wavefront is None:
             self.tuning = None
 
-    def run(self, uniforms: dict, visibility=None) -> None:
+    @property
+    def late(self):
+        """The image of samples that landed a frame late (paths this frame resumed), which the
+        accumulation adds to the frame and clears; None when this frame resumed none."""
+        return self.carry.late if self.carry is not None and self.carry.resumed else None
+
+    def discard_parked(self) -> None:
+        """Forget the paths the last frame parked (the camera moved, accumulation restarted)."""
+        if self.carry is not None:
+            self.carry.discard()
+
+    def run(self, uniforms: dict, visibility=None, park: bool = False) -> None:
+        """One frame. `park`: paths still under way once the pixel queue has run out may be
+        parked for the next frame's dispatch (passes/carry.py; where carrying is on), which
+        must then be run with the same camera; the default runs every path to its end."""
         if self.tuning is None:
-            self._run(uniforms, visibility, self.wavefront is not None)
+            self._run(uniforms, visibility, self.wavefront is not None, park)
             return
         # the first frames, and any while the GPU's clock is still low: not timed
         early = False
@@ -460,7 +555,9 @@ class TracePass:
             self.wavefront_fallback = (f"the megakernel was faster on this scene's first frames "
                                        f"({ms['megakernel']:.2f} against {ms['wavefront']:.2f} ms)")
 
-    def _run(self, uniforms: dict, visibility, as_wavefront: bool) -> None:
+    def _run(self, uniforms: dict, visibility, as_wavefront: bool, park: bool = False) -> None:
+        if as_wavefront:
+            self.discard_parked()   # the wavefront's kernels resume nothing: those samples are lost
         for program in self.wavefront.programs if as_wavefront else (self.program,):
             set_uniforms(program, uniforms)
             if visibility is not None and "u_visibility" in program:
@@ -474,6 +571,8 @@ class TracePass:
             self.splats.bind()
         if self.pixel_queue is not None:
             reset_pixel_queue(self.ctx, self.pixel_queue)
+        if self.carry is not None:
+            self.carry.before_dispatch(self.program, park)
         self.program.run(*groups(*self.size, self.local_size))
         # The frame's image stores must be done before the accumulation loads them, and the next
         # frame's dispatch must not overwrite it under the accumulation: on an H100 the plain
@@ -488,6 +587,8 @@ class TracePass:
         self.frame.release()
         if self.pixel_queue is not None:
             self.pixel_queue.release()
+        if self.carry is not None:
+            self.carry.release()
         if self.wavefront is not None:
             self.wavefront.release()
         if self.splats is not None:

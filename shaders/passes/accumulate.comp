@@ -20,11 +20,20 @@ layout(rgba32f, binding = 2) uniform image2D u_compensation;
 layout(rgba32f, binding = 3) uniform image2D u_half_difference;
 layout(rgba32f, binding = 4) uniform image2D u_moments;
 uniform float u_half_sign;  // +1: this frame goes to half A, -1: to half B
+#ifdef LIFT_LATE_SAMPLES
+// Samples of paths parked in the previous frame's dispatch and finished in this one
+// (lift_gl/passes/carry.py): added with this frame's, then cleared for the next.
+layout(rgba32f, binding = 5) uniform image2D u_late;
+#endif
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(u_sum)))) return;
     precise vec4 x = imageLoad(u_frame, p);
+#ifdef LIFT_LATE_SAMPLES
+    x += imageLoad(u_late, p);
+    imageStore(u_late, p, vec4(0.0));
+#endif
 
     // ---- The whole accumulation: compensated sum ----
     precise vec4 sum = imageLoad(u_sum, p);

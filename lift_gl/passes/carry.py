@@ -1,0 +1,87 @@
+"""Paths carried into the next frame: the host side of LIFT_CARRY_PATHS (passes/trace.py's
+queued megakernel, lift_trace_pixel_queue).
+
+Why: a frame's dispatch ends only when its longest paths have ended, and once the pixel queue
+has run out those run alone on a few lanes; on an H100 at 1080p that tail is 0.5-0.7 ms of the
+classroom's and the dining room's frames (docs/gpu.md "Tenth session"). With carrying on, a
+lane whose path is still under way when the queue has run out parks the path (its state,
+random numbers and pixel) in one half of a buffer, and the next frame's lanes resume the parked
+paths first. What a resumed path adds goes to the `late` image, which the accumulation adds
+to that frame's: per pixel, radiance and sample count, so the running mean stays exact (a
+pixel whose sample is late has one sample fewer until it lands, never a wrong one).
+
+Who may park: the renderer asks for it frame by frame (Renderer.render: a still camera, every
+frame of a render of known length but its last, which finishes every path). Parked paths that
+cannot land (the camera moved, a reset) are discarded: those pixels miss one sample, which the
+per-pixel count accounts for. $LIFT_GL_CARRY_PATHS = on | off | always | auto (carry_mode;
+auto is off). Only the queued megakernel (a plugin with LIFT_PATH_STEPS on a GPU, or with
+$LIFT_GL_PIXEL_QUEUE=on) can carry.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..env_settings import env_choice
+
+CARRY_ENV_VAR = "LIFT_GL_CARRY_PATHS"
+CARRY_BINDING = 15
+LATE_IMAGE_UNIT = 1
+HEADER_BYTES = 16            # lift_carry_count[2], lift_carry_next[2]
+MAX_PARKED = 1 << 18         # paths a half is sized for: more than the lanes an H100 keeps in flight
+# The host does not know the plugin's PathState layout: it sizes each half for MAX_PARKED
+# entries of ENTRY_BYTES, and the shader divides the buffer's length by its own entry size
+# (pt's parked path is 224 bytes in std430). A larger entry holds fewer; the extra paths run on.
+ENTRY_BYTES = 256
+
+
+def carry_mode(value: str | None = None) -> str:
+    """How the queued megakernel carries paths: `value`, else $LIFT_GL_CARRY_PATHS: on, off or
+    always (every new path parks after its first vertex whether the queue has run out or not,
+    which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes rarely
+    see the queue run out while a path is under way). auto is off: on an H100 carrying made the
+    frame 4% faster on the dining room at Lift's Russian roulette and 16-23% slower on the
+    Covered Dragon and the cornell-box (docs/gpu.md "Tenth session")."""
+    mode = env_choice(CARRY_ENV_VAR, ("on", "off", "always"), value)
+    return "off" if mode == "auto" else mode
+
+
+class CarriedPaths:
+    """The parked paths' buffer (two halves: one parked into, one resumed from, swapping every
+    frame) and the late image."""
+
+    def __init__(self, ctx, size, max_buffer_bytes: int = 1 << 27):
+        self.ctx = ctx
+        entries = min(size[0] * size[1], MAX_PARKED)
+        self.buffer = ctx.buffer(reserve=min(HEADER_BYTES + 2 * entries * ENTRY_BYTES, max_buffer_bytes))
+        self.buffer.write(bytes(HEADER_BYTES))
+        self.late = ctx.texture(size, 4, dtype="f4")
+        self.late.write(np.zeros((size[1], size[0], 4), np.float32).tobytes())  # the accumulation adds it
+        self.side = 0            # the half this frame parks into
+        self.parked = False      # the last frame may have parked paths (so the next one resumes)
+        self.resumed = False     # this frame's dispatch resumed paths: the late image holds samples
+
+    def before_dispatch(self, program, park: bool) -> None:
+        """Bind for the next frame's dispatch: it resumes the other half's paths (if the last
+        frame parked any) and parks into its own half where `park`."""
+        self.side ^= 1
+        other = 1 - self.side
+        # this frame's park count and the other half's resume cursor start at 0; the other half's
+        # count is what the last frame parked, or 0 if it could not have parked
+        self.buffer.write(np.array([0], np.uint32).tobytes(), offset=4 * self.side)
+        if not self.parked:
+            self.buffer.write(np.array([0], np.uint32).tobytes(), offset=4 * other)
+        self.buffer.write(np.array([0], np.uint32).tobytes(), offset=8 + 4 * other)
+        self.resumed = self.parked
+        self.parked = park
+        self.buffer.bind_to_storage_buffer(CARRY_BINDING)
+        self.late.bind_to_image(LATE_IMAGE_UNIT, read=False, write=True)
+        program["u_carry_side"].value = self.side
+        program["u_park"].value = int(park)
+
+    def discard(self) -> None:
+        """Forget the parked paths (the camera moved, the accumulation restarted)."""
+        self.parked = False
+
+    def release(self) -> None:
+        self.buffer.release()
+        self.late.release()
