@@ -28,7 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from gpu import scene_name  # noqa: E402
+from gpu import portable, scene_name  # noqa: E402
 from lift_gl.report.gpu_clock import ClockReader, warm_up  # noqa: E402
 
 
@@ -114,7 +114,7 @@ def measure(path: str, spec: str, size, waits: list[int], frames: int, rounds: i
     info = renderer.ctx.info
     settings = {k: v for k, v in renderer.params.items()}
     renderer.release()
-    return {"scene": path, "integrator": spec, "params": settings, "size": list(size), "warm_up": warm,
+    return {"scene": portable(path), "integrator": spec, "params": settings, "size": list(size), "warm_up": warm,
             "gl": f"{info.get('GL_RENDERER')} | {info.get('GL_VERSION')}", "runs": runs}
 
 

@@ -31,7 +31,8 @@ value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.m
 `--bvh-axes longest,all` for $LIFT_GL_BVH_AXES (the SAH builder's split planes along each
 node's longest axis or all three, accel/cache.py), `--bvh-bins 32,128` for $LIFT_GL_BVH_BINS,
 `--bvh-stack-entries children,groups` for $LIFT_GL_BVH_STACK_ENTRIES (the 4-wide traversal's stack entries),
-and
+`--carry-paths off,on` for $LIFT_GL_CARRY_PATHS (paths still under way when a frame's pixel queue
+runs out go on in the next frame, lift_gl/passes/carry.py), and
 `--bvh-width 2,4` does the same for $LIFT_GL_BVH_WIDTH (the binary or 4-wide tree,
 accel/wide.py).
 """
@@ -537,16 +538,18 @@ def measure(args) -> int:
     # per setting and round, merged by best_of like repeated runs.
     # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
     # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py),
-    # --bvh-stack with $LIFT_GL_BVH_STACK (passes/trace.py trace_layout).
+    # --bvh-stack with $LIFT_GL_BVH_STACK (passes/trace.py trace_layout), --carry-paths with
+    # $LIFT_GL_CARRY_PATHS (passes/carry.py).
     chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
                                                           ("width", WIDTH_VAR, args.bvh_width),
                                                           ("axes", AXES_VAR, args.bvh_axes),
                                                           ("bins", BINS_VAR, args.bvh_bins),
                                                           ("entries", STACK_VAR, args.bvh_stack_entries),
-                                                          ("stack", PLACE_VAR, args.bvh_stack)) if value]
+                                                          ("stack", PLACE_VAR, args.bvh_stack),
+                                                          ("carry", CARRY_VAR, args.carry_paths)) if value]
     if len(chosen) > 1:
-        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries, --bvh-stack: "
-                         "one at a time")
+        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries, --bvh-stack, "
+                         "--carry-paths: one at a time")
     axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
     splits = [v.strip() for v in values.split(",") if v.strip()] or [None]
     rounds = args.split_rounds if splits[0] is not None else 1
@@ -829,6 +832,7 @@ def wavefront_table(record: dict) -> str:
 SPLITS_VAR, WIDTH_VAR, AXES_VAR, BINS_VAR, STACK_VAR = ("LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH", "LIFT_GL_BVH_AXES",
                                                         "LIFT_GL_BVH_BINS", "LIFT_GL_BVH_STACK_ENTRIES")
 PLACE_VAR = "LIFT_GL_BVH_STACK"
+CARRY_VAR = "LIFT_GL_CARRY_PATHS"
 
 
 def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
@@ -990,6 +994,8 @@ def main(argv=None) -> int:
                    "as --bvh-splits")
     m.add_argument("--bvh-stack", help="comma-separated $LIFT_GL_BVH_STACK values (shared,local,auto: where the trace "
                    "pass keeps its stack): as --bvh-splits")
+    m.add_argument("--carry-paths", help="comma-separated $LIFT_GL_CARRY_PATHS values (off,on: paths under way when "
+                   "a frame's pixel queue runs out go on in the next frame): as --bvh-splits")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")

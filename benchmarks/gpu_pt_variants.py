@@ -431,6 +431,18 @@ def pending_shared(text: str) -> str:
                 "        path.L += lift_pending_light[gl_LocalInvocationIndex];")
 
 
+def drop_at_end(text: str) -> str:
+    """Diagnostic of the frame's tail (docs/gpu.md "Ninth session": the last lanes running the
+    longest paths alone): a lane whose path is still under way when the pixel queue has run out
+    drops it and ends. The image loses those paths' samples (not exact); the time is what a
+    frame would take if such paths went on in the next frame's dispatch instead (less the cost
+    of saving and resuming them): an upper bound on what carrying paths across frames gains."""
+    return _sub(text, "        if (path_step(path, rng)) {\n",
+                "        if (path_step(path, rng)) {\n            if (lift_queue_next >= items) {\n"
+                "                imageStore(u_frame_out, pixel, vec4(sum, valid));   // the samples done so far\n"
+                "                break;\n            }\n")
+
+
 def live_plus(count: int):
     """Diagnostic of register pressure: `count` more floats live across pt's traversal (made
     before it from the path's state, used after it only where u_frame is 0xffffffff, which no
@@ -494,6 +506,7 @@ VARIANTS = {
     "sum_shared": (sum_shared, {}, True),
     "pending_shared": (pending_shared, {}, True),
     "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
+    "drop_at_end": (drop_at_end, {}, False),
     "live_plus4": (live_plus(4), {}, True),
     "live_plus8": (live_plus(8), {}, True),
     "live_plus16": (live_plus(16), {}, True),

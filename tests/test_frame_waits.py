@@ -16,7 +16,7 @@ _SPEC.loader.exec_module(frame_waits)
 
 def test_waits_change_the_timing_only():
     record = frame_waits.measure(str(REPO / "scenes" / "cornell.toml"), "pt:max_depth=3", (24, 16), [1, 3], 3, 2)
-    assert record["params"]["max_depth"] == 3
+    assert record["params"]["max_depth"] == 3 and record["scene"] == "scenes/cornell.toml"
     runs = record["runs"]
     assert [r["wait_every"] for r in runs] == [1, 3, 3, 1]   # the order reversed every other round
     for r in runs:
