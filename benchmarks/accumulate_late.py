@@ -1,0 +1,74 @@
+"""What the accumulation pass costs with paths carried into the next frame (issue 10; docs/gpu.md
+"Tenth session"): the pass alone at 1920x1080, timed by GL timer queries, as it is (`plain`),
+with the late image added and cleared (`late`, what $LIFT_GL_CARRY_PATHS=on runs), added
+but not cleared (`late_noclear`) and bound but unread (`late_bound_unread`); then the renderer's
+own per-pass times over 32 frames without and with parking.
+
+    python benchmarks/accumulate_late.py SCENE
+
+Needs a GPU (the queued megakernel, where paths can be carried). Measured on an H100: 0.105 /
+0.294 / 0.111 / 0.106 ms: the store of zeros that clears the late image is what costs.
+"""
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+os.environ["LIFT_GL_CARRY_PATHS"] = "on"
+
+from lift_gl.renderer import Renderer
+from lift_gl.scene.loader import load_scene
+from lift_gl import shaders
+from lift_gl.passes.accumulate import SOURCE
+from lift_gl.passes.common import groups
+from lift_gl.report.gpu_clock import ClockReader, warm_up
+from lift_gl.report.bench import PassTimer
+
+if len(sys.argv) != 2:
+    raise SystemExit(__doc__)
+r = Renderer(load_scene(sys.argv[1]), size=(1920, 1080), integrator="pt")
+clock = ClockReader(r.ctx.info.get("GL_RENDERER", ""))
+warm_up(lambda: (r.render(spp=8), r.ctx.finish()), clock)
+r.render(spp=4)
+acc, ctx = r.accumulate, r.ctx
+if getattr(r.trace, "carry", None) is None:
+    raise SystemExit("no paths to carry here: the pixel queue runs on GPUs ($LIFT_GL_PIXEL_QUEUE=on elsewhere)")
+late = r.trace.carry.late
+q = ctx.query(time=True)
+src = shaders.assemble(SOURCE, defines={"LIFT_LATE_SAMPLES": True}).text
+variants = {
+    "plain": None,
+    "late": src,
+    "late_noclear": src.replace("imageStore(u_late, p, vec4(0.0));", ""),
+    "late_bound_unread": src.replace("x += imageLoad(u_late, p);", "").replace("imageStore(u_late, p, vec4(0.0));", ""),
+}
+progs = {k: (acc.program if v is None else ctx.compute_shader(v)) for k, v in variants.items()}
+def run(name):
+    p = progs[name]
+    if name != "plain":
+        late.bind_to_image(5, read=True, write=True)
+    r.trace.frame.bind_to_image(0, read=True, write=False)
+    acc.sum.bind_to_image(1, read=True, write=True); acc.compensation.bind_to_image(2, read=True, write=True)
+    acc.half_difference.bind_to_image(3, read=True, write=True); acc.moments.bind_to_image(4, read=True, write=True)
+    p["u_half_sign"].value = 1.0
+    p.run(*groups(1920, 1080))
+    ctx.memory_barrier()
+times = {k: [] for k in progs}
+for rep in range(15):
+    for k in (list(progs) if rep % 2 == 0 else list(progs)[::-1]):
+        ctx.finish()
+        with q:
+            run(k)
+        ctx.finish()
+        times[k].append(q.elapsed / 1e6)
+print("accumulate pass alone, 1080p, ms (median of 15):", {k: round(float(np.median(v)), 4) for k, v in times.items()}, "clock", clock.sm_mhz())
+# the renderer's own: per pass with timers, carry on
+for park in (False, True):
+    r.reset()
+    r.timers = {p.name: PassTimer(r.ctx) for p in r.passes}
+    for i in range(32):
+        r.render_frame(park=park and i < 31)
+    print("park", park, {k: round(t.query.mean_ms, 4) for k, t in r.timers.items()})
+    r.timers = None
