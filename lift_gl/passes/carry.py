@@ -39,7 +39,7 @@ def carry_mode(value: str | None = None) -> str:
     always (every new path parks after its first vertex whether the queue has run out or not,
     which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes rarely
     see the queue run out while a path is under way). auto is off: on an H100 carrying made the
-    frame 4% faster on the dining room at Lift's Russian roulette and 16-23% slower on the
+    frame 4% faster on the dining room at Lift's Russian roulette and 18-24% slower on the
     Covered Dragon and the cornell-box (docs/gpu.md "Tenth session")."""
     mode = env_choice(CARRY_ENV_VAR, ("on", "off", "always"), value)
     return "off" if mode == "auto" else mode
