@@ -16,6 +16,7 @@
 //   material_at(s.material, s.uv)     -> Material m (its image texture applied, if any)
 //   bsdf_sample(m, wo, u, bs)         samples wi; bs.weight = f * cos / pdf  (local frame:
 //   bsdf_eval(m, wo, wi), bsdf_pdf     z = normal; wo, wi point away from the surface)
+//   bsdf_eval_pdf(m, wo, wi, pdf)     both at once (what a light sample's MIS weight needs)
 //   shading_frame(s, m, wo)           the local frame to shade s in, seen from wo (opaque
 //                                        surfaces from wo's side; lift/surface.glsl)
 //   frame_from_normal, to_local, to_world
