@@ -539,28 +539,32 @@ def measure(args) -> int:
     # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
     # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py),
     # --bvh-stack with $LIFT_GL_BVH_STACK (passes/trace.py trace_layout), --carry-paths with
-    # $LIFT_GL_CARRY_PATHS (passes/carry.py).
+    # $LIFT_GL_CARRY_PATHS (passes/carry.py), --bvh-leaf with $LIFT_GL_BVH_LEAF (accel/cache.py).
     chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
                                                           ("width", WIDTH_VAR, args.bvh_width),
                                                           ("axes", AXES_VAR, args.bvh_axes),
                                                           ("bins", BINS_VAR, args.bvh_bins),
                                                           ("entries", STACK_VAR, args.bvh_stack_entries),
                                                           ("stack", PLACE_VAR, args.bvh_stack),
-                                                          ("carry", CARRY_VAR, args.carry_paths)) if value]
+                                                          ("carry", CARRY_VAR, args.carry_paths),
+                                                          ("leaf", LEAF_VAR, args.bvh_leaf)) if value]
     if len(chosen) > 1:
         raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries, --bvh-stack, "
-                         "--carry-paths: one at a time")
+                         "--carry-paths, --bvh-leaf: one at a time")
     axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
-    splits = [v.strip() for v in values.split(",") if v.strip()] or [None]
+    # a leaf setting holds a comma itself (MAX_LEAF,COST): its values are split at semicolons
+    splits = [v.strip() for v in values.split(";" if axis == "leaf" else ",") if v.strip()] or [None]
+    if axis == "leaf":
+        splits = ["" if v == "default" else v for v in splits]
     rounds = args.split_rounds if splits[0] is not None else 1
-    runs = {(v, k): {"label": args.label + (f"{axis}={v}" if v is not None else ""), "machine": machine,
+    runs = {(v, k): {"label": args.label + (f"{axis}={v or 'default'}" if v is not None else ""), "machine": machine,
                      "gl": describe(ctx), "max_depth": args.max_depth, f"bvh_{axis}": v, "round": k, "results": []}
             for v in splits for k in range(rounds)}
 
     def out_path(v):
         if v is None or args.out is None:
             return args.out
-        return args.out.with_name(f"{args.out.stem}.{axis}-{v}{args.out.suffix}")
+        return args.out.with_name(f"{args.out.stem}.{axis}-{(v or 'default').replace(',', '_')}{args.out.suffix}")
 
     def save():  # after every case: a run cut short by a time limit keeps what it measured
         for v in splits:
@@ -597,7 +601,7 @@ def measure(args) -> int:
                         "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays,
                         "ray_times": "median of interleaved dispatches: GPU timer query, or on a CPU "
                                      "rasterizer the process's CPU time (all threads)"})
-                    print(f"{name} {size[0]}x{size[1]} rays [{axis}={v}, {args.ray_repeat} interleaved]: " + ", ".join(
+                    print(f"{name} {size[0]}x{size[1]} rays [{axis}={v or 'default'}, {args.ray_repeat} interleaved]: " + ", ".join(
                         f"{k_} {x['mrays_per_s']:.2f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()) + _clock_text(rays), flush=True)
                 for r in renderers:
                     r.release()
@@ -616,14 +620,14 @@ def measure(args) -> int:
                         "bvh_depth": r.packed.bvh_depth, "setup_seconds": setup_s, "rays": rays})
                     r.release()
                     save()
-                    tag = f" [{axis}={v}]" if v is not None else ""
+                    tag = f" [{axis}={v or 'default'}]" if v is not None else ""
                     print(f"{name} {size[0]}x{size[1]} rays{tag}: " + ", ".join(
                         f"{k_} {x['mrays_per_s']:.1f} Mrays/s ({x['ms']:.3f} ms)" for k_, x in rays.items()) + _clock_text(rays), flush=True)
             for integrator in integrators:
                 plugin, settings = specs[integrator]
                 for v, k in orders():
                     _set_splits(v, previous_splits, axis_var)
-                    tag = f" [{axis}={v}]" if v is not None else ""
+                    tag = f" [{axis}={v or 'default'}]" if v is not None else ""
                     try:
                         case = bench_case(scene, size, plugin, {"max_depth": args.max_depth, **settings}, args.frames,
                                           args.repeat, args.backend)
@@ -833,6 +837,7 @@ SPLITS_VAR, WIDTH_VAR, AXES_VAR, BINS_VAR, STACK_VAR = ("LIFT_GL_BVH_SPLITS", "L
                                                         "LIFT_GL_BVH_BINS", "LIFT_GL_BVH_STACK_ENTRIES")
 PLACE_VAR = "LIFT_GL_BVH_STACK"
 CARRY_VAR = "LIFT_GL_CARRY_PATHS"
+LEAF_VAR = "LIFT_GL_BVH_LEAF"
 
 
 def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
@@ -996,6 +1001,8 @@ def main(argv=None) -> int:
                    "pass keeps its stack): as --bvh-splits")
     m.add_argument("--carry-paths", help="comma-separated $LIFT_GL_CARRY_PATHS values (off,on: paths under way when "
                    "a frame's pixel queue runs out go on in the next frame): as --bvh-splits")
+    m.add_argument("--bvh-leaf", help="semicolon-separated $LIFT_GL_BVH_LEAF values (MAX_LEAF or MAX_LEAF,COST: the SAH "
+                   "builder's largest leaf and a split's cost in triangle tests; 'default' for unset): as --bvh-splits")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")

@@ -198,6 +198,30 @@ def test_split_axes_setting_and_cache_key(monkeypatch):
         cache_mod.build_with(tris, "sah")
 
 
+def test_leaf_setting_and_cache_key(monkeypatch):
+    """$LIFT_GL_BVH_LEAF (MAX_LEAF or MAX_LEAF,COST) reaches the SAH build: dearer splits and
+    larger leaves make fewer, fuller leaves, every leaf within its bound; the cache keeps the
+    trees apart, the default keeps its old key; a wrong value is named in the error."""
+    tris = soup(2000, seed=29)
+    monkeypatch.delenv(cache_mod.LEAF_ENV_VAR, raising=False)
+    default_key = cache_mod.cache_key(tris)
+    assert cache_mod.resolve_leaf() == (MAX_LEAF, bvh_mod.TRAVERSAL_COST)
+    monkeypatch.setenv(cache_mod.LEAF_ENV_VAR, "4")
+    assert cache_mod.cache_key(tris) == default_key   # the same settings as unset
+    monkeypatch.setenv(cache_mod.LEAF_ENV_VAR, "8,3")
+    assert cache_mod.resolve_leaf() == (8, 3.0) and cache_mod.cache_key(tris) != default_key
+    big = cache_mod.build_with(tris, "sah")
+    check_invariants(big, tris[big.order])
+    small = build_bvh(tris, all_axes=True)
+    leaves_big, leaves_small = big.count[big.count > 0], small.count[small.count > 0]
+    assert leaves_big.max() <= 8 and leaves_small.max() <= MAX_LEAF < leaves_big.max()
+    assert leaves_big.size < leaves_small.size
+    for bad in ("0", "17", "8,0", "8,x", "8,2,1"):
+        monkeypatch.setenv(cache_mod.LEAF_ENV_VAR, bad)
+        with pytest.raises(ValueError, match="LIFT_GL_BVH_LEAF"):
+            cache_mod.resolve_leaf()
+
+
 # --- numpy traversal against trimesh ------------------------------------------------------
 
 @pytest.fixture(scope="module")

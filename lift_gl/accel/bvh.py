@@ -154,7 +154,8 @@ def _best_splits(sorted_key, d, gstart, total, bins, n_bins, forced, n_act, act_
 
 
 def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int = MAX_LEAF,
-              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT, all_axes: bool = False) -> BVH:
+              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT, all_axes: bool = False,
+              traversal_cost: float = TRAVERSAL_COST) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
     More generally (T, K, 3): primitive i is bounded by the box of its K points. A moving
@@ -166,7 +167,8 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     `all_axes`, along each of the three axes, and the cheapest plane of all (about 2.3x the
     build time; the SAH builder's default through accel/cache.py, docs/bvh.md). A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
-    does not pay, or at depth max_depth (the traversal stack size); `min_split` = 2 with
+    does not pay (a split costs `traversal_cost` box tests, relative to one triangle test, plus
+    its children's expected cost), or at depth max_depth (the traversal stack size); `min_split` = 2 with
     max_leaf = 1 gives one primitive a leaf (lbvh.py builds over clusters so). When all centroids
     coincide (duplicated or degenerate triangles) no plane separates them and the node is cut
     in half by count, so the build always terminates.
@@ -256,7 +258,7 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
 
         area = _box_area(node_lo.astype(np.float64), node_hi.astype(np.float64))
         # only a node whose triangles are all one point has area 0; it has no plane split
-        split_cost = TRAVERSAL_COST + np.divide(best_cost, area, out=np.zeros(n_act), where=area > 0)
+        split_cost = traversal_cost + np.divide(best_cost, area, out=np.zeros(n_act), where=area > 0)
         split_cost[~np.isfinite(best_cost)] = np.inf
         leaf_cost = act_count.astype(np.float64)
 

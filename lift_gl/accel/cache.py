@@ -14,8 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import BVH, LAYOUT_VERSION, SAH_BINS, build_bvh, sah_cost
+from .bvh import BVH, LAYOUT_VERSION, MAX_LEAF, SAH_BINS, TRAVERSAL_COST, build_bvh, sah_cost
 from .presplit import AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SplitSettings, presplit, resolve_splits
+from .wide import MAX_LEAF_COUNT
 
 ENV_VAR = "LIFT_GL_CACHE_DIR"
 BUILDER_ENV_VAR = "LIFT_GL_BVH_BUILDER"
@@ -41,6 +42,28 @@ def resolve_bins() -> int:
     if not text.isdigit() or not 8 <= int(text) <= 256:
         raise ValueError(f"${BINS_ENV_VAR} must be a whole number from 8 to 256, not {text!r}")
     return int(text)
+
+
+LEAF_ENV_VAR = "LIFT_GL_BVH_LEAF"
+
+
+def resolve_leaf() -> tuple[int, float]:
+    """The SAH builder's largest leaf and the cost of a split relative to one triangle test:
+    $LIFT_GL_BVH_LEAF as MAX_LEAF,COST (e.g. 8,2), else bvh.MAX_LEAF and bvh.TRAVERSAL_COST.
+    Larger leaves and dearer splits make fewer nodes and more triangle tests (docs/gpu.md
+    "Tenth session" measured what the GPU's traversal makes of it)."""
+    text = os.environ.get(LEAF_ENV_VAR, "").strip()
+    if not text:
+        return MAX_LEAF, TRAVERSAL_COST
+    parts = text.split(",")
+    try:
+        leaf, cost = int(parts[0]), float(parts[1]) if len(parts) > 1 else TRAVERSAL_COST
+    except ValueError:
+        leaf = cost = None
+    if len(parts) > 2 or leaf is None or not 1 <= leaf <= MAX_LEAF_COUNT or not 0.0 < cost <= 64.0:
+        raise ValueError(f"${LEAF_ENV_VAR} must be MAX_LEAF (1 to {MAX_LEAF_COUNT}) or MAX_LEAF,COST "
+                         f"(COST above 0, at most 64), not {text!r}")
+    return leaf, cost
 
 
 def resolve_axes() -> str:
@@ -70,7 +93,9 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
 
 def _build_plain(tri_positions: np.ndarray, builder: str) -> BVH:
     if builder == "sah":
-        return build_bvh(tri_positions, bins=resolve_bins(), all_axes=resolve_axes() == "all")
+        leaf, cost = resolve_leaf()
+        return build_bvh(tri_positions, bins=resolve_bins(), all_axes=resolve_axes() == "all",
+                         max_leaf=leaf, traversal_cost=cost)
     from .lbvh import build_lbvh  # pyopencl, only for these builders
 
     return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
@@ -131,6 +156,9 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
         bins = resolve_bins()
         if bins != SAH_BINS:
             h.update(f"bins={bins}".encode())
+        leaf = resolve_leaf()
+        if leaf != (MAX_LEAF, TRAVERSAL_COST):
+            h.update(f"leaf={leaf[0]},{leaf[1]!r}".encode())
     if splits_apply(pos, splits):  # builds that splitting cannot change keep their keys
         h.update(splits.key().encode())
     h.update(repr(pos.shape).encode())
