@@ -64,9 +64,17 @@ MODE_WORDS = {"every": "every frame", "final": "final frame"}
 # pixel queue on or off, and so did the next renderer's image in that process; waiting every 64
 # gave the right image. 2048 of its frames (7.5 s of work), the cornell-box's 8192 (3.4 s) and 96
 # of bdpt's (64 a wait, 16 s) came back right: the cause is not known (docs/gpu.md "Ninth
-# session"). CPU rasterizers did not show it. Waiting after every frame instead made bdpt's
-# 1080p frames 2.7x slower there, so the bound is in frames.
+# session"). CPU rasterizers did not show it.
 MAX_QUEUED_FRAMES = 64
+# A timed render, or one that reports progress, waits for the GPU to read the clock or report.
+# Waiting after every frame costs a GPU the CPU's submission of the next (H100, pt, dining room
+# at 1080p: 12.0 against 11.3 ms a frame for the same GPU time; docs/gpu.md "Tenth session"),
+# which equal-time comparisons charged to the fastest integrators. Such a render queues, between
+# waits, the frames that the frame time measured so far says take TIMED_WAIT_FRACTION of its
+# time budget (PROGRESS_INTERVAL_S with progress), at least one and at most MAX_QUEUED_FRAMES:
+# a timed render ends at most that fraction (and a frame) past its budget.
+TIMED_WAIT_FRACTION = 0.02
+PROGRESS_INTERVAL_S = 0.25
 
 
 @dataclass
@@ -802,13 +810,15 @@ class Renderer:
         if spp is None and seconds is None:
             spp = 16
         start = time.perf_counter()
-        done = frames = 0
+        done = frames = queued = 0
+        batch = self._frames_between_waits(seconds, progress is not None, 0.0, 0)   # frames before the next wait
         while True:
             if spp is not None and done >= spp:
                 break
-            # a timed render adds at least one frame: a budget shorter than the clock's
-            # first reading must not give a checkpoint with no new sample
-            if seconds is not None and done > 0 and time.perf_counter() - start >= seconds:
+            # the clock is read right after a wait; a timed render adds at least one frame: a
+            # budget shorter than the clock's first reading must not give a checkpoint with no
+            # new sample
+            if seconds is not None and done > 0 and queued == 0 and time.perf_counter() - start >= seconds:
                 break
             n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
             # every frame but the last may leave paths to the next one (a timed render does not
@@ -816,10 +826,13 @@ class Renderer:
             self.render_frame(n, park=seconds is None and spp is not None and done + n < spp)
             done += n
             frames += 1
-            if seconds is not None or progress is not None or frames % MAX_QUEUED_FRAMES == 0:
+            queued += 1
+            if queued >= batch or (spp is not None and done >= spp):
                 self.ctx.finish()
-            if progress is not None:
-                progress(self, done)
+                queued = 0
+                if progress is not None:
+                    progress(self, done)
+                batch = self._frames_between_waits(seconds, progress is not None, time.perf_counter() - start, frames)
         if self.denoise_mode == "final" and final and done > 0:
             self.run_denoiser()
         self.ctx.finish()
@@ -832,6 +845,20 @@ class Renderer:
         if self.timers is not None:
             self.stats.pass_ms = {name: t.mean_ms for name, t in self.timers.items()}
         return self.image() if readback else None
+
+    @staticmethod
+    def _frames_between_waits(seconds: float | None, progress: bool, elapsed: float, frames: int) -> int:
+        """How many frames render() queues before its next wait (TIMED_WAIT_FRACTION)."""
+        if seconds is None and not progress:
+            return MAX_QUEUED_FRAMES
+        interval = PROGRESS_INTERVAL_S if progress else float("inf")
+        if seconds is not None:
+            interval = min(interval, TIMED_WAIT_FRACTION * seconds, max(seconds - elapsed, 0.0))
+        per_frame = elapsed / max(frames, 1)
+        if per_frame <= 0.0:
+            return 1
+        # (a hair over 1: a frame time read as 0.0100000001 s must still fit 10 in 0.1 s)
+        return int(max(1, min(MAX_QUEUED_FRAMES, interval / per_frame * (1.0 + 1e-9))))
 
     def image(self) -> np.ndarray:
         """The image so far: float32 (H, W, 3), row 0 = top. The denoised radiance when the

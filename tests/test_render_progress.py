@@ -6,6 +6,7 @@ import io
 import json
 import re
 
+import numpy as np
 import pytest
 
 from conftest import REPO
@@ -73,3 +74,32 @@ def test_a_long_render_waits_for_the_gpu_every_few_frames(monkeypatch):
     r.release()
     assert r.samples_per_frame == 1
     assert finishes[:2] == [4, 8] and finishes[-1] == 10   # every 4 frames, and at the end
+
+
+def test_a_timed_render_queues_frames_between_its_waits(monkeypatch):
+    """render(seconds=S) reads the clock after waits, and queues between waits the frames that
+    take TIMED_WAIT_FRACTION of S at the frame time measured so far (a wait after every frame
+    costs a GPU the submission of the next). A fake clock makes each frame take 10 ms: with a
+    5 s budget it waits every 10 frames after the first, and stops at the first wait past 5 s."""
+    import lift_gl.renderer as renderer_module
+
+    r = Renderer(load_scene(CORNELL), size=(8, 8), seed=2)
+    clock = {"t": 0.0}
+    real_frame = r.render_frame
+
+    def frame(*args, **kwargs):
+        clock["t"] += 0.01
+        real_frame(*args, **kwargs)
+
+    monkeypatch.setattr(r, "render_frame", frame)
+    monkeypatch.setattr(renderer_module.time, "perf_counter", lambda: clock["t"])
+    waits = []
+    real_finish = type(r.ctx).finish
+    monkeypatch.setattr(type(r.ctx), "finish", lambda ctx: (waits.append(r.stats.frames), real_finish(ctx)))
+    r.render(seconds=5.0)
+    r.release()
+    frames = r.stats.frames
+    assert renderer_module.TIMED_WAIT_FRACTION * 5.0 / 0.01 == 10
+    gaps = np.diff(waits)
+    assert waits[0] == 1 and gaps.max() <= 10 and (gaps == 10).sum() >= 45, str(waits)
+    assert 500 <= frames <= 510   # past the budget by under a batch (the last ones shrink to fit it)
