@@ -3,7 +3,7 @@
 171 ms with a wait every 64 frames and 466 ms with one after every frame.)
 
     python benchmarks/frame_waits.py SCENE [--integrator bdpt:max_depth=32] [--size 1920x1080] [--waits 1,8,64]
-        [--frames 16] [--rounds 2] [--out FILE.json]
+        [--frames 16] [--rounds 2] [--timed SECONDS] [--out FILE.json]
 
 For each wait interval k (interleaved over --rounds, the same renderer, reset before each run):
 --frames frames are queued, the CPU waits (glFinish) after every k-th, and the run ends with a
@@ -12,7 +12,8 @@ whole frame (their sum against the wall time tells GPU work from idle or overlap
 sampled every 2 ms on a thread through NVML (report/gpu_clock.py; None elsewhere); and the
 image, which must not depend on k (the same seed and frames: the largest difference is
 recorded). On a CPU rasterizer timer queries miss compute work, so only the wall time means
-anything there.
+anything there. With --timed, render(seconds=...) is timed too, as the renderer queues frames
+between its waits and with a wait after every frame (what it did before the tenth session).
 """
 from __future__ import annotations
 
@@ -87,7 +88,32 @@ def timed_run(renderer, frames: int, wait_every: int, clock: ClockReader) -> dic
             "wall_ms": 1e3 * wall, "gpu_ms": gpu_ms, "sm_clock": sampler.summary()}
 
 
-def measure(path: str, spec: str, size, waits: list[int], frames: int, rounds: int, backend="auto") -> dict:
+def timed_renders(renderer, seconds: float, rounds: int) -> list[dict]:
+    """render(seconds=...) as it queues frames between waits (Renderer._frames_between_waits)
+    and with a wait after every frame (TIMED_WAIT_FRACTION 0, what it did before), interleaved:
+    the frames each gets done in the same time."""
+    import lift_gl.renderer as renderer_module
+
+    fraction = renderer_module.TIMED_WAIT_FRACTION
+    out = []
+    try:
+        for r in range(rounds):
+            for way in (("queued", "each frame") if r % 2 == 0 else ("each frame", "queued")):
+                renderer_module.TIMED_WAIT_FRACTION = fraction if way == "queued" else 0.0
+                renderer.reset()
+                renderer.render(seconds=seconds)
+                stats = renderer.stats
+                out.append({"waits": way, "round": r, "seconds": stats.render_seconds, "frames": stats.frames,
+                            "ms_per_frame": 1e3 * stats.render_seconds / stats.frames})
+                print(f"timed render, {way:>10}: {stats.frames} frames in {stats.render_seconds:.3f} s "
+                      f"({out[-1]['ms_per_frame']:.3f} ms a frame)", flush=True)
+    finally:
+        renderer_module.TIMED_WAIT_FRACTION = fraction
+    return out
+
+
+def measure(path: str, spec: str, size, waits: list[int], frames: int, rounds: int, backend="auto",
+            timed_seconds: float | None = None) -> dict:
     """`spec`: a plugin with its settings, as `lift-gl compare` takes them (pt:max_depth=32)."""
     from lift_gl.renderer import Renderer
     from lift_gl.report.configurations import parse_spec
@@ -111,11 +137,12 @@ def measure(path: str, spec: str, size, waits: list[int], frames: int, rounds: i
             print(f"{scene_name(path)} {spec} wait every {k:>3}: "
                   f"{run['wall_ms_per_frame']:8.2f} ms a frame (wall), GPU {run['gpu_ms_per_frame_median']:8.2f} "
                   f"(median), clock {run['sm_clock']}", flush=True)
+    timed = timed_renders(renderer, timed_seconds, rounds) if timed_seconds else None
     info = renderer.ctx.info
     settings = {k: v for k, v in renderer.params.items()}
     renderer.release()
     return {"scene": portable(path), "integrator": spec, "params": settings, "size": list(size), "warm_up": warm,
-            "gl": f"{info.get('GL_RENDERER')} | {info.get('GL_VERSION')}", "runs": runs}
+            "gl": f"{info.get('GL_RENDERER')} | {info.get('GL_VERSION')}", "runs": runs, "timed_renders": timed}
 
 
 def main(argv=None) -> int:
@@ -127,13 +154,15 @@ def main(argv=None) -> int:
     p.add_argument("--frames", type=int, default=16)
     p.add_argument("--rounds", type=int, default=2)
     p.add_argument("--backend", default="auto")
+    p.add_argument("--timed", type=float, metavar="SECONDS",
+                   help="also render(seconds=SECONDS) with frames queued between waits and with a wait after each")
     p.add_argument("--out", type=Path)
     args = p.parse_args(argv)
     size = tuple(int(v) for v in args.size.lower().split("x"))
     waits = [int(k) for k in args.waits.split(",")]
     if any(k < 1 for k in waits):
         raise SystemExit("--waits: every interval must be at least 1 frame")
-    record = measure(args.scene, args.integrator, size, waits, args.frames, args.rounds, args.backend)
+    record = measure(args.scene, args.integrator, size, waits, args.frames, args.rounds, args.backend, args.timed)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(record, indent=1))
