@@ -1,6 +1,8 @@
 """Does a frame's time depend on how many frames are queued before the CPU waits for the GPU?
-(issue 10, docs/gpu.md "Tenth session": on the H100, bdpt's 1080p frames of the dining room took
-171 ms with a wait every 64 frames and 466 ms with one after every frame.)
+(issue 10, docs/gpu.md "Tenth session". The ninth session had seen bdpt's 1080p frames of the
+dining room take 171 ms with a wait every 64 frames and 466 ms with one after every frame; this
+script found the GPU time the same either way, the 466 ms being the scene's path length of 65,
+and a wait after every frame costing the wall clock the CPU's submission of the next.)
 
     python benchmarks/frame_waits.py SCENE [--integrator bdpt:max_depth=32] [--size 1920x1080] [--waits 1,8,64]
         [--frames 16] [--rounds 2] [--timed SECONDS] [--out FILE.json]
