@@ -443,6 +443,26 @@ def drop_at_end(text: str) -> str:
                 "                break;\n            }\n")
 
 
+# The plugin parameters of the scene being measured (run_scene sets it): const_params needs
+# their values, which a source edit alone does not know.
+CURRENT_PARAMS: dict = {}
+
+
+def const_params(text: str) -> str:
+    """The plugin's parameters as compile-time constants instead of uniforms (their values this
+    run), so that the compiler can fold what depends on them (the Russian roulette's tests, the
+    bounce window). The same image: what specialising a render whose settings cannot change
+    would gain."""
+    for name, value in CURRENT_PARAMS.items():
+        m = re.search(rf"uniform (int|uint|float|bool) {name};", text)
+        if m is None:
+            continue
+        glsl = {"bool": "true" if value else "false", "float": repr(float(value)),
+                "int": str(int(value)), "uint": f"{int(value)}u"}[m.group(1)]
+        text = text.replace(m.group(0), f"const {m.group(1)} {name} = {glsl};", 1)
+    return text
+
+
 def live_plus(count: int):
     """Diagnostic of register pressure: `count` more floats live across pt's traversal (made
     before it from the path's state, used after it only where u_frame is 0xffffffff, which no
@@ -507,6 +527,7 @@ VARIANTS = {
     "pending_shared": (pending_shared, {}, True),
     "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
     "drop_at_end": (drop_at_end, {}, False),
+    "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
     "live_plus8": (live_plus(8), {}, True),
     "live_plus16": (live_plus(16), {}, True),
@@ -725,6 +746,8 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         raise SystemExit(f"{base_tree} traverses only the binary BVH and this scene's is {r.packed.bvh_width}-wide: "
                          "run with LIFT_GL_BVH_WIDTH=2 (lift_gl/accel/wide.py)")
     r.render(spp=2)  # warm-up; leaves a G-buffer for the variants
+    CURRENT_PARAMS.clear()
+    CURRENT_PARAMS.update(r.params)
     cpu = is_software(ctx)
     base_source = r.trace.source.text
     uniforms = trace_uniforms(r)

@@ -138,3 +138,17 @@ def test_live_state_variants_keep_the_image(monkeypatch):
     v = res["variants"]
     for name in names[1:]:
         assert v[name]["finite"] and v[name]["max_abs_diff_vs_first"] == 0, name
+
+
+def test_const_params_makes_the_plugin_settings_constants(monkeypatch):
+    """const_params turns pt's parameter uniforms into constants of this run's values, and the
+    image stays the same (the queue on, as on GPUs)."""
+    from lift_gl.gl.context import create_context
+
+    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
+    ctx = create_context("auto")
+    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 5, ["base", "const_params"], 1, None,
+                             settings={"rr_depth": 2})
+    assert res["variants"]["const_params"]["max_abs_diff_vs_first"] == 0
+    edited = variants.const_params("uniform int max_depth;  // x\\nuniform int rr_depth;  // y\\n")
+    assert "const int max_depth = 5;" in edited and "const int rr_depth = 2;" in edited
