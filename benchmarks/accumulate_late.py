@@ -1,13 +1,14 @@
 """What the accumulation pass costs with paths carried into the next frame (issue 10; docs/gpu.md
 "Tenth session"): the pass alone at 1920x1080, timed by GL timer queries, as it is (`plain`),
-with the late image added and cleared (`late`, what $LIFT_GL_CARRY_PATHS=on runs), added
-but not cleared (`late_noclear`) and bound but unread (`late_bound_unread`); then the renderer's
-own per-pass times over 32 frames without and with parking.
+with the late samples of the frame's tag added (`late`, what $LIFT_GL_CARRY_PATHS=on runs), and,
+as the first version did, with the late image added and cleared by a store of zeros
+(`late_clear`); then the renderer's own per-pass times over 32 frames without and with parking.
 
     python benchmarks/accumulate_late.py SCENE
 
-Needs a GPU (the queued megakernel, where paths can be carried). Measured on an H100: 0.105 /
-0.294 / 0.111 / 0.106 ms: the store of zeros that clears the late image is what costs.
+Needs a GPU (the queued megakernel, where paths can be carried). Measured on an H100 with the
+first version: 0.105 ms plain, 0.294 clearing, 0.111 reading the late image without clearing
+it: the store of zeros was what cost, hence the tag.
 """
 import os
 import sys
@@ -38,23 +39,34 @@ if getattr(r.trace, "carry", None) is None:
 late = r.trace.carry.late
 q = ctx.query(time=True)
 src = shaders.assemble(SOURCE, defines={"LIFT_LATE_SAMPLES": True}).text
+tagged = src.replace("uniform uint u_late_frame_tag;", "uniform uint u_late_frame_tag;\nlayout(rgba32f, binding = 7) uniform image2D u_late_rw;")
 variants = {
     "plain": None,
     "late": src,
-    "late_noclear": src.replace("imageStore(u_late, p, vec4(0.0));", ""),
-    "late_bound_unread": src.replace("x += imageLoad(u_late, p);", "").replace("imageStore(u_late, p, vec4(0.0));", ""),
+    "late_clear": tagged.replace("if (imageLoad(u_late_tag, p).r == u_late_frame_tag) x += imageLoad(u_late, p);",
+                                 "x += imageLoad(u_late_rw, p);\n    imageStore(u_late_rw, p, vec4(0.0));"),
 }
 progs = {k: (acc.program if v is None else ctx.compute_shader(v)) for k, v in variants.items()}
+
+
 def run(name):
     p = progs[name]
-    if name != "plain":
-        late.bind_to_image(5, read=True, write=True)
+    if name == "late":
+        late.bind_to_image(5, read=True, write=False)
+        r.trace.carry.late_tag.bind_to_image(6, read=True, write=False)
+        p["u_late_frame_tag"].value = r.trace.carry.tag
+    elif name == "late_clear":
+        late.bind_to_image(7, read=True, write=True)
     r.trace.frame.bind_to_image(0, read=True, write=False)
-    acc.sum.bind_to_image(1, read=True, write=True); acc.compensation.bind_to_image(2, read=True, write=True)
-    acc.half_difference.bind_to_image(3, read=True, write=True); acc.moments.bind_to_image(4, read=True, write=True)
+    acc.sum.bind_to_image(1, read=True, write=True)
+    acc.compensation.bind_to_image(2, read=True, write=True)
+    acc.half_difference.bind_to_image(3, read=True, write=True)
+    acc.moments.bind_to_image(4, read=True, write=True)
     p["u_half_sign"].value = 1.0
     p.run(*groups(1920, 1080))
     ctx.memory_barrier()
+
+
 times = {k: [] for k in progs}
 for rep in range(15):
     for k in (list(progs) if rep % 2 == 0 else list(progs)[::-1]):

@@ -47,11 +47,10 @@ def test_carried_paths_give_the_same_samples(monkeypatch, scene):
                 r.reset()   # those parked paths are dropped with the accumulation
             images[carry] = r.render(spp=6)
             totals[carry] = r.accumulate.read_totals()
-            if carry == "always":
-                late = np.frombuffer(r.trace.carry.late.read(), np.float32)
-                assert not late.any(), "the accumulation clears the late samples it added"
         finally:
             r.release()
+    # exactly 6: a late texel of an earlier frame (nothing clears the late image; its tag says
+    # which frame wrote it) added again would make more (the parked pixels differ frame to frame)
     assert (totals["always"][..., 3] == 6).all() and (totals["off"][..., 3] == 6).all()
     np.testing.assert_allclose(images["always"], images["off"], rtol=1e-5, atol=1e-7)
 

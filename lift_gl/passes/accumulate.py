@@ -59,15 +59,18 @@ class AccumulatePass:
         self.frames = 0
 
     def run(self, frame, late=None) -> None:
-        """Add the frame; `late`: an image of samples of earlier frames' parked paths
-        (passes/carry.py), added with it and cleared."""
+        """Add the frame; `late`: (image, tag image, tag) of samples of earlier frames' parked
+        paths (passes/carry.py): the texels of that tag are added with it."""
         program = self.program
         if late is not None:
             if self._late_program is None:
                 self._late_program = shaders.compile_compute(
                     self.ctx, shaders.assemble(SOURCE, defines={"LIFT_LATE_SAMPLES": True}))
             program = self._late_program
-            late.bind_to_image(5, read=True, write=True)
+            image, tags, tag = late
+            image.bind_to_image(5, read=True, write=False)
+            tags.bind_to_image(6, read=True, write=False)
+            program["u_late_frame_tag"].value = tag
         frame.bind_to_image(0, read=True, write=False)
         self.sum.bind_to_image(1, read=True, write=True)
         self.compensation.bind_to_image(2, read=True, write=True)

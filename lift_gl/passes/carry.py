@@ -6,8 +6,9 @@ has run out those run alone on a few lanes; on an H100 at 1080p that tail is 0.5
 classroom's and the dining room's frames (docs/gpu.md "Tenth session"). With carrying on, a
 lane whose path is still under way when the queue has run out parks the path (its state,
 random numbers and pixel) in one half of a buffer, and the next frame's lanes resume the parked
-paths first. What a resumed path adds goes to the `late` image, which the accumulation adds
-to that frame's: per pixel, radiance and sample count, so the running mean stays exact (a
+paths first. What a resumed path adds goes to the `late` image, tagged with the frame in
+`late_tag`; the accumulation adds the texels of that frame's tag (older ones are stale, so
+nothing needs clearing) to that frame's: per pixel, radiance and sample count, so the running mean stays exact (a
 pixel whose sample is late has one sample fewer until it lands, never a wrong one).
 
 Who may park: the renderer asks for it frame by frame (Renderer.render: a still camera, every
@@ -26,6 +27,7 @@ from ..env_settings import env_choice
 CARRY_ENV_VAR = "LIFT_GL_CARRY_PATHS"
 CARRY_BINDING = 15
 LATE_IMAGE_UNIT = 1
+LATE_TAG_IMAGE_UNIT = 2
 HEADER_BYTES = 16            # lift_carry_count[2], lift_carry_next[2]
 MAX_PARKED = 1 << 18         # paths a half is sized for: more than the lanes an H100 keeps in flight
 # The host does not know the plugin's PathState layout: it sizes each half for MAX_PARKED
@@ -39,8 +41,8 @@ def carry_mode(value: str | None = None) -> str:
     always (every new path parks after its first vertex whether the queue has run out or not,
     which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes rarely
     see the queue run out while a path is under way). auto is off: on an H100 carrying made the
-    frame 4% faster on the dining room at Lift's Russian roulette and 18-24% slower on the
-    Covered Dragon and the cornell-box (docs/gpu.md "Tenth session")."""
+    frame 8% faster on the dining room and 2.5% on the classroom at Lift's Russian roulette, and
+    7-16% slower on the Covered Dragon and the cornell-box (docs/gpu.md "Tenth session")."""
     mode = env_choice(CARRY_ENV_VAR, ("on", "off", "always"), value)
     return "off" if mode == "auto" else mode
 
@@ -55,7 +57,10 @@ class CarriedPaths:
         self.buffer = ctx.buffer(reserve=min(HEADER_BYTES + 2 * entries * ENTRY_BYTES, max_buffer_bytes))
         self.buffer.write(bytes(HEADER_BYTES))
         self.late = ctx.texture(size, 4, dtype="f4")
-        self.late.write(np.zeros((size[1], size[0], 4), np.float32).tobytes())  # the accumulation adds it
+        # which frame wrote each late texel (0: none yet); the accumulation adds only this frame's
+        self.late_tag = ctx.texture(size, 1, dtype="u4")
+        self.late_tag.write(np.zeros((size[1], size[0]), np.uint32).tobytes())
+        self.tag = 0             # this frame's tag: frames dispatched since the carry began
         self.side = 0            # the half this frame parks into
         self.parked = False      # the last frame may have parked paths (so the next one resumes)
         self.resumed = False     # this frame's dispatch resumed paths: the late image holds samples
@@ -73,10 +78,13 @@ class CarriedPaths:
         self.buffer.write(np.array([0], np.uint32).tobytes(), offset=8 + 4 * other)
         self.resumed = self.parked
         self.parked = park
+        self.tag += 1            # 32 bits: wraps after 4e9 frames
         self.buffer.bind_to_storage_buffer(CARRY_BINDING)
         self.late.bind_to_image(LATE_IMAGE_UNIT, read=False, write=True)
+        self.late_tag.bind_to_image(LATE_TAG_IMAGE_UNIT, read=False, write=True)
         program["u_carry_side"].value = self.side
         program["u_park"].value = int(park)
+        program["u_late_tag"].value = self.tag & 0xFFFFFFFF
 
     def discard(self) -> None:
         """Forget the parked paths (the camera moved, the accumulation restarted)."""
@@ -85,3 +93,4 @@ class CarriedPaths:
     def release(self) -> None:
         self.buffer.release()
         self.late.release()
+        self.late_tag.release()

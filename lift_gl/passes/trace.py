@@ -166,9 +166,11 @@ layout(std430, binding = 13) coherent buffer LiftPixelQueue {{ uint lift_queue_n
 // queue has run out, a lane whose path is still under way parks it in one half of this buffer
 // and ends, instead of the frame waiting while the longest paths run alone on a few lanes. The
 // next frame's lanes resume the parked paths before they take new pixels, run each to its end
-// (a resumed path is never parked again) and write what they finish to u_late_out, which the
-// accumulation adds to the frame: per pixel, samples and their count (alpha), so a sample that
-// lands a frame late is counted once, and the mean stays exact.
+// (a resumed path is never parked again) and write what they finish to u_late_out, with this
+// frame's tag in u_late_tag_out; the accumulation adds a late texel whose tag is the frame's
+// (an older one is stale: nothing clears the image) to the frame: per pixel, samples and
+// their count (alpha), so a sample that lands a frame late is counted once, and the mean stays
+// exact.
 struct LiftParkedPath {{ PathState path; Rng rng; ivec2 pixel; uint s; Ray primary_ray; Hit primary_hit; }};
 layout(std430, binding = 15) coherent buffer LiftCarry {{
     uint lift_carry_count[2];  // paths parked in each half (may pass the capacity: the extra ones ran on)
@@ -176,6 +178,8 @@ layout(std430, binding = 15) coherent buffer LiftCarry {{
     LiftParkedPath lift_carried[];
 }};
 layout(rgba32f, binding = 1) uniform writeonly image2D u_late_out;
+layout(r32ui, binding = 2) uniform writeonly uimage2D u_late_tag_out;
+uniform uint u_late_tag;        // this frame's tag (the host's frame count since the carry began, from 1)
 uniform uint u_carry_side;      // this frame parks into half u_carry_side and resumes the other's
 uniform uint u_park;            // 0: every path runs to its end (a render's last frame)
 // Paths a half holds: the host sizes the buffer without knowing PathState's layout.
@@ -206,6 +210,8 @@ void lift_trace_pixel_queue() {{
     bool late = false;  // that pixel's sample was parked in the previous frame: its samples go to u_late_out
     while (true) {{
 #ifdef LIFT_CARRY_PATHS
+        // (the parked count read at every take: reading it once a lane, with a flag once the
+        // list was taken, ran the trace 1.03-1.3x slower on an H100, docs/gpu.md)
         if (!busy) {{
             uint side = 1u - u_carry_side;
             uint parked = min(lift_carry_count[side], lift_carry_capacity());
@@ -271,8 +277,10 @@ void lift_trace_pixel_queue() {{
             continue;
         }}
 #ifdef LIFT_CARRY_PATHS
-        if (late) imageStore(u_late_out, pixel, vec4(sum, valid));
-        else
+        if (late) {{
+            imageStore(u_late_out, pixel, vec4(sum, valid));
+            imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));
+        }} else
 #endif
         imageStore(u_frame_out, pixel, vec4(sum, valid));
         busy = false;
@@ -284,8 +292,10 @@ void lift_trace_pixel_queue() {{
     // lane takes its first pixel before its loop can run out.) Only where a driver cuts
     // loops: on an H100 this one store made the cornell-box's trace 1.7x slower.
 #ifdef LIFT_CARRY_PATHS
-    if (busy && late) imageStore(u_late_out, pixel, vec4(sum, valid));
-    else
+    if (busy && late) {{
+        imageStore(u_late_out, pixel, vec4(sum, valid));
+        imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));
+    }} else
 #endif
     if (busy) imageStore(u_frame_out, pixel, vec4(sum, valid));
 #endif
@@ -484,9 +494,11 @@ class TracePass:
 
     @property
     def late(self):
-        """The image of samples that landed a frame late (paths this frame resumed), which the
-        accumulation adds to the frame and clears; None when this frame resumed none."""
-        return self.carry.late if self.carry is not None and self.carry.resumed else None
+        """Samples that landed a frame late (paths this frame resumed), which the accumulation
+        adds to the frame: (image, tag image, this frame's tag), or None when it resumed none."""
+        if self.carry is None or not self.carry.resumed:
+            return None
+        return self.carry.late, self.carry.late_tag, self.carry.tag & 0xFFFFFFFF
 
     def discard_parked(self) -> None:
         """Forget the paths the last frame parked (the camera moved, accumulation restarted)."""

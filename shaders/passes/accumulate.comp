@@ -22,8 +22,12 @@ layout(rgba32f, binding = 4) uniform image2D u_moments;
 uniform float u_half_sign;  // +1: this frame goes to half A, -1: to half B
 #ifdef LIFT_LATE_SAMPLES
 // Samples of paths parked in the previous frame's dispatch and finished in this one
-// (lift_gl/passes/carry.py): added with this frame's, then cleared for the next.
-layout(rgba32f, binding = 5) uniform image2D u_late;
+// (lift_gl/passes/carry.py): a texel tagged with this frame's tag is added with the frame; an
+// older one is stale (nothing clears the image: a store of zeros here made this pass 2.8x
+// slower on an H100).
+layout(rgba32f, binding = 5) uniform readonly image2D u_late;
+layout(r32ui, binding = 6) uniform readonly uimage2D u_late_tag;
+uniform uint u_late_frame_tag;
 #endif
 
 void main() {
@@ -31,8 +35,7 @@ void main() {
     if (any(greaterThanEqual(p, imageSize(u_sum)))) return;
     precise vec4 x = imageLoad(u_frame, p);
 #ifdef LIFT_LATE_SAMPLES
-    x += imageLoad(u_late, p);
-    imageStore(u_late, p, vec4(0.0));
+    if (imageLoad(u_late_tag, p).r == u_late_frame_tag) x += imageLoad(u_late, p);
 #endif
 
     // ---- The whole accumulation: compensated sum ----
