@@ -42,7 +42,8 @@ def carry_mode(value: str | None = None) -> str:
     which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes rarely
     see the queue run out while a path is under way). auto is off: on an H100 carrying made the
     frame 8% faster on the dining room and 2.5% on the classroom at Lift's Russian roulette, and
-    7-16% slower on the Covered Dragon and the cornell-box (docs/gpu.md "Tenth session")."""
+    7-16% slower on the Covered Dragon and the cornell-box, where the carry code compiled in
+    and never used already costs 12-21% (docs/gpu.md "Tenth session")."""
     mode = env_choice(CARRY_ENV_VAR, ("on", "off", "always"), value)
     return "off" if mode == "auto" else mode
 
