@@ -704,11 +704,8 @@ class Renderer:
                         u_jitter=jitter,
                         **filter_uniforms(self._compiled_pixel_filter(), self.scene.film_size, self.size))
         with self._timed("trace"):
-            visibility = self.gbuffer.visibility if self.gbuffer is not None else None
-            if park and getattr(self.trace, "carry", None) is not None and self.reproject is None and self.reduced is None:
-                self.trace.run(uniforms, visibility, park=True)
-            else:
-                self.trace.run(uniforms, visibility)
+            self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None,
+                           park=park and self.reproject is None and self.reduced is None)
         if self.reduced is not None:
             scale = int(self._reduced_setting("scale"))
             offset = block_offset(self.frame_index, scale)

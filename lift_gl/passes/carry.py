@@ -79,13 +79,13 @@ class CarriedPaths:
         self.buffer.write(np.array([0], np.uint32).tobytes(), offset=8 + 4 * other)
         self.resumed = self.parked
         self.parked = park
-        self.tag += 1            # 32 bits: wraps after 4e9 frames
+        self.tag = self.tag % 0xFFFFFFFF + 1   # 1 to 2**32 - 1 (0 marks a texel never written)
         self.buffer.bind_to_storage_buffer(CARRY_BINDING)
         self.late.bind_to_image(LATE_IMAGE_UNIT, read=False, write=True)
         self.late_tag.bind_to_image(LATE_TAG_IMAGE_UNIT, read=False, write=True)
         program["u_carry_side"].value = self.side
         program["u_park"].value = int(park)
-        program["u_late_tag"].value = self.tag & 0xFFFFFFFF
+        program["u_late_tag"].value = self.tag
 
     def discard(self) -> None:
         """Forget the parked paths (the camera moved, the accumulation restarted)."""

@@ -184,6 +184,11 @@ uniform uint u_carry_side;      // this frame parks into half u_carry_side and r
 uniform uint u_park;            // 0: every path runs to its end (a render's last frame)
 // Paths a half holds: the host sizes the buffer without knowing PathState's layout.
 uint lift_carry_capacity() {{ return uint(lift_carried.length()) / 2u; }}
+// A resumed path's pixel: its samples and this frame's tag.
+void lift_store_late(ivec2 pixel, vec3 sum, float valid) {{
+    imageStore(u_late_out, pixel, vec4(sum, valid));
+    imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));
+}}
 #ifdef LIFT_CARRY_PARK_ALWAYS
 #define LIFT_QUEUE_RAN_OUT true   // $LIFT_GL_CARRY_PATHS=always: every new path parks after its first vertex (tests)
 #else
@@ -277,10 +282,8 @@ void lift_trace_pixel_queue() {{
             continue;
         }}
 #ifdef LIFT_CARRY_PATHS
-        if (late) {{
-            imageStore(u_late_out, pixel, vec4(sum, valid));
-            imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));
-        }} else
+        if (late) lift_store_late(pixel, sum, valid);
+        else
 #endif
         imageStore(u_frame_out, pixel, vec4(sum, valid));
         busy = false;
@@ -292,10 +295,8 @@ void lift_trace_pixel_queue() {{
     // lane takes its first pixel before its loop can run out.) Only where a driver cuts
     // loops: on an H100 this one store made the cornell-box's trace 1.7x slower.
 #ifdef LIFT_CARRY_PATHS
-    if (busy && late) {{
-        imageStore(u_late_out, pixel, vec4(sum, valid));
-        imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));
-    }} else
+    if (busy && late) lift_store_late(pixel, sum, valid);
+    else
 #endif
     if (busy) imageStore(u_frame_out, pixel, vec4(sum, valid));
 #endif
@@ -498,7 +499,7 @@ class TracePass:
         adds to the frame: (image, tag image, this frame's tag), or None when it resumed none."""
         if self.carry is None or not self.carry.resumed:
             return None
-        return self.carry.late, self.carry.late_tag, self.carry.tag & 0xFFFFFFFF
+        return self.carry.late, self.carry.late_tag, self.carry.tag
 
     def discard_parked(self) -> None:
         """Forget the paths the last frame parked (the camera moved, accumulation restarted)."""
