@@ -564,7 +564,9 @@ def measure(args) -> int:
     def out_path(v):
         if v is None or args.out is None:
             return args.out
-        return args.out.with_name(f"{args.out.stem}.{axis}-{(v or 'default').replace(',', '_')}{args.out.suffix}")
+        # a setting's ',', '=' and ':' become '_' (file names of letters, digits, '.', '-' and '_')
+        tag = re.sub(r"[^A-Za-z0-9.-]", "_", v or "default")
+        return args.out.with_name(f"{args.out.stem}.{axis}-{tag}{args.out.suffix}")
 
     def save():  # after every case: a run cut short by a time limit keeps what it measured
         for v in splits:

@@ -118,10 +118,53 @@ def test_resolve_splits(monkeypatch):
     monkeypatch.setenv(ps.ENV_VAR, "off")
     assert ps.resolve_splits(None) == ps.OFF
     monkeypatch.setenv(ps.ENV_VAR, "0.5")
-    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
-    monkeypatch.setenv(ps.ENV_VAR, "lots")
-    with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
-        ps.resolve_splits(None)
+    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0, min_over_median=0.0,
+                                                       min_splits=0.0, sliver_budget=0.0)
+    monkeypatch.setenv(ps.ENV_VAR, "budget=1:sliver_ratio=16:min_triangles=10")
+    assert ps.resolve_splits(None) == ps.SplitSettings(budget=1.0, sliver_ratio=16.0, min_triangles=10)
+    for bad in ("lots", "budget=x", "budgte=1", "budget=-1", "auto=1", "budget=1:"):
+        monkeypatch.setenv(ps.ENV_VAR, bad)
+        with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
+            ps.resolve_splits(None)
+
+
+def _sliver(start, direction, length: float, width: float, across) -> np.ndarray:
+    """A long thin triangle from `start` along `direction`, `width` wide along `across`."""
+    a = np.asarray(start, np.float64)
+    d = np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    return np.stack([a, a + length * d, a + 0.5 * length * d + width * np.asarray(across, np.float64)])
+
+
+def test_slivers_across_the_axes_get_splits_by_their_box_waste():
+    """A sliver lying across the axes (its box far larger than itself) gets about half-area /
+    area / sliver_ratio pieces, one along an axis (a tight, flat box) no more than its budget
+    share; the extra references stay within sliver_budget x T."""
+    small = soup(3000, seed=4, size=0.004, degenerate=False).astype(np.float64)
+    slant = _sliver((0.2, 0.2, 0.2), (1, 1, 1), 0.43, 0.004, (1, -1, 0))
+    flat = _sliver((0.2, 0.6, 0.6), (1, 0, 0), 0.43, 0.004, (0, 1, 0))
+    tris = np.concatenate([small, slant[None], flat[None]]).astype(np.float32)
+    lo, hi = tris.min(1), tris.max(1)
+    budget = 6 / len(tris)   # a share of a few splits each, below what the slanted sliver wants
+    share = ps._split_counts(tris, lo, hi, ps.SplitSettings(budget=budget, min_splits=0.0, sliver_budget=0.0))
+    counts = ps._split_counts(tris, lo, hi, ps.SplitSettings(budget=budget, min_splits=0.0))
+    t = tris.astype(np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+    ratio = ps._half_area(lo.astype(np.float64), hi.astype(np.float64)) / area
+    assert ratio[-2] > 10 * ps.SplitSettings().sliver_ratio and ratio[-1] < 4      # the case this tests
+    want = min(np.ceil(ratio[-2] / ps.SplitSettings().sliver_ratio) - 1, ps.MAX_SPLITS_PER_TRIANGLE)
+    assert 0 < share[-2] < want and counts[-2] == want
+    assert 0 < counts[-1] == share[-1]
+    np.testing.assert_array_equal(counts[:-2], share[:-2])
+    # its pieces' boxes: about 1/pieces of the whole box's half-area each
+    ref_tri, r_lo, r_hi = ps.presplit(tris, ps.SplitSettings(budget=budget, min_splits=0.0))
+    pieces = ref_tri == len(tris) - 2
+    assert pieces.sum() > 0.5 * (want + 1)
+    whole = ps._half_area(lo[-2].astype(np.float64), hi[-2].astype(np.float64))
+    assert ps._half_area(r_lo[pieces].astype(np.float64), r_hi[pieces].astype(np.float64)).sum() < 4 * whole / pieces.sum()
+    # the extra references are capped at sliver_budget x T (here fewer than the sliver wants)
+    tight = ps.SplitSettings(budget=budget, min_splits=0.0, sliver_budget=10 / len(tris))
+    extra = ps._split_counts(tris, lo, hi, tight) - share
+    assert 0 < extra.sum() <= 10
 
 
 def test_packed_copies_keep_ids_and_lights():

@@ -16,7 +16,8 @@ How, vectorised over all references at once:
   1. candidates are triangles whose box diagonal lies between `min_extent` and `max_extent`
      of the scene's (the largest stay whole: see AUTO_CANDIDATES); a
      budget of `budget` x T extra references is shared among them in proportion to the cube
-     root of the area their box wastes (box half-area minus triangle area);
+     root of the area their box wastes (box half-area minus triangle area); slivers lying
+     across the axes get more, up to about (box half-area / area) / `sliver_ratio` pieces;
   2. each round splits every reference that has splits left at the coarsest plane of a
      dyadic grid over the scene bounds that crosses its box (the planes the top of the tree
      is likely to split at), on the axis where that plane is coarsest; each side's box is the
@@ -48,6 +49,14 @@ class SplitSettings:
     min_triangles: scenes with fewer triangles are not split (tiny trees, nothing to gain).
     min_splits: nor are scenes whose candidates would take fewer splits than this fraction of
     the triangle count (a few outliers: the split build would cost more than it could gain).
+    sliver_ratio, sliver_budget: a candidate whose box's half-area is more than sliver_ratio
+    times its area (a sliver lying across the axes, like the faces of a thin tube at a
+    slant) gets enough splits for its pieces to come near that ratio (about ratio /
+    sliver_ratio pieces, at most MAX_SPLITS_PER_TRIANGLE + 1), when that is more than its share
+    of `budget`; these extra references are at most sliver_budget x T (scaled down to fit).
+    Why: such pieces' boxes shrink with every split, and the rays that pass near a thicket of
+    them set the pace of their warp on a GPU; the SAH cost, a mean over rays, does not show it
+    (docs/bvh.md, "Slivers").
     auto: build the tree without splits and with each of AUTO_CANDIDATES, and keep the one
     of least SAH cost (accel/cache.py build_with)."""
     budget: float = 0.3
@@ -56,6 +65,8 @@ class SplitSettings:
     min_triangles: int = 1000
     min_over_median: float = 8.0
     min_splits: float = 0.01
+    sliver_ratio: float = 8.0
+    sliver_budget: float = 2.0
     auto: bool = False
 
     @property
@@ -66,8 +77,10 @@ class SplitSettings:
         """What the on-disk cache keys on (accel/cache.py)."""
         if self.auto:
             return "presplit:auto:" + ";".join(c.key() for c in AUTO_CANDIDATES) + f";min_gain={AUTO_MIN_GAIN:g}"
+        sliver = f",sliver={self.sliver_ratio:g}x{self.sliver_budget:g}" if self.sliver_ratio > 0 and self.sliver_budget > 0 else ""
         return (f"presplit:budget={self.budget:g},extent={self.min_extent:g}..{self.max_extent:g},"
-                f"over_median={self.min_over_median:g},min_tris={self.min_triangles},min_splits={self.min_splits:g}")
+                f"over_median={self.min_over_median:g},min_tris={self.min_triangles},min_splits={self.min_splits:g}"
+                + sliver)
 
 
 OFF = SplitSettings(budget=0.0)
@@ -84,9 +97,11 @@ AUTO = SplitSettings(auto=True)
 
 def resolve_splits(splits) -> SplitSettings:
     """SplitSettings from None ($LIFT_GL_BVH_SPLITS, else auto), a SplitSettings, a bool, or a
-    string: 'auto' (the default), 'off'/'0', or a budget fraction ('0.3': split every triangle
+    string: 'auto' (the default), 'off'/'0', a budget fraction ('0.3': split every triangle
     over 1% of the scene, however large and whatever the scene's size, with that many extra
-    references, and keep the result: for tests and experiments)."""
+    references, and keep the result: for tests and experiments), or SplitSettings fields as
+    'name=value' joined by ':' ('budget=1:min_extent=0.005': the default candidates with
+    those changes, kept whatever the SAH cost: for experiments)."""
     if isinstance(splits, SplitSettings):
         return splits
     if isinstance(splits, bool):
@@ -99,6 +114,8 @@ def resolve_splits(splits) -> SplitSettings:
         return AUTO
     if text in ("off", "none"):
         return OFF
+    if "=" in text:
+        return _settings_from_fields(text, splits, source)
     try:
         budget = float(text)
     except ValueError:
@@ -106,8 +123,27 @@ def resolve_splits(splits) -> SplitSettings:
     if not (0.0 <= budget <= 8.0):
         raise ValueError(f"bad BVH split setting {splits!r} (from {source}): use auto, off or a budget "
                          "fraction of extra references between 0 and 8 (e.g. 0.3)")
-    return SplitSettings(budget=budget, max_extent=float("inf"), min_triangles=0, min_over_median=0.0, min_splits=0.0) \
+    return SplitSettings(budget=budget, max_extent=float("inf"), min_triangles=0, min_over_median=0.0, min_splits=0.0,
+                         sliver_budget=0.0) \
         if budget > 0 else OFF
+
+
+def _settings_from_fields(text: str, splits, source: str) -> SplitSettings:
+    """SplitSettings from 'name=value:name=value' (resolve_splits)."""
+    names = {f for f in SplitSettings.__dataclass_fields__ if f != "auto"}
+    fields = {}
+    for part in text.split(":"):
+        name, _, value = part.partition("=")
+        name = name.strip()
+        try:
+            number = float(value)
+        except ValueError:
+            number = float("nan")
+        if name not in names or not number >= 0:
+            raise ValueError(f"bad BVH split setting {splits!r} (from {source}): {part!r} is not name=value with "
+                             f"a number >= 0 and a name among {', '.join(sorted(names))}")
+        fields[name] = int(number) if name == "min_triangles" else number
+    return SplitSettings(**fields)
 
 
 def _half_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -144,9 +180,26 @@ def _split_counts(tris: np.ndarray, lo: np.ndarray, hi: np.ndarray, settings: Sp
         mid = 0.5 * (lo_d + hi_d)
         lo_d, hi_d = (mid, hi_d) if total(mid) <= budget else (lo_d, mid)
     counts[cand] = np.minimum(np.floor(lo_d * prio), MAX_SPLITS_PER_TRIANGLE).astype(np.int64)
+    counts[cand] += _sliver_splits(tri_area, waste + tri_area, counts[cand], settings, n)
     if counts.sum() < settings.min_splits * n:
         counts[:] = 0
     return counts
+
+
+def _sliver_splits(area: np.ndarray, half_area: np.ndarray, share: np.ndarray, settings: SplitSettings,
+                   n: int) -> np.ndarray:
+    """Splits to add to each candidate's budget share (`share`): slivers across the axes get
+    up to about ratio / sliver_ratio - 1 splits (SplitSettings), all of them together at most
+    sliver_budget x n."""
+    if settings.sliver_ratio <= 0 or settings.sliver_budget <= 0:
+        return np.zeros_like(share)
+    ratio = half_area / np.maximum(area, 1e-300)
+    want = np.minimum(np.ceil(ratio / settings.sliver_ratio) - 1.0, MAX_SPLITS_PER_TRIANGLE)
+    extra = np.maximum(want - share, 0.0)
+    allowed = settings.sliver_budget * n
+    if extra.sum() > allowed:
+        extra = np.floor(extra * (allowed / extra.sum()))
+    return extra.astype(np.int64)
 
 
 def _split_planes(lo: np.ndarray, hi: np.ndarray, s_lo: np.ndarray, s_scale: np.ndarray):
