@@ -222,6 +222,49 @@ def test_leaf_setting_and_cache_key(monkeypatch):
             cache_mod.resolve_leaf()
 
 
+def test_finer_bins_at_the_top(monkeypatch):
+    """$LIFT_GL_BVH_BINS auto (the default) keeps whichever of the 32-bin tree and the tree with
+    LARGE_BINS bins for its nodes of LARGE_NODE triangles or more has the lower SAH cost; both
+    keep the layout rules and trimesh's closest hits; a number gives that many bins everywhere,
+    and the cache keeps the settings apart."""
+    from lift_gl.accel.bvh import LARGE_BINS, LARGE_NODE, sah_cost
+
+    monkeypatch.delenv(cache_mod.BINS_ENV_VAR, raising=False)
+    # rows of small triangles whose gaps fall between 32 bins' planes (desks in a classroom)
+    rng = np.random.default_rng(31)
+    rows = np.repeat(np.arange(37) / 37.0 + 0.003, 80)
+    base = np.stack([rows + 0.015 * rng.random(rows.size), rng.random(rows.size), rng.random(rows.size)], axis=1)
+    tris = (base[:, None, :] + 0.004 * rng.standard_normal((rows.size, 3, 3))).astype(np.float32)
+    assert len(tris) >= 2 * LARGE_NODE
+    coarse = build_bvh(tris, all_axes=True)
+    fine = build_bvh(tris, all_axes=True, large_bins=LARGE_BINS)
+    assert not np.array_equal(coarse.nodes.view(np.uint32), fine.nodes.view(np.uint32))
+    best = min((coarse, fine), key=sah_cost)
+    assert sah_cost(fine) < sah_cost(coarse)          # what this scene is built to show
+    o, d = random_rays(3000, seed=7)
+    t_ref, _ = trimesh_closest(tris, o, d)
+    for tree in (coarse, fine):
+        check_invariants(tree, tris[tree.order])
+        t, _ = intersect_numpy(tree, tris[tree.order], o, d)
+        assert disagreements(t, t_ref).mean() < MISMATCH_BOUND
+    assert cache_mod.resolve_bins() == "auto"
+    built = cache_mod.build_with(tris, "sah")
+    assert np.array_equal(built.nodes.view(np.uint32), best.nodes.view(np.uint32))
+    auto_key = cache_mod.cache_key(tris)
+    monkeypatch.setenv(cache_mod.BINS_ENV_VAR, "32")
+    assert np.array_equal(cache_mod.build_with(tris, "sah").nodes.view(np.uint32), coarse.nodes.view(np.uint32))
+    assert cache_mod.cache_key(tris) != auto_key
+    # a tree whose finer build costs more keeps the coarse one
+    monkeypatch.setattr(cache_mod, "sah_cost", lambda b: 0.0 if b.nodes.shape == coarse.nodes.shape and
+                        np.array_equal(b.nodes.view(np.uint32), coarse.nodes.view(np.uint32)) else 1.0)
+    monkeypatch.setenv(cache_mod.BINS_ENV_VAR, "auto")
+    assert np.array_equal(cache_mod.build_with(tris, "sah").nodes.view(np.uint32), coarse.nodes.view(np.uint32))
+    for bad in ("7", "300", "many"):
+        monkeypatch.setenv(cache_mod.BINS_ENV_VAR, bad)
+        with pytest.raises(ValueError, match="LIFT_GL_BVH_BINS"):
+            cache_mod.resolve_bins()
+
+
 # --- numpy traversal against trimesh ------------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -27,6 +27,11 @@ MAX_LEAF = 4        # a leaf may hold at most this many triangles unless depth f
 MIN_SPLIT = 3       # nodes of 1 or 2 triangles are always leaves
 SAH_BINS = 32
 SMALL_NODE = 8      # nodes of at most this many triangles are binned with this many bins
+# build_bvh's large_bins are for nodes of at least this many triangles: the few nodes at the
+# top of the tree, where a plane between two of 32 bins may miss the split that separates a
+# room's rows of furniture (docs/bvh.md, "Finer bins at the top").
+LARGE_NODE = 1024
+LARGE_BINS = 128
 # Cost of one box test relative to one triangle test; both are a few dozen flops on a GPU.
 TRAVERSAL_COST = 1.0
 
@@ -155,7 +160,7 @@ def _best_splits(sorted_key, d, gstart, total, bins, n_bins, forced, n_act, act_
 
 def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int = MAX_LEAF,
               max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT, all_axes: bool = False,
-              traversal_cost: float = TRAVERSAL_COST) -> BVH:
+              traversal_cost: float = TRAVERSAL_COST, large_bins: int = 0) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
     More generally (T, K, 3): primitive i is bounded by the box of its K points. A moving
@@ -163,7 +168,8 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     the box it sweeps (a linear motion stays inside the union of the two end boxes).
 
     Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
-    axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits; with
+    axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits (nodes of
+    at least LARGE_NODE triangles: `large_bins` bins where that is more); with
     `all_axes`, along each of the three axes, and the cheapest plane of all (about 2.3x the
     build time; the SAH builder's default through accel/cache.py, docs/bvh.md). A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
@@ -228,6 +234,10 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         # hold mostly small nodes, so this roughly halves the build time.
         forced = (act_count < min_split) | (level >= max_depth)
         n_bins = np.where(act_count <= SMALL_NODE, min(SMALL_NODE, bins), bins)
+        grid = bins   # the width of the (node, bin) key space: the most bins any node has
+        if large_bins > bins and act_count.max() >= LARGE_NODE:
+            n_bins = np.where(act_count >= LARGE_NODE, large_bins, n_bins)
+            grid = large_bins
         # float64 here: extents of nearly coincident float32 centroids may be denormal-small
         c_lo = np.minimum.reduceat(c, seg_off, axis=0).astype(np.float64)
         c_hi = np.maximum.reduceat(c, seg_off, axis=0).astype(np.float64)
@@ -238,10 +248,10 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         best_axis = longest.copy()
         keys = []
         for axis in candidates:   # each axis judged on its own (node, bin)-sorted copy
-            key, perm, gstart = _bin_keys(axis, c, c_lo, c_hi, n_bins, seg, bins, total)
+            key, perm, gstart = _bin_keys(axis, c, c_lo, c_hi, n_bins, seg, grid, total)
             keys.append(key)
             sorted_d = d[perm]
-            cost, nl = _best_splits(key[perm], sorted_d, gstart, total, bins, n_bins, forced, n_act, act_count)
+            cost, nl = _best_splits(key[perm], sorted_d, gstart, total, grid, n_bins, forced, n_act, act_count)
             better = cost < best_cost
             best_cost = np.where(better, cost, best_cost)
             n_left = np.where(better & np.isfinite(cost), nl, n_left)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import BVH, LAYOUT_VERSION, MAX_LEAF, SAH_BINS, TRAVERSAL_COST, build_bvh, sah_cost
+from .bvh import BVH, LARGE_BINS, LARGE_NODE, LAYOUT_VERSION, MAX_LEAF, SAH_BINS, TRAVERSAL_COST, build_bvh, sah_cost
 from .presplit import AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SplitSettings, presplit, resolve_splits
 from .wide import MAX_LEAF_COUNT
 
@@ -34,13 +34,16 @@ DEFAULT_AXES = "all"
 BINS_ENV_VAR = "LIFT_GL_BVH_BINS"
 
 
-def resolve_bins() -> int:
-    """The SAH builder's bins per node: $LIFT_GL_BVH_BINS (8 to 256), else bvh.SAH_BINS."""
-    text = os.environ.get(BINS_ENV_VAR, "").strip()
-    if not text:
-        return SAH_BINS
+def resolve_bins() -> int | str:
+    """The SAH builder's bins per node: $LIFT_GL_BVH_BINS, a whole number from 8 to 256 (every
+    node that many), or 'auto' (the default): bvh.SAH_BINS, and the tree is built a second
+    time with bvh.LARGE_BINS bins for its nodes of bvh.LARGE_NODE triangles or more, and the
+    one of lower SAH cost kept (build_with; docs/bvh.md "Finer bins at the top")."""
+    text = os.environ.get(BINS_ENV_VAR, "").strip().lower()
+    if not text or text == "auto":
+        return "auto"
     if not text.isdigit() or not 8 <= int(text) <= 256:
-        raise ValueError(f"${BINS_ENV_VAR} must be a whole number from 8 to 256, not {text!r}")
+        raise ValueError(f"${BINS_ENV_VAR} must be auto or a whole number from 8 to 256, not {text!r}")
     return int(text)
 
 
@@ -91,11 +94,12 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
     return name
 
 
-def _build_plain(tri_positions: np.ndarray, builder: str) -> BVH:
+def _build_plain(tri_positions: np.ndarray, builder: str, large_bins: int = 0) -> BVH:
     if builder == "sah":
         leaf, cost = resolve_leaf()
-        return build_bvh(tri_positions, bins=resolve_bins(), all_axes=resolve_axes() == "all",
-                         max_leaf=leaf, traversal_cost=cost)
+        bins = resolve_bins()
+        return build_bvh(tri_positions, bins=SAH_BINS if bins == "auto" else bins, all_axes=resolve_axes() == "all",
+                         max_leaf=leaf, traversal_cost=cost, large_bins=large_bins)
     from .lbvh import build_lbvh  # pyopencl, only for these builders
 
     return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
@@ -111,29 +115,48 @@ def splits_apply(tri_positions: np.ndarray, splits: SplitSettings) -> bool:
 
 def build_with(tri_positions: np.ndarray, builder: str, splits: SplitSettings = OFF) -> BVH:
     """Build with a concrete builder name (not auto). With `splits` (accel/presplit.py) large
-    triangles enter the build as several references: `order` may then repeat a triangle."""
+    triangles enter the build as several references: `order` may then repeat a triangle.
+    With $LIFT_GL_BVH_BINS auto the SAH tree chosen is built again with finer bins at its top
+    (_finer_top)."""
     pos = np.asarray(tri_positions, np.float32)
-    if not splits_apply(pos, splits):
-        return _build_plain(pos, builder)
-    if not splits.auto:
-        return _build_split(pos, builder, splits) or _build_plain(pos, builder)
-    best = _build_plain(pos, builder)
-    best_cost = sah_cost(best) * (1.0 - AUTO_MIN_GAIN)
-    for candidate in AUTO_CANDIDATES:
-        bvh = _build_split(pos, builder, candidate)
-        if bvh is not None and (cost := sah_cost(bvh)) < best_cost:
-            best, best_cost = bvh, cost
-    return best
+    prims, ref_tri, bvh = pos, None, None
+    if splits_apply(pos, splits) and not splits.auto:
+        refs = _split_refs(pos, splits)
+        if refs is not None:
+            (prims, ref_tri), bvh = refs, _build_plain(refs[0], builder)
+    if bvh is None:
+        bvh = _build_plain(pos, builder)
+    if splits_apply(pos, splits) and splits.auto:
+        best_cost = sah_cost(bvh) * (1.0 - AUTO_MIN_GAIN)
+        for candidate in AUTO_CANDIDATES:
+            refs = _split_refs(pos, candidate)
+            if refs is not None and (cost := sah_cost(split := _build_plain(refs[0], builder))) < best_cost:
+                (prims, ref_tri), bvh, best_cost = refs, split, cost
+    bvh = _finer_top(prims, builder, bvh)
+    if ref_tri is not None:
+        bvh.order = ref_tri[bvh.order].astype(np.uint32)
+    return bvh
 
 
-def _build_split(pos: np.ndarray, builder: str, splits: SplitSettings) -> BVH | None:
-    """The tree over `splits`' references, or None where they split nothing."""
+def _split_refs(pos: np.ndarray, splits: SplitSettings):
+    """`splits`' references as build input, (boxes (R, 2, 3), reference -> triangle), or None
+    where they split nothing."""
     ref_tri, lo, hi = presplit(pos, splits)
     if ref_tri.size == pos.shape[0]:
         return None
-    bvh = _build_plain(np.stack([lo, hi], axis=1), builder)  # a box is the box of its 2 corners
-    bvh.order = ref_tri[bvh.order].astype(np.uint32)
-    return bvh
+    return np.stack([lo, hi], axis=1), ref_tri  # a box is the box of its 2 corners
+
+
+def _finer_top(prims: np.ndarray, builder: str, bvh: BVH) -> BVH:
+    """`bvh`, or the SAH tree over the same primitives built with LARGE_BINS bins for its nodes
+    of LARGE_NODE primitives or more, where that one's SAH cost is lower ($LIFT_GL_BVH_BINS
+    auto). Why both: the greedy top-down build sometimes does worse with the finer planes
+    (the Bitterli living room's cost 71.1 -> 74.1) and often better (the classroom's 10.3 ->
+    8.3); docs/bvh.md "Finer bins at the top"."""
+    if builder != "sah" or resolve_bins() != "auto" or prims.shape[0] < LARGE_NODE:
+        return bvh
+    finer = _build_plain(prims, builder, large_bins=LARGE_BINS)
+    return finer if sah_cost(finer) < sah_cost(bvh) else bvh
 
 
 def default_cache_dir() -> Path:
@@ -154,7 +177,9 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
         if resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
             h.update(b"axes=all")
         bins = resolve_bins()
-        if bins != SAH_BINS:
+        if bins == "auto":   # the finer bins at the top (_finer_top)
+            h.update(f"bins={SAH_BINS}+{LARGE_BINS}@{LARGE_NODE}".encode())
+        elif bins != SAH_BINS:
             h.update(f"bins={bins}".encode())
         leaf = resolve_leaf()
         if leaf != (MAX_LEAF, TRAVERSAL_COST):
