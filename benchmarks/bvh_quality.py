@@ -4,7 +4,7 @@ how much sibling boxes add up to over their parent's (overlap), for builds with 
 counts and $LIFT_GL_BVH_SPLITS settings (accel/presplit.py), with each build's CPU time,
 peak memory (tracemalloc: numpy's arrays included) and GPU bytes of its tree and triangle rows.
 
-    python benchmarks/bvh_quality.py SCENE|MESH.ply... [--bins 32,128] [--splits off,auto] [--json FILE]
+    python benchmarks/bvh_quality.py SCENE|MESH.ply... [--bins 32,128,auto] [--splits off,auto] [--json FILE]
 
 Scenes that do not exist are skipped with a note (the ../shared scenes are not everywhere).
 """
@@ -43,10 +43,8 @@ def _triangles(path: str) -> np.ndarray:
 
 
 def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("longest",)) -> dict:
-    import functools
 
     from lift_gl.accel import cache as cache_mod
-    from lift_gl.accel.bvh import build_bvh
     from lift_gl.accel.presplit import resolve_splits
 
     tris = _triangles(path)
@@ -62,10 +60,11 @@ def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("lo
     for bins, splits, axes in ((b, s, a) for b in bin_counts for s in split_values for a in axes_values):
         if True:
             # what build_with calls; it bins along each node's longest centroid axis or all three
-            # as $LIFT_GL_BVH_AXES says (accel/cache.py)
-            cache_mod.build_bvh = functools.partial(build_bvh, bins=bins)
+            # as $LIFT_GL_BVH_AXES says, with as many bins as $LIFT_GL_BVH_BINS (accel/cache.py)
             previous_axes = os.environ.get(cache_mod.AXES_ENV_VAR)
+            previous_bins = os.environ.get(cache_mod.BINS_ENV_VAR)
             os.environ[cache_mod.AXES_ENV_VAR] = axes
+            os.environ[cache_mod.BINS_ENV_VAR] = str(bins)
             try:
                 tracemalloc.start()
                 start = time.process_time()
@@ -74,11 +73,11 @@ def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("lo
                 peak = tracemalloc.get_traced_memory()[1]
                 tracemalloc.stop()
             finally:
-                cache_mod.build_bvh = build_bvh
-                if previous_axes is None:
-                    os.environ.pop(cache_mod.AXES_ENV_VAR, None)
-                else:
-                    os.environ[cache_mod.AXES_ENV_VAR] = previous_axes
+                for var, previous in ((cache_mod.AXES_ENV_VAR, previous_axes), (cache_mod.BINS_ENV_VAR, previous_bins)):
+                    if previous is None:
+                        os.environ.pop(var, None)
+                    else:
+                        os.environ[var] = previous
             leaves = b.count[b.count > 0]
             area = _areas(b)
             interior = np.nonzero(b.count == 0)[0]
@@ -99,7 +98,8 @@ def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("lo
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="+")
-    ap.add_argument("--bins", default="32,128")
+    ap.add_argument("--bins", default="32,128", help="comma-separated $LIFT_GL_BVH_BINS values: counts (8 to 256) "
+                    "or auto (32, and 128 for the top nodes where that lowers the SAH cost)")
     ap.add_argument("--splits", default="off", help="comma-separated $LIFT_GL_BVH_SPLITS values, e.g. off,auto")
     ap.add_argument("--axes", default="longest", help="longest, all, or both: longest,all (accel/bvh.py all_axes)")
     ap.add_argument("--json", type=Path)
@@ -109,12 +109,12 @@ def main(argv=None) -> int:
         if not Path(p).exists():
             print(f"skipped (not here): {p}", file=sys.stderr)
             continue
-        results.append(scene_quality(p, [int(b) for b in args.bins.split(",")], args.splits.split(","),
+        results.append(scene_quality(p, [b.strip() for b in args.bins.split(",")], args.splits.split(","),
                                      args.axes.split(",")))
-    print("| scene | triangles | tri extent / scene: median, p99 | tris > 1% / > 10% of it | bins | splits "
+    print("| scene | triangles | tri extent / scene: median, p99 | tris > 1% / > 10% of it | bins | splits | axes "
           "| rows / triangles | nodes | depth | tris/leaf | SAH cost | children/parent area (median, p90) "
           "| build CPU s | peak MiB | GPU MiB (nodes + rows) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         e = r["extent_over_scene"]
         for b in r["builds"]:

@@ -29,7 +29,7 @@ measure two versions of the renderer, alternately, on the same machine:
 `--bvh-splits off,auto` measures every case with the BVH built under each $LIFT_GL_BVH_SPLITS
 value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md);
 `--bvh-axes longest,all` for $LIFT_GL_BVH_AXES (the SAH builder's split planes along each
-node's longest axis or all three, accel/cache.py), `--bvh-bins 32,128` for $LIFT_GL_BVH_BINS,
+node's longest axis or all three, accel/cache.py), `--bvh-bins 32,auto` for $LIFT_GL_BVH_BINS,
 `--bvh-stack-entries children,groups` for $LIFT_GL_BVH_STACK_ENTRIES (the 4-wide traversal's stack entries),
 `--carry-paths off,on` for $LIFT_GL_CARRY_PATHS (paths still under way when a frame's pixel queue
 runs out go on in the next frame, lift_gl/passes/carry.py), and
