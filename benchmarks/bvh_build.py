@@ -9,7 +9,6 @@ number of box + triangle tests of a random ray that hits the root box (lower is 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import sys
@@ -20,6 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from lift_gl.accel.bvh import BVH, build_bvh, sah_cost  # noqa: E402,F401 (sah_cost: other benchmarks import it from here)
+from lift_gl.report.records import write_json  # noqa: E402
 
 DRAGON = Path(__file__).resolve().parent.parent.parent / "shared" / "assets" / "meshes" / "dragon_100k.ply"
 
@@ -87,8 +87,7 @@ def main(argv=None) -> int:
     if args.out:
         machine = {"platform": platform.platform(), "python": platform.python_version(),
                    "numpy": np.__version__, "cpus": os.cpu_count(), "processor": platform.processor()}
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps({"machine": machine, "results": rows}, indent=2))
+        write_json(args.out, {"machine": machine, "results": rows}, indent=2)
     return 0
 
 

@@ -42,6 +42,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "benchmarks"))
+from lift_gl.report.records import write_json  # noqa: E402
 
 DRAGON = REPO.parent / "shared" / "assets" / "meshes" / "dragon_100k.ply"
 BUILDERS = ("sah", "lbvh", "lbvh+sah")
@@ -279,8 +280,7 @@ def main(argv=None) -> int:
         print(f"{out['triangles']:,} triangles: set-up {out['setup_seconds']:.1f} s, {out['spp']} spp in "
               f"{out['render_seconds']:.1f} s, image finite: {out['finite']}")
         if args.json:
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-            args.json.write_text(json.dumps(out, indent=2))
+            write_json(args.json, out, indent=2)
         return 0
 
     builders = [b for b in args.builders.split(",") if b]
@@ -309,8 +309,7 @@ def main(argv=None) -> int:
                   f"{r['mean_leaf_size']:>5.2f} {r['sah_cost']:>7.1f} {rel(r['sah_cost_relative_to_sah'])} "
                   f"{rel(r['time_relative_to_sah'])}", flush=True)
         if args.json:   # keep what is done if a later size fails
-            args.json.parent.mkdir(parents=True, exist_ok=True)
-            args.json.write_text(json.dumps(result, indent=2))
+            write_json(args.json, result, indent=2)
 
     if not args.no_trace:
         w, h = (int(v) for v in args.trace_size.lower().split("x"))
@@ -322,8 +321,7 @@ def main(argv=None) -> int:
             print(f"  {b:<18} {r['frame_ms']:>9.1f} ms/frame  x{r['relative']:.3f} of {r['relative_to']}   depth {r['bvh_depth']}  "
                   f"GPU buffers {r['gpu_buffer_bytes'] / 2**20:,.1f} MiB")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(result, indent=2))
+        write_json(args.json, result, indent=2)
     return 0
 
 

@@ -21,7 +21,6 @@ Mrays/s (benchmarks/gpu.py) divided into these counts. Needs no GPU.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -33,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from gpu import scene_name  # noqa: E402
 from lift_gl.accel.bvh import _safe_inv, moller_trumbore  # noqa: E402
 from lift_gl.accel.wide import COUNT_SHIFT, LEAF_BIT, MAX_FIRST, MAX_LEAF_COUNT, WideBVH, decoded_boxes  # noqa: E402
+from lift_gl.report.records import write_json  # noqa: E402
 
 T_EPS = 1e-6   # a hit nearer than this along the ray is the surface the ray leaves
 
@@ -266,8 +266,7 @@ def main(argv=None) -> int:
             print(f"| {scene_name(r['scene'])} | {w['tiles']} | {w['steps']:.1f} | {w['busy_per_step']:.1f} "
                   f"| {w['fetches_per_step']:.1f} |")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=1))
+        write_json(args.json, results, indent=1)
     return 0
 
 

@@ -12,7 +12,6 @@ about 20-26 s (issue 2): that is the default target.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import resource
 import time
@@ -25,6 +24,7 @@ from lift_gl.gl.context import describe
 from lift_gl.image_io import read_image
 from lift_gl.metrics import box_downsample, rel_mse, ssim
 from lift_gl.renderer import Renderer
+from lift_gl.report.records import write_json
 
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared"
 
@@ -80,8 +80,7 @@ def main() -> None:
               "dropped_samples": renderer.stats.dropped_samples}
     print(f"time to relMSE {args.target}: {time_to_target} s, CPU {cpu_to_target} s")
     if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(result, indent=1))
+        write_json(args.out, result, indent=1)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,6 @@ between its waits and with a wait after every frame (what it did before the tent
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import threading
 import time
@@ -33,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gpu import portable, scene_name  # noqa: E402
 from lift_gl.report.gpu_clock import ClockReader, warm_up  # noqa: E402
+from lift_gl.report.records import write_json  # noqa: E402
 
 
 class ClockSampler:
@@ -166,8 +166,7 @@ def main(argv=None) -> int:
         raise SystemExit("--waits: every interval must be at least 1 frame")
     record = measure(args.scene, args.integrator, size, waits, args.frames, args.rounds, args.backend, args.timed)
     if args.out:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(json.dumps(record, indent=1))
+        write_json(args.out, record, indent=1)
     return 0
 
 

@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import argparse
 import ctypes
-import json
 import re
 import sys
 import time
@@ -58,6 +57,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from lift_gl.report.gpu_clock import ClockReader, warm_up  # noqa: E402
+from lift_gl.report.records import write_json  # noqa: E402
 
 
 # ---- source edits ----
@@ -961,8 +961,7 @@ def main(argv=None) -> int:
             + "; gbuffer " + ", ".join(f"{n} {v['median_ms']:.3f}" for n, v in res["gbuffer"].items())
             + f"; SM clock MHz after each round {res['sm_clock']['rounds_mhz']}", flush=True)
         if args.out:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            args.out.write_text(json.dumps(record, indent=1))
+            write_json(args.out, record, indent=1)
     print(table(record))
     return 0
 

@@ -23,7 +23,6 @@ invocation mid-ray: a few answers then differ there (counted); GPUs have no such
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -34,6 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import gpu as gpu_bench  # noqa: E402
+from lift_gl.report.records import write_json  # noqa: E402
 
 QUEUE_BINDING = 11
 
@@ -202,8 +202,7 @@ def main(argv=None) -> int:
               f"| {r['queue']['median_ms']:.3f} ({r['queue']['mrays_per_s']:,.0f}) | {r['queue_speedup']:.2f}x "
               f"| {r['mismatched_answers']} |", flush=True)
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(results, indent=1))
+        write_json(args.json, results, indent=1)
     return 0
 
 

@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gpu import portable, scene_name  # noqa: E402
+from lift_gl.report.records import write_json  # noqa: E402
 
 DEFAULT_CONFIGS = "pt,pt:rr_depth=1:rr_min_survival=0,pt:rr_depth=2,pt:rr_depth=3,pt:rr_depth=5"
 
@@ -127,8 +128,7 @@ def main(argv=None) -> int:
     for path in args.scenes:
         results.append(measure_scene(path, configs, _size(args.size), args.spp, args.seeds, args.ref_spp, args.backend))
         if args.out:
-            args.out.parent.mkdir(parents=True, exist_ok=True)
-            args.out.write_text(json.dumps({"configs": configs, "results": results}, indent=1))
+            write_json(args.out, {"configs": configs, "results": results}, indent=1)
     print(table(results, times))
     return 0
 
