@@ -142,9 +142,10 @@ def test_slivers_across_the_axes_get_splits_by_their_box_waste():
     small = soup(3000, seed=4, size=0.004, degenerate=False).astype(np.float64)
     slant = _sliver((0.2, 0.2, 0.2), (1, 1, 1), 0.43, 0.004, (1, -1, 0))
     flat = _sliver((0.2, 0.6, 0.6), (1, 0, 0), 0.43, 0.004, (0, 1, 0))
-    tris = np.concatenate([small, slant[None], flat[None]]).astype(np.float32)
+    line = _sliver((0.6, 0.2, 0.2), (1, 1, 1), 0.43, 0.0, (1, -1, 0))    # no area: never hit
+    tris = np.concatenate([small, line[None], slant[None], flat[None]]).astype(np.float32)
     lo, hi = tris.min(1), tris.max(1)
-    budget = 6 / len(tris)   # a share of a few splits each, below what the slanted sliver wants
+    budget = 12 / len(tris)   # a share of a few splits each, below what the slanted sliver wants
     share = ps._split_counts(tris, lo, hi, ps.SplitSettings(budget=budget, min_splits=0.0, sliver_budget=0.0))
     counts = ps._split_counts(tris, lo, hi, ps.SplitSettings(budget=budget, min_splits=0.0))
     t = tris.astype(np.float64)
@@ -154,7 +155,7 @@ def test_slivers_across_the_axes_get_splits_by_their_box_waste():
     want = min(np.ceil(ratio[-2] / ps.SplitSettings().sliver_ratio) - 1, ps.MAX_SPLITS_PER_TRIANGLE)
     assert 0 < share[-2] < want and counts[-2] == want
     assert 0 < counts[-1] == share[-1]
-    np.testing.assert_array_equal(counts[:-2], share[:-2])
+    np.testing.assert_array_equal(counts[:-2], share[:-2])          # the line too: no sliver splits
     # its pieces' boxes: about 1/pieces of the whole box's half-area each
     ref_tri, r_lo, r_hi = ps.presplit(tris, ps.SplitSettings(budget=budget, min_splits=0.0))
     pieces = ref_tri == len(tris) - 2

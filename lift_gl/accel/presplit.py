@@ -194,7 +194,9 @@ def _sliver_splits(area: np.ndarray, half_area: np.ndarray, share: np.ndarray, s
     if settings.sliver_ratio <= 0 or settings.sliver_budget <= 0:
         return np.zeros_like(share)
     ratio = half_area / np.maximum(area, 1e-300)
-    want = np.minimum(np.ceil(ratio / settings.sliver_ratio) - 1.0, MAX_SPLITS_PER_TRIANGLE)
+    # a triangle whose corners lie on a line (to float precision: an area under a millionth of
+    # its box's) is as good as never hit: no pieces for it
+    want = np.where(ratio < 1e6, np.minimum(np.ceil(ratio / settings.sliver_ratio) - 1.0, MAX_SPLITS_PER_TRIANGLE), 0.0)
     extra = np.maximum(want - share, 0.0)
     allowed = settings.sliver_budget * n
     if extra.sum() > allowed:
