@@ -17,6 +17,14 @@ as the trace pass groups them, in lockstep (tile_bounce_warps: the steps a warp 
 lanes busy and the distinct fetches a step). What it tells: whether a scene's rays are slow because they visit many
 nodes (the tree, the traversal order) or because each visit costs more (memory): a GPU's
 Mrays/s (benchmarks/gpu.py) divided into these counts. Needs no GPU.
+
+Where the slow rays are: `--heatmap FILE.png` traces a camera ray and a bounce ray from every
+pixel of a `--heat-size` image and writes their node visits side by side (black, red, yellow:
+0 to the larger of the two 99th percentiles), and prints which materials' leaves the bounce
+rays visit, all of them against the slowest 2% (the eleventh session found the dining room's
+slanted chrome tubes so: docs/bvh.md "Slivers across the axes").
+
+    python benchmarks/bvh_visits.py SCENE --rays 0 --heatmap heat.png [--heat-size 192x108]
 """
 from __future__ import annotations
 
@@ -205,6 +213,58 @@ def scene_rays(scene, packed, tree: WideTree, n: int, rng) -> dict:
     return rays
 
 
+def pixel_visits(scene, packed, tree: WideTree, size, rng, slowest: float = 0.02) -> dict:
+    """Per pixel of a `size` (W, H) image: the nodes its camera ray and a bounce ray from the
+    camera ray's hit (cosine-distributed about the geometric normal) visit, (H, W) arrays
+    ('camera', 'bounce'; 0 where the camera ray misses), and the leaf visits of the bounce rays
+    by material ({material: (share of all bounce rays' leaf visits, share of the `slowest`
+    fraction's)}, the slowest by node visits)."""
+    camera = packed.to_gpu_camera(scene.camera)
+    right, up, forward = camera.basis()
+    h = np.tan(np.radians(camera.fov_deg) / 2)
+    w_px, h_px = size
+    cam = np.zeros((h_px, w_px), np.int64)
+    bounce = np.zeros((h_px, w_px), np.int64)
+    material = packed.tri_info[:packed.num_triangles, 0].astype(np.int64)
+    leaf_materials = []                     # per bounce ray: the material of each leaf it visits
+    for j in range(h_px):
+        for i in range(w_px):
+            x = ((i + 0.5) / w_px * 2 - 1) * h * w_px / h_px
+            y = (1 - (j + 0.5) / h_px * 2) * h
+            d = forward + x * right + y * up
+            d /= np.linalg.norm(d)
+            first = traverse(tree, camera.position, d)
+            cam[j, i] = first["nodes"]
+            if first["row"] < 0:
+                continue
+            tri = tree.tris[first["row"]]
+            n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+            n = n / (np.linalg.norm(n) + 1e-300) * -np.sign(n @ d)
+            p = camera.position + first["t"] * d
+            start = p + n * 1e-4 * max(1.0, float(np.abs(p).max()))
+            steps = []
+            bounce[j, i] = traverse(tree, start, _cosine_about(n[None], rng)[0], steps=steps)["nodes"]
+            leaf_materials.append((bounce[j, i], [int(material[row]) for kind, row in steps if kind == "leaf"]))
+    names = {k: getattr(m, "name", None) or f"#{k}" for k, m in enumerate(scene.materials)}
+    shares = {}
+    if leaf_materials:
+        cut = np.quantile([n for n, _ in leaf_materials], 1.0 - slowest)
+        every = np.bincount([m for _, ms in leaf_materials for m in ms], minlength=len(names))
+        slow = np.bincount([m for n, ms in leaf_materials if n >= cut for m in ms], minlength=len(names))
+        shares = {names.get(k, f"#{k}"): (float(every[k] / max(every.sum(), 1)), float(slow[k] / max(slow.sum(), 1)))
+                  for k in np.argsort(-every) if every[k] or slow[k]}
+    return {"camera": cam, "bounce": bounce, "materials": shares}
+
+
+def heat_image(visits: dict) -> np.ndarray:
+    """The camera and bounce visit counts side by side as a uint8 RGB image: black, red, then
+    yellow, 0 to the larger of their 99th percentiles."""
+    top = max(float(np.quantile(visits["camera"], 0.99)), float(np.quantile(visits["bounce"], 0.99)), 1.0)
+    v = np.clip(np.concatenate([visits["camera"], visits["bounce"]], axis=1) / top, 0.0, 1.0)
+    rgb = np.stack([np.clip(2 * v, 0, 1), np.clip(2 * v - 1, 0, 1), np.zeros_like(v)], axis=-1)
+    return (rgb * 255 + 0.5).astype(np.uint8)
+
+
 def measure(path: str, n_rays: int, seed: int = 1, tiles: int = 40) -> dict:
     from lift_gl.scene.loader import load_scene
     from lift_gl.scene.pack import pack_scene
@@ -241,7 +301,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--tiles", type=int, default=40, help="8x4 pixel tiles whose bounce rays run in lockstep")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--heatmap", type=Path, help="PNG of each pixel's camera and bounce ray node visits (first scene)")
+    ap.add_argument("--heat-size", default="192x108", help="the heat map's pixels per half, WxH")
     args = ap.parse_args(argv)
+    if args.heatmap:
+        return _heatmap(args)
     results = []
     print("| scene | levels | ray kind | rays | wide nodes visited: mean / p90 / max | fewest possible | a warp of 32 "
           "random rays (busiest lane) | leaves | triangles |")
@@ -267,6 +331,28 @@ def main(argv=None) -> int:
                   f"| {w['fetches_per_step']:.1f} |")
     if args.json:
         write_json(args.json, results, indent=1)
+    return 0
+
+
+def _heatmap(args) -> int:
+    from lift_gl.cli import _size
+    from lift_gl.image_io import write_srgb8
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.scene.pack import pack_scene
+
+    path = args.scenes[0]
+    scene = load_scene(path)
+    packed = pack_scene(scene, bvh_width=4)
+    visits = pixel_visits(scene, packed, WideTree(packed), _size(args.heat_size), np.random.default_rng(args.seed))
+    write_srgb8(args.heatmap, heat_image(visits))
+    for kind in ("camera", "bounce"):
+        v = visits[kind]
+        print(f"{scene_name(path)} {kind} rays: nodes visited mean {v.mean():.1f}, p99 {np.quantile(v, 0.99):.0f}, "
+              f"max {v.max()}")
+    print(f"wrote {args.heatmap} (camera rays left, bounce rays right)\n")
+    print("| material | share of bounce rays' leaf visits | among the slowest 2% |\n|---|---|---|")
+    for name, (every, slow) in visits["materials"].items():
+        print(f"| {name} | {every:.3f} | {slow:.3f} |")
     return 0
 
 

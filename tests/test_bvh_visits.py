@@ -65,3 +65,30 @@ def test_tile_warps_take_the_steps_of_their_longest_ray():
     w = bvh_visits.tile_bounce_warps(scene, packed, tree, 16, np.random.default_rng(2), size=(160, 90))
     assert w["tiles"] >= 3
     assert 1 <= w["fetches_per_step"] <= w["busy_per_step"] <= 32 and w["steps"] >= w["busy_per_step"] / 32
+
+
+def test_pixel_visits_and_heat_map(tmp_path):
+    """Every pixel's camera ray counts what traverse() counts for it; the material shares of the
+    bounce rays' leaf visits add up to one; --heatmap writes both halves."""
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    packed = pack_scene(scene, bvh_width=4)
+    tree = bvh_visits.WideTree(packed)
+    v = bvh_visits.pixel_visits(scene, packed, tree, (16, 9), np.random.default_rng(2))
+    assert v["camera"].shape == v["bounce"].shape == (9, 16)
+    camera = packed.to_gpu_camera(scene.camera)
+    right, up, forward = camera.basis()
+    h = np.tan(np.radians(camera.fov_deg) / 2)
+    j, i = 4, 11
+    d = forward + ((i + 0.5) / 16 * 2 - 1) * h * 16 / 9 * right + (1 - (j + 0.5) / 9 * 2) * h * up
+    assert v["camera"][j, i] == bvh_visits.traverse(tree, camera.position, d / np.linalg.norm(d))["nodes"] >= 1
+    assert (v["bounce"][v["camera"] > 0] >= 0).all() and v["bounce"].max() >= 1
+    every = [a for a, _ in v["materials"].values()]
+    slow = [b for _, b in v["materials"].values()]
+    assert abs(sum(every) - 1) < 1e-9 and abs(sum(slow) - 1) < 1e-9
+    assert set(v["materials"]) <= {m.name for m in scene.materials}
+    image = bvh_visits.heat_image(v)
+    assert image.shape == (9, 32, 3) and image.dtype == np.uint8 and image[..., 0].max() == 255
+    out = tmp_path / "heat.png"
+    assert bvh_visits.main([str(REPO / "scenes" / "cornell.toml"), "--heatmap", str(out), "--heat-size", "8x6"]) == 0
+    from lift_gl.image_io import read_image
+    assert read_image(out).shape[:2] == (6, 16)
