@@ -161,19 +161,26 @@ def tile_bounce_warps(scene, packed, tree: WideTree, tiles: int, rng, size=(1920
             first = traverse(tree, camera.position, di)
             if first["row"] < 0:
                 continue
-            tri = tree.tris[first["row"]]
-            n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
-            n = n / (np.linalg.norm(n) + 1e-300) * -np.sign(n @ di)
-            p = camera.position + first["t"] * di
-            start = p + n * 1e-4 * max(1.0, float(np.abs(p).max()))
             steps = []
-            traverse(tree, start, _cosine_about(n[None], rng)[0], steps=steps)
+            bounce_from(tree, camera.position, di, first, rng, steps)
             sequences.append(steps)
         if 2 * len(sequences) >= tx * ty:
             results.append(lockstep(sequences))
     if not results:
         return {"tiles": 0}
     return {"tiles": len(results), **{k: float(np.mean([r[k] for r in results])) for k in results[0]}}
+
+
+def bounce_from(tree: WideTree, origin, d, first: dict, rng, steps: list | None = None) -> dict:
+    """The bounce ray from the hit `first` (traverse's result) of the ray (origin, d): cosine-
+    distributed about the hit triangle's geometric normal on the side the ray came from,
+    traversed; traverse's result for it."""
+    tri = tree.tris[first["row"]]
+    n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+    n = n / (np.linalg.norm(n) + 1e-300) * -np.sign(n @ d)
+    p = origin + first["t"] * d
+    start = p + n * 1e-4 * max(1.0, float(np.abs(p).max()))
+    return traverse(tree, start, _cosine_about(n[None], rng)[0], steps=steps)
 
 
 def _cosine_about(n: np.ndarray, rng) -> np.ndarray:
@@ -237,13 +244,8 @@ def pixel_visits(scene, packed, tree: WideTree, size, rng, slowest: float = 0.02
             cam[j, i] = first["nodes"]
             if first["row"] < 0:
                 continue
-            tri = tree.tris[first["row"]]
-            n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
-            n = n / (np.linalg.norm(n) + 1e-300) * -np.sign(n @ d)
-            p = camera.position + first["t"] * d
-            start = p + n * 1e-4 * max(1.0, float(np.abs(p).max()))
             steps = []
-            bounce[j, i] = traverse(tree, start, _cosine_about(n[None], rng)[0], steps=steps)["nodes"]
+            bounce[j, i] = bounce_from(tree, camera.position, d, first, rng, steps)["nodes"]
             leaf_materials.append((bounce[j, i], [int(material[row]) for kind, row in steps if kind == "leaf"]))
     names = {k: getattr(m, "name", None) or f"#{k}" for k, m in enumerate(scene.materials)}
     shares = {}
