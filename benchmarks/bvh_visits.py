@@ -76,6 +76,49 @@ class WideTree:
         return np.where(ok & (t > T_EPS), t, np.inf), first, count
 
 
+class CollapsedTree(WideTree):
+    """A tree of `width` children a node, collapsed from the binary tree of a scene packed with
+    bvh_width=2 (each node's interior child of largest area opened until it has `width`, as
+    accel/wide.py collapses to 4), with WideTree's arrays, so that traverse() and the lockstep
+    measures run on it: what wider nodes would save in visits and warp steps before any shader
+    is written for them (`--widths`)."""
+
+    def __init__(self, packed, width: int):
+        if packed.bvh_width != 2:
+            raise ValueError("collapse a scene packed with bvh_width=2")
+        rows = packed.bvh_nodes
+        words = rows.view(np.uint32)
+        lo, hi = rows[:, 0:3].astype(np.float64), rows[:, 4:7].astype(np.float64)
+        first, count = words[:, 3].astype(np.int64), words[:, 7].astype(np.int64)
+        extent = hi - lo
+        area = extent[:, 0] * extent[:, 1] + extent[:, 1] * extent[:, 2] + extent[:, 2] * extent[:, 0]
+        children = []                     # per wide node: its binary children
+        index = {0: 0}
+        pending = [0]
+        while pending:
+            node = pending.pop(0)
+            kids = [node] if count[node] else [int(first[node]), int(first[node]) + 1]
+            while len(kids) < width and any(count[k] == 0 for k in kids):
+                k = max((k for k in kids if count[k] == 0), key=lambda k: area[k])
+                kids.remove(k)
+                kids += [int(first[k]), int(first[k]) + 1]
+            children.append(kids)
+            for k in kids:
+                if count[k] == 0:
+                    index[k] = len(index)
+                    pending.append(k)
+        m = len(children)
+        self.lo = np.full((m, width, 3), np.inf)
+        self.hi = np.full((m, width, 3), -np.inf)      # empty slots: boxes no ray enters
+        self.entry = np.zeros((m, width), np.int64)
+        for w, kids in enumerate(children):
+            for i, k in enumerate(kids):
+                self.lo[w, i], self.hi[w, i] = lo[k], hi[k]
+                self.entry[w, i] = (LEAF_BIT | ((int(count[k]) - 1) << COUNT_SHIFT) | int(first[k])) if count[k] \
+                    else index[k]
+        self.tris = packed.tri_pos[:packed.num_triangles, :, :3].astype(np.float64)
+
+
 def traverse(tree: WideTree, o, d, any_hit: bool = False, t_max: float = np.inf, steps: list | None = None) -> dict:
     """One ray through the tree as the GLSL traversal goes (children near to far, the nearest
     next): its hit (t, row) and the wide nodes, leaves and triangles it visited; `steps`, if
@@ -303,11 +346,15 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--tiles", type=int, default=40, help="8x4 pixel tiles whose bounce rays run in lockstep")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--widths", help="comma-separated node widths (e.g. 2,4,8): the bounce-ray warps' lockstep steps "
+                    "with the scene's binary tree collapsed to each (CollapsedTree), instead of the tables")
     ap.add_argument("--heatmap", type=Path, help="PNG of each pixel's camera and bounce ray node visits (first scene)")
     ap.add_argument("--heat-size", default="192x108", help="the heat map's pixels per half, WxH")
     args = ap.parse_args(argv)
     if args.heatmap:
         return _heatmap(args)
+    if args.widths:
+        return _widths(args)
     results = []
     print("| scene | levels | ray kind | rays | wide nodes visited: mean / p90 / max | fewest possible | a warp of 32 "
           "random rays (busiest lane) | leaves | triangles |")
@@ -331,6 +378,33 @@ def main(argv=None) -> int:
         if w["tiles"]:
             print(f"| {scene_name(r['scene'])} | {w['tiles']} | {w['steps']:.1f} | {w['busy_per_step']:.1f} "
                   f"| {w['fetches_per_step']:.1f} |")
+    if args.json:
+        write_json(args.json, results, indent=1)
+    return 0
+
+
+def _widths(args) -> int:
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.scene.pack import pack_scene
+
+    widths = [int(w) for w in args.widths.split(",")]
+    results = []
+    print("| scene | width | wide nodes | bounce-ray warp steps (8x4 tiles) | lanes busy a step | nodes a ray |")
+    print("|---|---|---|---|---|---|")
+    for path in args.scenes:
+        if not Path(path).exists():
+            print(f"(skipped: {path} does not exist)")
+            continue
+        scene = load_scene(path)
+        packed = pack_scene(scene, bvh_width=2)
+        for width in widths:
+            tree = CollapsedTree(packed, width)
+            w = tile_bounce_warps(scene, packed, tree, args.tiles, np.random.default_rng(args.seed))
+            rays = pixel_visits(scene, packed, tree, (32, 18), np.random.default_rng(args.seed))["bounce"]
+            results.append({"scene": path, "width": width, "wide_nodes": int(tree.entry.shape[0]), **w,
+                            "bounce_nodes_mean": float(rays[rays > 0].mean())})
+            print(f"| {scene_name(path)} | {width} | {tree.entry.shape[0]:,} | {w.get('steps', 0):.2f} "
+                  f"| {w.get('busy_per_step', 0):.1f} | {results[-1]['bounce_nodes_mean']:.1f} |", flush=True)
     if args.json:
         write_json(args.json, results, indent=1)
     return 0

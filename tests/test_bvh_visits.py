@@ -92,3 +92,28 @@ def test_pixel_visits_and_heat_map(tmp_path):
     assert bvh_visits.main([str(REPO / "scenes" / "cornell.toml"), "--heatmap", str(out), "--heat-size", "8x6"]) == 0
     from lift_gl.image_io import read_image
     assert read_image(out).shape[:2] == (6, 16)
+
+
+@pytest.mark.parametrize("name", ["cornell.toml", "covered_dragon.toml"])
+def test_collapsed_trees_of_any_width(name):
+    """CollapsedTree at width 4 is the renderer's 4-wide tree (the same nodes, the same visits
+    a ray); at widths 2 and 8 rays find the same hits, visiting more and fewer nodes."""
+    skip_without_shared(REPO / "scenes" / name)
+    scene = load_scene(REPO / "scenes" / name)
+    binary, wide = pack_scene(scene, bvh_width=2), pack_scene(scene, bvh_width=4)
+    renderer_tree = bvh_visits.WideTree(wide)
+    trees = {w: bvh_visits.CollapsedTree(binary, w) for w in (2, 4, 8)}
+    assert trees[4].entry.shape[0] == renderer_tree.entry.shape[0]
+    rays = bvh_visits.scene_rays(scene, wide, renderer_tree, 60, np.random.default_rng(5))
+    o, d, _ = rays["bounce"]
+    visits = {w: [] for w in trees}
+    for i in range(len(o)):
+        ref = bvh_visits.traverse(renderer_tree, o[i], d[i])
+        for w, tree in trees.items():
+            r = bvh_visits.traverse(tree, o[i], d[i])
+            assert r["t"] == ref["t"]
+            visits[w].append(r["nodes"])
+        assert visits[4][-1] == ref["nodes"]
+    assert np.mean(visits[2]) > np.mean(visits[4]) > np.mean(visits[8])
+    with pytest.raises(ValueError, match="bvh_width=2"):
+        bvh_visits.CollapsedTree(wide, 8)
