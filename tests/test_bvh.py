@@ -533,6 +533,26 @@ def test_cache_roundtrip_and_corruption(tmp_path, monkeypatch):
     assert not list(tmp_path.glob("*.tmp"))
 
 
+def test_a_build_is_announced_on_a_terminal_only(tmp_path, monkeypatch, capsys):
+    """A cache miss of a large scene says on a terminal that the BVH is being built and where
+    it is cached; a cache hit, a small scene or output that is not a terminal say nothing."""
+    import sys
+
+    tris = soup(300, seed=19)
+    monkeypatch.setattr(cache_mod, "BUILD_NOTICE_TRIANGLES", 200)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+    err = capsys.readouterr().err
+    assert "building the BVH of 300 triangles" in err and str(tmp_path) in err and "BVH built in" in err
+    cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)                      # read from the cache
+    assert capsys.readouterr().err == ""
+    cache_mod.build_bvh_cached(soup(100, seed=19), cache_dir=tmp_path)       # small
+    assert capsys.readouterr().err == ""
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False, raising=False)
+    cache_mod.build_bvh_cached(soup(300, seed=20), cache_dir=tmp_path)       # not a terminal
+    assert capsys.readouterr().err == ""
+
+
 def test_cache_default_dir_env(tmp_path, monkeypatch):
     monkeypatch.setenv("LIFT_GL_CACHE_DIR", str(tmp_path))
     assert cache_mod.default_cache_dir() == tmp_path / "bvh"

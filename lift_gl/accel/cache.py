@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +34,7 @@ AXES_ENV_VAR = "LIFT_GL_BVH_AXES"
 AXES = ("longest", "all")
 DEFAULT_AXES = "all"
 BINS_ENV_VAR = "LIFT_GL_BVH_BINS"
+BUILD_NOTICE_TRIANGLES = 50_000   # builds of at least this many triangles are announced on a terminal
 
 
 def resolve_bins() -> int | str:
@@ -241,6 +244,15 @@ def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | N
     path = cache_path(pos, cache_dir, builder, splits)
     bvh = _load(path, pos.shape[0] if pos.ndim == 3 else -1)
     if bvh is None:
+        # a scene's first load can take half a minute (the dining room's 270k triangles here):
+        # say so on a terminal, where someone is waiting
+        notice = pos.shape[0] >= BUILD_NOTICE_TRIANGLES and sys.stderr.isatty()
+        if notice:
+            print(f"lift-gl: building the BVH of {pos.shape[0]:,} triangles ({builder}); it is cached for next "
+                  f"time in {path.parent}", file=sys.stderr, flush=True)
+        start = time.perf_counter()
         bvh = build_with(pos, builder, splits)
+        if notice:
+            print(f"lift-gl: BVH built in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
         _store(path, bvh)
     return bvh
