@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .accel.bvh import SAH_BINS
+from .accel.cache import resolve_bins
 from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, paired_defines as bvh_paired_defines, resolve_width, \
     stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
@@ -366,7 +368,11 @@ class Renderer:
         if geometry and not emission_changed and only_instances_moved(self.scene, scene):
             packed = repack_instances(self.packed, scene)  # a new TLAS; every BVH below it stays
         elif geometry or emission_changed:
-            packed = pack_scene(scene, bvh_width=self._bvh_width(self._fixed_features or SceneFeatures.of(scene)))
+            # a live edit waits for this build: one SAH build, without the second one with
+            # finer bins at the top (which can double it for 1.5% of trace time)
+            bins = resolve_bins()
+            packed = pack_scene(scene, bvh_width=self._bvh_width(self._fixed_features or SceneFeatures.of(scene)),
+                                bvh_bins=SAH_BINS if bins == "auto" else bins)
         else:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)

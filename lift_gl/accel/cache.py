@@ -37,16 +37,18 @@ BINS_ENV_VAR = "LIFT_GL_BVH_BINS"
 BUILD_NOTICE_TRIANGLES = 50_000   # builds of at least this many triangles are announced on a terminal
 
 
-def resolve_bins() -> int | str:
-    """The SAH builder's bins per node: $LIFT_GL_BVH_BINS, a whole number from 8 to 256 (every
-    node that many), or 'auto' (the default): bvh.SAH_BINS, and the tree is built a second
-    time with bvh.LARGE_BINS bins for its nodes of bvh.LARGE_NODE triangles or more, and the
-    one of lower SAH cost kept (build_with; docs/bvh.md "Finer bins at the top")."""
-    text = os.environ.get(BINS_ENV_VAR, "").strip().lower()
+def resolve_bins(value: int | str | None = None) -> int | str:
+    """The SAH builder's bins per node: `value`, else $LIFT_GL_BVH_BINS: a whole number from 8
+    to 256 (every node that many), or 'auto' (the default): bvh.SAH_BINS, and the tree is built
+    a second time with bvh.LARGE_BINS bins for its nodes of bvh.LARGE_NODE triangles or more,
+    and the one of lower SAH cost kept (build_with; docs/bvh.md "Finer bins at the top")."""
+    source = "the caller" if value is not None else "$" + BINS_ENV_VAR
+    text = (str(value) if value is not None else os.environ.get(BINS_ENV_VAR, "")).strip().lower()
     if not text or text == "auto":
         return "auto"
     if not text.isdigit() or not 8 <= int(text) <= 256:
-        raise ValueError(f"${BINS_ENV_VAR} must be auto or a whole number from 8 to 256, not {text!r}")
+        raise ValueError(f"BVH bins (from {source}, ${BINS_ENV_VAR}) must be auto or a whole number from 8 to 256, "
+                         f"not {text!r}")
     return int(text)
 
 
@@ -97,10 +99,10 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
     return name
 
 
-def _build_plain(tri_positions: np.ndarray, builder: str, large_bins: int = 0) -> BVH:
+def _build_plain(tri_positions: np.ndarray, builder: str, large_bins: int = 0, bins=None) -> BVH:
     if builder == "sah":
         leaf, cost = resolve_leaf()
-        bins = resolve_bins()
+        bins = resolve_bins(bins)
         return build_bvh(tri_positions, bins=SAH_BINS if bins == "auto" else bins, all_axes=resolve_axes() == "all",
                          max_leaf=leaf, traversal_cost=cost, large_bins=large_bins)
     from .lbvh import build_lbvh  # pyopencl, only for these builders
@@ -116,26 +118,26 @@ def splits_apply(tri_positions: np.ndarray, splits: SplitSettings) -> bool:
         and tri_positions.shape[0] >= splits.min_triangles
 
 
-def build_with(tri_positions: np.ndarray, builder: str, splits: SplitSettings = OFF) -> BVH:
+def build_with(tri_positions: np.ndarray, builder: str, splits: SplitSettings = OFF, bins=None) -> BVH:
     """Build with a concrete builder name (not auto). With `splits` (accel/presplit.py) large
     triangles enter the build as several references: `order` may then repeat a triangle.
-    With $LIFT_GL_BVH_BINS auto the SAH tree chosen is built again with finer bins at its top
-    (_finer_top)."""
+    With `bins` (resolve_bins) auto the SAH tree chosen is built again with finer bins at its
+    top (_finer_top)."""
     pos = np.asarray(tri_positions, np.float32)
     prims, ref_tri, bvh = pos, None, None
     if splits_apply(pos, splits) and not splits.auto:
         refs = _split_refs(pos, splits)
         if refs is not None:
-            (prims, ref_tri), bvh = refs, _build_plain(refs[0], builder)
+            (prims, ref_tri), bvh = refs, _build_plain(refs[0], builder, bins=bins)
     if bvh is None:
-        bvh = _build_plain(pos, builder)
+        bvh = _build_plain(pos, builder, bins=bins)
     if splits_apply(pos, splits) and splits.auto:
         best_cost = sah_cost(bvh) * (1.0 - AUTO_MIN_GAIN)
         for candidate in AUTO_CANDIDATES:
             refs = _split_refs(pos, candidate)
-            if refs is not None and (cost := sah_cost(split := _build_plain(refs[0], builder))) < best_cost:
+            if refs is not None and (cost := sah_cost(split := _build_plain(refs[0], builder, bins=bins))) < best_cost:
                 (prims, ref_tri), bvh, best_cost = refs, split, cost
-    bvh = _finer_top(prims, builder, bvh)
+    bvh = _finer_top(prims, builder, bvh, bins)
     if ref_tri is not None:
         bvh.order = ref_tri[bvh.order].astype(np.uint32)
     return bvh
@@ -150,15 +152,15 @@ def _split_refs(pos: np.ndarray, splits: SplitSettings):
     return np.stack([lo, hi], axis=1), ref_tri  # a box is the box of its 2 corners
 
 
-def _finer_top(prims: np.ndarray, builder: str, bvh: BVH) -> BVH:
+def _finer_top(prims: np.ndarray, builder: str, bvh: BVH, bins=None) -> BVH:
     """`bvh`, or the SAH tree over the same primitives built with LARGE_BINS bins for its nodes
     of LARGE_NODE primitives or more, where that one's SAH cost is lower ($LIFT_GL_BVH_BINS
     auto). Why both: the greedy top-down build sometimes does worse with the finer planes
     (the Bitterli living room's cost 71.1 -> 74.1) and often better (the classroom's 10.3 ->
     8.3); docs/bvh.md "Finer bins at the top"."""
-    if builder != "sah" or resolve_bins() != "auto" or prims.shape[0] < LARGE_NODE:
+    if builder != "sah" or resolve_bins(bins) != "auto" or prims.shape[0] < LARGE_NODE:
         return bvh
-    finer = _build_plain(prims, builder, large_bins=LARGE_BINS)
+    finer = _build_plain(prims, builder, large_bins=LARGE_BINS, bins=bins)
     return finer if sah_cost(finer) < sah_cost(bvh) else bvh
 
 
@@ -170,7 +172,7 @@ def default_cache_dir() -> Path:
     return Path.home() / ".cache" / "lift-gl" / "bvh"
 
 
-def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSettings = OFF) -> str:
+def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSettings = OFF, bins=None) -> str:
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     h = hashlib.blake2b(digest_size=20)
     h.update(LAYOUT_VERSION.encode())
@@ -179,7 +181,7 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
     else:
         if resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
             h.update(b"axes=all")
-        bins = resolve_bins()
+        bins = resolve_bins(bins)
         if bins == "auto":   # the finer bins at the top (_finer_top)
             h.update(f"bins={SAH_BINS}+{LARGE_BINS}@{LARGE_NODE}".encode())
         elif bins != SAH_BINS:
@@ -228,20 +230,22 @@ def _store(path: Path, bvh: BVH) -> None:
 
 
 def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah",
-               splits: SplitSettings = OFF) -> Path:
+               splits: SplitSettings = OFF, bins=None) -> Path:
     root = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
-    return root / f"{cache_key(tri_positions, builder, splits)}.npz"
+    return root / f"{cache_key(tri_positions, builder, splits, bins)}.npz"
 
 
 def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | None = None,
-                     splits=None) -> BVH:
+                     splits=None, bins=None) -> BVH:
     """The BVH of tri_positions by `builder` (see resolve_builder), with large triangles split
-    per `splits` (presplit.resolve_splits: None reads $LIFT_GL_BVH_SPLITS, default on), read
-    from / written to `cache_dir` (default: default_cache_dir())."""
+    per `splits` (presplit.resolve_splits: None reads $LIFT_GL_BVH_SPLITS, default on) and the
+    SAH builder's `bins` (resolve_bins: None reads $LIFT_GL_BVH_BINS, default auto), read from
+    / written to `cache_dir` (default: default_cache_dir())."""
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     builder = resolve_builder(builder, pos.shape[0] if pos.ndim == 3 else 0)
     splits = resolve_splits(splits)
-    path = cache_path(pos, cache_dir, builder, splits)
+    bins = resolve_bins(bins)
+    path = cache_path(pos, cache_dir, builder, splits, bins)
     bvh = _load(path, pos.shape[0] if pos.ndim == 3 else -1)
     if bvh is None:
         # a scene's first load can take half a minute (the dining room's 270k triangles here):
@@ -251,7 +255,7 @@ def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | N
             print(f"lift-gl: building the BVH of {pos.shape[0]:,} triangles ({builder}); it is cached for next "
                   f"time in {path.parent}", file=sys.stderr, flush=True)
         start = time.perf_counter()
-        bvh = build_with(pos, builder, splits)
+        bvh = build_with(pos, builder, splits, bins)
         if notice:
             print(f"lift-gl: BVH built in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
         _store(path, bvh)

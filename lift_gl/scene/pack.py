@@ -218,10 +218,11 @@ def still_motion(packed: PackedScene) -> np.ndarray:
 
 
 def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
-               bvh_splits=None, bvh_width=None) -> PackedScene:
+               bvh_splits=None, bvh_width=None, bvh_bins=None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
     `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
     `bvh_splits`: see accel/presplit.py resolve_splits (None: $LIFT_GL_BVH_SPLITS, else auto).
+    `bvh_bins`: see accel/cache.py resolve_bins (None: $LIFT_GL_BVH_BINS, else auto).
     `bvh_width`: 2, 4 or 4q (None: $LIFT_GL_BVH_WIDTH, else 2; the renderer passes its
     device's choice, accel/wide.py resolve_width). Scenes with motion blur or traced instances keep
     the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
@@ -245,7 +246,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         # Corners at shutter open and at close: the BVH bounds the box each triangle sweeps.
         bvh_input = np.concatenate([positions, positions + tri_move[:, None, :].astype(np.float32)], axis=1)
     bvh_builder = resolve_builder(bvh_builder, len(bvh_input))
-    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder, splits=bvh_splits)
+    bvh = (build_bvh_cached(bvh_input, cache_dir=cache_dir, builder=bvh_builder, splits=bvh_splits, bins=bvh_bins)
            if len(positions) else build_bvh(positions))
     order = bvh.order
     n_source = len(positions)
