@@ -250,6 +250,11 @@ def test_finer_bins_at_the_top(monkeypatch):
     assert cache_mod.resolve_bins() == "auto"
     built = cache_mod.build_with(tris, "sah")
     assert np.array_equal(built.nodes.view(np.uint32), best.nodes.view(np.uint32))
+    # from the size where the LBVH takes over (1M) the SAH build is made once
+    monkeypatch.setattr(cache_mod, "AUTO_LBVH_TRIANGLES", len(tris))
+    assert np.array_equal(cache_mod.build_with(tris, "sah").nodes.view(np.uint32), coarse.nodes.view(np.uint32))
+    monkeypatch.undo()
+    monkeypatch.delenv(cache_mod.BINS_ENV_VAR, raising=False)
     auto_key = cache_mod.cache_key(tris)
     monkeypatch.setenv(cache_mod.BINS_ENV_VAR, "32")
     assert np.array_equal(cache_mod.build_with(tris, "sah").nodes.view(np.uint32), coarse.nodes.view(np.uint32))

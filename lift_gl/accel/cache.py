@@ -158,7 +158,9 @@ def _finer_top(prims: np.ndarray, builder: str, bvh: BVH, bins=None) -> BVH:
     auto). Why both: the greedy top-down build sometimes does worse with the finer planes
     (the Bitterli living room's cost 71.1 -> 74.1) and often better (the classroom's 10.3 ->
     8.3); docs/bvh.md "Finer bins at the top"."""
-    if builder != "sah" or resolve_bins(bins) != "auto" or prims.shape[0] < LARGE_NODE:
+    # scenes of a million primitives or more build once: there the build's own time is what
+    # hurts (the size from which the LBVH is the default builder)
+    if builder != "sah" or resolve_bins(bins) != "auto" or not LARGE_NODE <= prims.shape[0] < AUTO_LBVH_TRIANGLES:
         return bvh
     finer = _build_plain(prims, builder, large_bins=LARGE_BINS, bins=bins)
     return finer if sah_cost(finer) < sah_cost(bvh) else bvh
