@@ -47,9 +47,15 @@ def resolve_bins(value: int | str | None = None) -> int | str:
     if not text or text == "auto":
         return "auto"
     if not text.isdigit() or not 8 <= int(text) <= 256:
-        raise ValueError(f"BVH bins (from {source}, ${BINS_ENV_VAR}) must be auto or a whole number from 8 to 256, "
-                         f"not {text!r}")
+        raise ValueError(f"bad BVH bins {text!r} (from {source}): use auto or a whole number from 8 to 256")
     return int(text)
+
+
+def bins_for_one_build(value: int | str | None = None) -> int:
+    """The bins of a build made once, for a tree someone waits for (the viewer's live edits):
+    resolve_bins's, with auto's second build (finer bins at the top) left out."""
+    bins = resolve_bins(value)
+    return SAH_BINS if bins == "auto" else bins
 
 
 LEAF_ENV_VAR = "LIFT_GL_BVH_LEAF"
@@ -124,14 +130,12 @@ def build_with(tri_positions: np.ndarray, builder: str, splits: SplitSettings = 
     With `bins` (resolve_bins) auto the SAH tree chosen is built again with finer bins at its
     top (_finer_top)."""
     pos = np.asarray(tri_positions, np.float32)
-    prims, ref_tri, bvh = pos, None, None
-    if splits_apply(pos, splits) and not splits.auto:
-        refs = _split_refs(pos, splits)
-        if refs is not None:
-            (prims, ref_tri), bvh = refs, _build_plain(refs[0], builder, bins=bins)
-    if bvh is None:
-        bvh = _build_plain(pos, builder, bins=bins)
-    if splits_apply(pos, splits) and splits.auto:
+    prims, ref_tri = pos, None   # what the tree is built over, and each reference's triangle
+    split = splits_apply(pos, splits)
+    if split and not splits.auto:
+        prims, ref_tri = _split_refs(pos, splits) or (prims, ref_tri)
+    bvh = _build_plain(prims, builder, bins=bins)
+    if split and splits.auto:
         best_cost = sah_cost(bvh) * (1.0 - AUTO_MIN_GAIN)
         for candidate in AUTO_CANDIDATES:
             refs = _split_refs(pos, candidate)

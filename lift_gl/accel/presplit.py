@@ -166,7 +166,8 @@ def _split_counts(tris: np.ndarray, lo: np.ndarray, hi: np.ndarray, settings: Sp
         return counts
     t = tris[cand].astype(np.float64)
     tri_area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
-    waste = np.maximum(_half_area(lo[cand].astype(np.float64), hi[cand].astype(np.float64)) - tri_area, 0.0)
+    box_half_area = _half_area(lo[cand].astype(np.float64), hi[cand].astype(np.float64))
+    waste = np.maximum(box_half_area - tri_area, 0.0)
     prio = np.cbrt(waste)
     if not (prio > 0).any():
         return counts
@@ -180,7 +181,7 @@ def _split_counts(tris: np.ndarray, lo: np.ndarray, hi: np.ndarray, settings: Sp
         mid = 0.5 * (lo_d + hi_d)
         lo_d, hi_d = (mid, hi_d) if total(mid) <= budget else (lo_d, mid)
     counts[cand] = np.minimum(np.floor(lo_d * prio), MAX_SPLITS_PER_TRIANGLE).astype(np.int64)
-    counts[cand] += _sliver_splits(tri_area, waste + tri_area, counts[cand], settings, n)
+    counts[cand] += _sliver_splits(tri_area, box_half_area, counts[cand], settings, n)
     if counts.sum() < settings.min_splits * n:
         counts[:] = 0
     return counts
