@@ -269,9 +269,9 @@ def pixel_visits(scene, packed, tree: WideTree, size, rng, slowest: float = 0.02
     ('camera', 'bounce'; 0 where the camera ray misses), and the leaf visits of the bounce rays
     by material ({material: (share of all bounce rays' leaf visits, share of the `slowest`
     fraction's)}, the slowest by node visits)."""
+    from lift_gl.app.scene_editor import camera_ray
+
     camera = packed.to_gpu_camera(scene.camera)
-    right, up, forward = camera.basis()
-    h = np.tan(np.radians(camera.fov_deg) / 2)
     w_px, h_px = size
     cam = np.zeros((h_px, w_px), np.int64)
     bounce = np.zeros((h_px, w_px), np.int64)
@@ -279,16 +279,13 @@ def pixel_visits(scene, packed, tree: WideTree, size, rng, slowest: float = 0.02
     leaf_materials = []                     # per bounce ray: the material of each leaf it visits
     for j in range(h_px):
         for i in range(w_px):
-            x = ((i + 0.5) / w_px * 2 - 1) * h * w_px / h_px
-            y = (1 - (j + 0.5) / h_px * 2) * h
-            d = forward + x * right + y * up
-            d /= np.linalg.norm(d)
-            first = traverse(tree, camera.position, d)
+            origin, d = camera_ray(camera, size, (i, j))
+            first = traverse(tree, origin, d)
             cam[j, i] = first["nodes"]
             if first["row"] < 0:
                 continue
             steps = []
-            bounce[j, i] = bounce_from(tree, camera.position, d, first, rng, steps)["nodes"]
+            bounce[j, i] = bounce_from(tree, origin, d, first, rng, steps)["nodes"]
             leaf_materials.append((bounce[j, i], [int(material[row]) for kind, row in steps if kind == "leaf"]))
     names = {k: getattr(m, "name", None) or f"#{k}" for k, m in enumerate(scene.materials)}
     shares = {}
