@@ -478,6 +478,94 @@ def live_plus(count: int):
     return edit
 
 
+# Occupancy probe (NVIDIA: GL_NV_shader_thread_group): how many warps an SM holds at once.
+# The same probe as benchmarks/gpu_occupancy.py's (OCCUPANCY_PROBE there), here edited into a
+# trace program.
+sys.path.insert(0, str(Path(__file__).resolve().parent))   # benchmarks/, also when loaded by path (tests)
+from gpu_occupancy import OCCUPANCY_BINDING, OCCUPANCY_WORDS, occupancy_probe, occupancy_summary  # noqa: E402
+
+
+def occupancy(edit=None):
+    """Diagnostic of register pressure: the variant `edit` made (None: the base) with the
+    occupancy probe (gpu_occupancy.py): warps each SM held at once, which is what the
+    program's registers (and shared memory) allowed. Lane 0 of a warp counts its warp in when
+    the warp starts and out when that lane reports at the end."""
+    def probed(text):
+        text = edit(text) if edit else text
+        enter, leave, decl = occupancy_probe()
+        text = text.replace("\n", "\n#extension GL_NV_shader_thread_group : require\n", 1)   # after #version
+        text = _sub(text, "void lift_report_invocation() {", decl + "void lift_report_invocation() {\n" + leave)
+        return _sub(text, "void main() {", "void main() {\n" + enter)
+    probed.local = getattr(edit, "local", None)
+    return probed
+
+
+def variant(name: str):
+    """VARIANTS[name], or for occ_NAME that variant with the occupancy probe."""
+    if name.startswith("occ_") and name[4:] in VARIANTS:
+        edit, over, exact = VARIANTS[name[4:]]
+        return occupancy(edit), over, exact
+    return VARIANTS[name]
+
+
+# What of the carry code (LIFT_CARRY_PATHS, with $LIFT_GL_CARRY_PATHS on) costs a frame that
+# parks nothing: each edit takes one part out (not exact where that part would run).
+def carry_no_extra_stores(text: str) -> str:
+    """The carry code without its image stores besides the pixel's usual one: the parked
+    pixel's finished samples and the late image's two."""
+    text = _sub(text, "                    imageStore(u_frame_out, pixel, vec4(sum, valid));  // the samples it finished\n", "")
+    return _sub(text, "    imageStore(u_late_out, pixel, vec4(sum, valid));\n    imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));\n",
+                "    lift_carried[0].s = floatBitsToUint(sum.x + valid);\n")
+
+
+def carry_no_park(text: str) -> str:
+    """The carry code without its park block."""
+    start = text.index("            if (u_park != 0u && !late && LIFT_QUEUE_RAN_OUT) {")
+    end = text.index("#endif\n            continue;", start)
+    return text[:start] + text[end:]
+
+
+def carry_no_resume(text: str) -> str:
+    """The carry code without its resume block."""
+    start = text.index("        if (!busy) {\n            uint side = 1u - u_carry_side;")
+    end = text.index("#endif\n        if (!busy) {\n            late = false;", start)
+    return text[:start] + text[end:]
+
+
+# The pixel queue's tiles in another order (docs/gpu.md "Twelfth session"): item k's tile is
+# lift_tile_order[k / group], an order the harness computes from the G-buffer (tile_orders).
+TILE_ORDER_BINDING = 21
+
+
+def queue_tile_order(text: str) -> str:
+    """The queued megakernel taking its tiles in the order of a buffer (the same image)."""
+    text = _sub(text, "void lift_trace_pixel_queue() {",
+                f"layout(std430, binding = {TILE_ORDER_BINDING}) readonly buffer LiftTileOrder {{ uint lift_tile_order[]; }};\n"
+                "void lift_trace_pixel_queue() {")
+    return _sub(text, "uint tile = item / group, lane = item % group;",
+                "uint tile = lift_tile_order[item / group], lane = item % group;")
+
+
+def tile_orders(albedo: np.ndarray, local: tuple[int, int]) -> dict[str, np.ndarray]:
+    """Orders of the image's tiles (local-sized, row by row as the queue numbers them) for the
+    queue_order_ variants, by a guess of each tile's work: the expected path length under
+    roulette by albedo, 1 / (1 - a), a the largest component of the first hit's albedo (at most
+    0.95; 0 for a camera ray that left the scene), averaged over the tile. long_first: most
+    work first, so that the last pixels taken (whose paths make the frame's tail) are the
+    cheapest; short_first the reverse (a control); identity the queue's own order (what the
+    lookup alone costs)."""
+    h, w = albedo.shape[:2]
+    lx, ly = local
+    tx, ty = (w + lx - 1) // lx, (h + ly - 1) // ly
+    a = np.zeros((ty * ly, tx * lx), np.float64)
+    hit = albedo[..., 3] > 0
+    a[:h, :w] = np.where(hit, 1.0 / (1.0 - np.minimum(albedo[..., :3].max(axis=-1), 0.95)), 0.0)
+    key = a.reshape(ty, ly, tx, lx).mean(axis=(1, 3)).ravel()
+    order = np.argsort(-key, kind="stable").astype(np.uint32)
+    return {"queue_order_long_first": order, "queue_order_short_first": order[::-1].copy(),
+            "queue_order_identity": np.arange(tx * ty, dtype=np.uint32)}
+
+
 def compose(*edits):
     def edit(text):
         for e in edits:
@@ -532,11 +620,22 @@ VARIANTS = {
     "live_plus8": (live_plus(8), {}, True),
     "live_plus16": (live_plus(16), {}, True),
     "noqueue": (undefine("LIFT_PIXEL_QUEUE"), {}, True),
+    "queue_order_long_first": (queue_tile_order, {}, True),
+    "queue_order_short_first": (queue_tile_order, {}, True),
+    "queue_order_identity": (queue_tile_order, {}, True),
+    "nocarry": (undefine("LIFT_CARRY_PATHS"), {}, True),   # with $LIFT_GL_CARRY_PATHS on: its code's cost
+    "carry_nostores": (carry_no_extra_stores, {}, True),
+    "carry_nopark": (carry_no_park, {}, True),
+    "carry_noresume": (carry_no_resume, {}, True),
+    "carry_noresume_nopark": (compose(carry_no_resume, carry_no_park), {}, True),
+    "slim_nocarry": (compose(undefine("LIFT_CARRY_PATHS"), regen_primary, sum_shared, pending_shared), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
     "nounroll": (pragma("unroll none"), {}, True),
     "noifcvt": (pragma("ifcvt none"), {}, True),
     "noinline": (pragma("inline none"), {}, True),
+    "maxreg64": (pragma("maxregcount 64"), {}, True),    # with occ_: whether NVIDIA's GL honours it
+    "maxreg96": (pragma("maxregcount 96"), {}, True),
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
@@ -761,7 +860,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             tree = base_tree if name == "tree" else trees[name]
             src, over, exact, local = tree_plugin_source(r, tree), {}, integrator == "pt", r.trace.local_size
         else:
-            edit, over, exact = VARIANTS[name]
+            edit, over, exact = variant(name)
             src = edit(base_source) if edit else base_source
             local = getattr(edit, "local", None) or r.trace.local_size
             short = stack_too_short(src, r.packed)
@@ -790,6 +889,11 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     traced_pass = TracedGBufferPass(ctx, size, r.defines) if gb else None
     jitter = frame_jitter(7, r.seed)
     queue = ctx.buffer(reserve=4 * QUEUE_COUNTERS_MAX)   # queue_spread's counters
+    probe = ctx.buffer(reserve=4 * OCCUPANCY_WORDS)   # the occ_ variants' counters
+    orders = {}
+    if any(n.startswith("queue_order_") for n in names) and r.gbuffer is not None:
+        refresh_albedo = np.frombuffer(r.gbuffer.albedo.read(), np.float16).reshape(size[1], size[0], 4).astype(np.float32)
+        orders = {k: ctx.buffer(v.tobytes()) for k, v in tile_orders(refresh_albedo, r.trace.local_size).items()}
 
     def dispatch(name):
         prog, unif, (lx, ly) = programs[name]
@@ -803,6 +907,11 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             splats.bind()
         reset_pixel_queue(ctx, queue)   # the pixel queue (LIFT_PIXEL_QUEUE), where a variant has it
         queue.write(bytes(4 * QUEUE_COUNTERS_MAX))   # every counter of queue_spread too
+        probe.bind_to_storage_buffer(OCCUPANCY_BINDING)
+        if name.removeprefix("occ_") in orders:
+            orders[name.removeprefix("occ_")].bind_to_storage_buffer(TILE_ORDER_BINDING)
+        if r.trace.carry is not None and "u_park" in prog:   # carrying compiled in: its buffer, nothing parks
+            r.trace.carry.before_dispatch(prog, park=False)
         prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
 
     def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
@@ -845,10 +954,14 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     images = {}
     refresh()
     unwritten = np.full((h, w, 4), np.nan, np.float32).tobytes()
+    occupancy_seen = {}
     for name in names:
         frame.write(unwritten)
+        probe.write(bytes(4 * OCCUPANCY_WORDS))
         dispatch(name)
         resolve_splats()
+        if name.startswith("occ_"):
+            occupancy_seen[name] = occupancy_summary(np.frombuffer(probe.read(), np.uint32))
         images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()
     times = {name: [] for name in names}
     gb_names = [*gb, "traced"] if gb else []
@@ -878,6 +991,8 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         result["variants"][name] = dict(info[name], ms=times[name], median_ms=float(np.median(times[name])),
                                         mean_rgb=float(np.mean(img)), max_abs_diff_vs_first=float(np.max(np.abs(img - base))),
                                         finite=bool(np.isfinite(img).all()))
+        if name in occupancy_seen:
+            result["variants"][name]["occupancy"] = occupancy_seen[name]
         if name in COUNTING:  # the image is per-pixel counts
             result["variants"][name]["mean_counts_rgb"] = [float(v) for v in img.reshape(-1, 3).mean(axis=0)]
             if name == "bdpt_count_paths":
@@ -889,6 +1004,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
                 *([raster_pass, traced_pass] if gb else [])]:
         obj.release()
     queue.release()
+    probe.release()
+    for buf in orders.values():
+        buf.release()
     r.release()
     return result
 
@@ -946,7 +1064,7 @@ def main(argv=None) -> int:
     for n in names:
         if n in ("main", "tree") and args.base_tree is None:
             raise SystemExit(f"--variants {n} needs --base-tree")
-        if n not in VARIANTS and n not in ("camera", "main", "tree") and n not in trees:
+        if n not in VARIANTS and n[4:] not in VARIANTS and n not in ("camera", "main", "tree") and n not in trees:
             raise SystemExit(f"--variants: unknown {n!r}; known: {', '.join(VARIANTS)}, camera")
     ctx = create_context(args.backend)
     record = {"gl": describe(ctx), "integrator": args.integrator, "size": args.size, "max_depth": args.max_depth, "reps": args.reps,
@@ -959,7 +1077,10 @@ def main(argv=None) -> int:
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())
             + "; gbuffer " + ", ".join(f"{n} {v['median_ms']:.3f}" for n, v in res["gbuffer"].items())
-            + f"; SM clock MHz after each round {res['sm_clock']['rounds_mhz']}", flush=True)
+            + f"; SM clock MHz after each round {res['sm_clock']['rounds_mhz']}"
+            + "".join(f"; {n} warps/SM {v['occupancy']['warps_per_sm_max']} (mean {v['occupancy']['warps_per_sm_mean']:.1f}, "
+                      f"warp slots {v['occupancy']['warp_slot_max']})" for n, v in res["variants"].items() if "occupancy" in v),
+            flush=True)
         if args.out:
             write_json(args.out, record, indent=1)
     print(table(record))

@@ -152,3 +152,19 @@ def test_const_params_makes_the_plugin_settings_constants(monkeypatch):
     assert res["variants"]["const_params"]["max_abs_diff_vs_first"] == 0
     edited = variants.const_params("uniform int max_depth;  // x\\nuniform int rr_depth;  // y\\n")
     assert "const int max_depth = 5;" in edited and "const int rr_depth = 2;" in edited
+
+
+def test_tile_orders_put_the_most_work_first():
+    """queue_order_ variants' orders (docs/gpu.md "Twelfth session"): tiles by their mean
+    1 / (1 - albedo), a camera ray that left the scene counting as no work; the control is the
+    reverse, identity the queue's own row-by-row numbering."""
+    import numpy as np
+
+    albedo = np.zeros((4, 16, 4), np.float32)          # 2 x 2 tiles of 8x2
+    albedo[0:2, 0:8] = (0.5, 0.2, 0.1, 1.0)            # tile 0: 1 / 0.5 = 2
+    albedo[0:2, 8:16] = (0.99, 0.99, 0.99, 1.0)        # tile 1: capped at 0.95 -> 20
+    albedo[2:4, 8:16] = (0.0, 0.0, 0.0, 1.0)           # tile 3: a black hit -> 1; tile 2: misses -> 0
+    orders = variants.tile_orders(albedo, (8, 2))
+    assert orders["queue_order_long_first"].tolist() == [1, 0, 3, 2]
+    assert orders["queue_order_short_first"].tolist() == [2, 3, 0, 1]
+    assert orders["queue_order_identity"].tolist() == [0, 1, 2, 3]

@@ -83,9 +83,9 @@ class CarriedPaths:
         self.buffer.bind_to_storage_buffer(CARRY_BINDING)
         self.late.bind_to_image(LATE_IMAGE_UNIT, read=False, write=True)
         self.late_tag.bind_to_image(LATE_TAG_IMAGE_UNIT, read=False, write=True)
-        program["u_carry_side"].value = self.side
-        program["u_park"].value = int(park)
-        program["u_late_tag"].value = self.tag
+        for name, value in (("u_carry_side", self.side), ("u_park", int(park)), ("u_late_tag", self.tag)):
+            if name in program:   # (benchmarks/gpu_pt_variants.py's edits may leave one unused)
+                program[name].value = value
 
     def discard(self) -> None:
         """Forget the parked paths (the camera moved, the accumulation restarted)."""
