@@ -645,7 +645,8 @@ def measure(args) -> int:
                     runs[v, k]["results"].append(case)
                     save()
                     print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame "
-                          f"({case.get('trace_way')}, tuned {case.get('wavefront_tuned_ms')}); passes "
+                          f"({case.get('trace_way')}, tuned {case.get('wavefront_tuned_ms')}, carry {case.get('carry')} "
+                          f"{case.get('carry_tuned_ms')}); passes "
                           "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items())
                           + _clock_text(case), flush=True)
     _set_splits(None, previous_splits, axis_var)

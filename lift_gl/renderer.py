@@ -640,7 +640,10 @@ class Renderer:
             queue = ("its lanes taking their next pixel from a queue as their paths end ($LIFT_GL_PIXEL_QUEUE)"
                      if getattr(self.trace, "pixel_queue", None) is not None else "")
             carry = getattr(self.trace, "carry", None)
-            if carry is not None:
+            if getattr(self.trace, "carry_tuning", None) is not None:
+                queue += ("; paths under way when the queue runs out may go on in the next frame, if that is "
+                          "faster on a render's first frames ($LIFT_GL_CARRY_PATHS)")
+            elif carry is not None:
                 queue += (f"; paths under way when the queue runs out go on in the next frame "
                           f"($LIFT_GL_CARRY_PATHS, {carry.buffer.size / 2**20:.1f} MiB for them)")
             if why:

@@ -73,8 +73,9 @@ def test_a_parking_frame_counts_its_late_samples_in_the_next(monkeypatch):
 
 def test_carry_settings(monkeypatch):
     monkeypatch.delenv("LIFT_GL_CARRY_PATHS", raising=False)
-    assert carry_mode() == "off"   # auto: measured slower on two of four scenes (docs/gpu.md)
-    assert carry_mode("on") == "on" and carry_mode("always") == "always"
+    # auto: timed on GPUs (slower on two of four scenes there, docs/gpu.md), off on CPU rasterizers
+    assert carry_mode() == "faster" and carry_mode(gpu=False) == "off"
+    assert carry_mode("on") == "on" and carry_mode("always") == "always" and carry_mode("faster") == "faster"
     with pytest.raises(LiftError, match="LIFT_GL_CARRY_PATHS"):
         carry_mode("sometimes")
 
@@ -91,3 +92,106 @@ def test_without_the_pixel_queue_nothing_is_carried(monkeypatch):
         assert (r.accumulate.read_totals()[..., 3] == 2).all()
     finally:
         r.release()
+
+
+def _tuning_renderer(monkeypatch, scene="cornell.toml") -> Renderer:
+    """$LIFT_GL_CARRY_PATHS=faster with the carrying megakernel parking every new path after its
+    first vertex (as `always`: on this CPU rasterizer lanes rarely see the queue run out), and
+    frames timed from the first (no wait for a clock to rise)."""
+    from lift_gl.passes import trace
+
+    monkeypatch.setattr(trace, "TUNING_DELAY_S", 0.0)
+    r = _renderer(monkeypatch, "faster", scene)
+    assert r.trace.carry is None and r.trace.carry_tuning is not None and "u_park" not in r.trace.program
+    r.trace.carry_tuning.defines["LIFT_CARRY_PARK_ALWAYS"] = True
+    return r
+
+
+def _late_frames(monkeypatch, r: Renderer) -> list:
+    """Whether each frame's accumulation got late samples (a carrying frame resumed paths)."""
+    seen = []
+    run = r.accumulate.run
+
+    def spy(frame, late=None):
+        seen.append(late is not None)
+        return run(frame, late=late)
+
+    monkeypatch.setattr(r.accumulate, "run", spy)
+    return seen
+
+
+@pytest.mark.parametrize("kept", ["carry", "plain"])
+def test_carry_tuning_keeps_a_way_and_the_same_samples(monkeypatch, kept):
+    """faster: blocks of frames of either megakernel (passes/carry.py CarryTuning), then the one
+    timed faster (forced here both ways) runs on. Every block finishes its paths, so the render
+    has exactly its samples and the image of the megakernel that never carries."""
+    from lift_gl.passes.carry import CARRY_BLOCK, CARRY_ORDER, CARRY_ROUNDS, CarryTuning
+
+    monkeypatch.setattr(CarryTuning, "faster", lambda self: kept)
+    tuning = CARRY_BLOCK * 2 * CARRY_ROUNDS   # frames of the timed blocks (after one untimed)
+    frames = 1 + tuning + 6
+    r = _tuning_renderer(monkeypatch)
+    try:
+        late = _late_frames(monkeypatch, r)
+        image = r.render(spp=frames)
+        totals = r.accumulate.read_totals()
+        assert r.trace.carry_tuning is None and set(r.trace.carry_tuned_ms) == {"carry", "plain"}
+        assert (r.trace.carry is not None) == (kept == "carry") and ("u_park" in r.trace.program) == (kept == "carry")
+        # the carry blocks' frames 2 .. CARRY_BLOCK resumed paths, and the kept way's frames after
+        assert [way for way in CARRY_ORDER * CARRY_ROUNDS][:2 * CARRY_ROUNDS].count("carry") == CARRY_ROUNDS
+        assert sum(late[1:1 + tuning]) == CARRY_ROUNDS * (CARRY_BLOCK - 1)
+        assert all(late[1 + tuning + 1:]) == (kept == "carry") and any(late[1 + tuning:]) == (kept == "carry")
+    finally:
+        r.release()
+    plain = _renderer(monkeypatch, "off")
+    try:
+        reference = plain.render(spp=frames)
+    finally:
+        plain.release()
+    assert (totals[..., 3] == frames).all()
+    np.testing.assert_allclose(image, reference, rtol=1e-5, atol=1e-7)
+
+
+def test_carry_tuning_finishes_parked_paths_when_a_frame_may_not_park(monkeypatch):
+    """A block cut short (a frame that may not park: a render's last) still finishes the paths its
+    frames parked: that frame runs the carrying megakernel, and every pixel has its samples."""
+    r = _tuning_renderer(monkeypatch)
+    try:
+        r.render_frame(park=True)    # builds the carrying megakernel; its first dispatch, untimed, parks nothing
+        r.render_frame(park=True)    # a carry block's first frame: every path alive after its first vertex parks
+        counts = r.accumulate.read_totals()[..., 3]
+        assert set(np.unique(counts)) == {1.0, 2.0} and (counts == 1).mean() > 0.25
+        assert r.trace.carry_tuning.way == "carry" and r.trace.carry.parked
+        r.render_frame(park=False)
+        assert (r.accumulate.read_totals()[..., 3] == 3).all()
+        assert r.trace.carry_tuning.way is None and not r.trace.carry.parked
+    finally:
+        r.release()
+
+
+def test_carry_tuning_blocks():
+    """CarryTuning's bookkeeping: blocks in CARRY_ORDER, the carry block's last frame parking
+    nothing, a cut block not counted, and the way of less time per frame kept."""
+    from lift_gl.passes.carry import CARRY_BLOCK, CARRY_ORDER, CARRY_ROUNDS, CarryTuning
+
+    t = CarryTuning({})
+    clock = 0.0
+    for block in range(2 * CARRY_ROUNDS):
+        way = t.start(clock)
+        assert way == CARRY_ORDER[block % len(CARRY_ORDER)]
+        if block == 1:   # a block cut short is not counted, and the same way comes next
+            t.frames += 1
+            t.abort()
+            assert t.start(clock) == way and t.frames == 0
+        parks = []
+        while not t.last():
+            parks.append(t.parks(True))
+            t.frames += 1
+        parks.append(t.parks(True))
+        assert parks == ([True] * (CARRY_BLOCK - 1) + [False] if way == "carry" else [False] * CARRY_BLOCK)
+        clock += CARRY_BLOCK * (0.9 if way == "carry" else 1.0)
+        done = t.end(clock)
+        assert done == (block == 2 * CARRY_ROUNDS - 1)
+    assert t.frame_ms() == pytest.approx({"carry": 900.0, "plain": 1000.0})
+    assert t.faster() == "carry"
+    assert not t.parks(False)

@@ -14,8 +14,8 @@ pixel whose sample is late has one sample fewer until it lands, never a wrong on
 Who may park: the renderer asks for it frame by frame (Renderer.render: a still camera, every
 frame of a render of known length but its last, which finishes every path). Parked paths that
 cannot land (the camera moved, a reset) are discarded: those pixels miss one sample, which the
-per-pixel count accounts for. $LIFT_GL_CARRY_PATHS = on | off | always | auto (carry_mode;
-auto is off). Only the queued megakernel (a plugin with LIFT_PATH_STEPS on a GPU, or with
+per-pixel count accounts for. $LIFT_GL_CARRY_PATHS = on | off | faster | always | auto
+(carry_mode; auto is faster on GPUs: timed on a render's first frames). Only the queued megakernel (a plugin with LIFT_PATH_STEPS on a GPU, or with
 $LIFT_GL_PIXEL_QUEUE=on) can carry.
 """
 from __future__ import annotations
@@ -36,16 +36,23 @@ MAX_PARKED = 1 << 18         # paths a half is sized for: more than the lanes an
 ENTRY_BYTES = 256
 
 
-def carry_mode(value: str | None = None) -> str:
-    """How the queued megakernel carries paths: `value`, else $LIFT_GL_CARRY_PATHS: on, off or
-    always (every new path parks after its first vertex whether the queue has run out or not,
-    which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes rarely
-    see the queue run out while a path is under way). auto is off: on an H100 carrying made the
-    frame 8% faster on the dining room and 2.5% on the classroom at Lift's Russian roulette, and
-    7-16% slower on the Covered Dragon and the cornell-box, where the carry code compiled in
-    and never used already costs 12-21% (docs/gpu.md "Tenth session")."""
-    mode = env_choice(CARRY_ENV_VAR, ("on", "off", "always"), value)
-    return "off" if mode == "auto" else mode
+def carry_mode(value: str | None = None, gpu: bool = True) -> str:
+    """How the queued megakernel carries paths: `value`, else $LIFT_GL_CARRY_PATHS: on, off,
+    faster or always (every new path parks after its first vertex whether the queue has run out
+    or not, which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes
+    rarely see the queue run out while a path is under way). faster: the trace pass times the
+    megakernel with and without the carry code on the first frames of a render that may park
+    and keeps the faster (passes/trace.py, CarryTuning). auto is faster on GPUs, off on CPU
+    rasterizers. Why not simply on: on an H100 carrying made the dining room's frame 8-12%
+    faster at Lift's Russian roulette and the classroom's 2.5%, but the Covered Dragon's and
+    the cornell-box's 7-16% slower, where the carry code compiled in and never used already
+    costs 12-22% (docs/gpu.md "Tenth session"; on the dragon the code costs the megakernel a
+    step of occupancy, 16 warps an SM to 12: "Twelfth session"), and no cheaper form of it
+    was found; the compiler's answer to it differs by scene."""
+    mode = env_choice(CARRY_ENV_VAR, ("on", "off", "faster", "always"), value)
+    if mode == "auto":
+        return "faster" if gpu else "off"
+    return mode
 
 
 class CarriedPaths:
@@ -95,3 +102,65 @@ class CarriedPaths:
         self.buffer.release()
         self.late.release()
         self.late_tag.release()
+
+
+# $LIFT_GL_CARRY_PATHS=faster: frames a timed block, and blocks of each way. A block is timed
+# whole, its frames queued as a render queues them (a wait after every frame cost the small
+# scenes' frames 4x their time on an H100, mostly the wait, and let the GPU's clock drop: the
+# first version of this choice, timing each frame alone, kept the slower way on the
+# cornell-box and the Covered Dragon in one process of two; docs/gpu.md "Twelfth session").
+# A carry block's last frame parks nothing, so every block ends with all its paths done and
+# both ways' blocks do the same work (the carry way's first frame resumes nothing, its last
+# finishes the paths parked before it). Blocks in the order carry, plain, plain, carry, ...
+# (a drift in the GPU's clock then weighs both alike).
+CARRY_BLOCK = 8
+CARRY_ROUNDS = 3
+CARRY_ORDER = ("carry", "plain", "plain", "carry")
+
+
+class CarryTuning:
+    """The choice between the megakernel with the carry code and without it, made by timing
+    whole blocks of frames of a render that may park (passes/trace.py runs the frames; this
+    keeps the blocks' times and says which way comes next and whether a frame may park)."""
+
+    def __init__(self, defines: dict):
+        self.defines = defines      # the carry program's
+        self.program = None         # built on the first frame that may park
+        self.source = None
+        self.warmed = False         # its first dispatch ran, untimed
+        self.blocks = {"carry": [], "plain": []}   # seconds of each finished block
+        self.way = None             # the block under way ...
+        self.frames = 0             # ... its frames run
+        self.began = 0.0            # ... and when it began (after a finish)
+
+    def start(self, now: float) -> str:
+        """Begins the next block (its way, in CARRY_ORDER) at `now`."""
+        done = sum(len(v) for v in self.blocks.values())
+        self.way, self.frames, self.began = CARRY_ORDER[done % len(CARRY_ORDER)], 0, now
+        return self.way
+
+    def parks(self, park: bool) -> bool:
+        """Whether this frame of the block may park: the carry way's, except its block's last."""
+        return park and self.way == "carry" and self.frames < CARRY_BLOCK - 1
+
+    def last(self) -> bool:
+        """Whether the frame about to run ends its block."""
+        return self.frames == CARRY_BLOCK - 1
+
+    def end(self, now: float) -> bool:
+        """The block under way ended at `now` (after a finish); true once every block is timed."""
+        self.blocks[self.way].append(now - self.began)
+        self.way = None
+        return all(len(v) >= CARRY_ROUNDS for v in self.blocks.values())
+
+    def abort(self) -> None:
+        """The block under way cannot go on (a frame that may not park, a reset): not counted."""
+        self.way = None
+
+    def frame_ms(self) -> dict:
+        """Each way's mean frame time over its blocks, ms."""
+        return {k: 1e3 * sum(v) / (len(v) * CARRY_BLOCK) for k, v in self.blocks.items() if v}
+
+    def faster(self) -> str:
+        ms = self.frame_ms()
+        return "carry" if ms["carry"] < ms["plain"] else "plain"

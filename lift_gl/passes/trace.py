@@ -39,7 +39,11 @@ run as a wavefront (a dispatch per path vertex
 over the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
 forces it; faster times both ways on its first frames (after the clock has had TUNING_DELAY_S
 to rise and, where NVML reads it, once it has) and keeps the faster; auto is off (the queued
-megakernel matched or beat the wavefront on an H100, docs/gpu.md).
+megakernel matched or beat the wavefront on an H100, docs/gpu.md). On GPUs that megakernel is
+also built with the carry code (paths under way when the queue runs out go on in the next
+frame's dispatch, passes/carry.py) on a render's first frame that may park, and the two are
+timed in blocks of frames (CarryTuning): the faster is kept ($LIFT_GL_CARRY_PATHS faster, auto
+on GPUs).
 """
 from __future__ import annotations
 
@@ -52,7 +56,7 @@ from .. import shaders
 from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
-from .carry import CarriedPaths, carry_mode
+from .carry import CarriedPaths, CarryTuning, carry_mode
 from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
@@ -457,14 +461,24 @@ class TracePass:
         self.local_size, self.shared_stack = trace_layout(ctx, pixel_queue=queued)
         megakernel_defines = {name: value for name, value in defines.items()
                               if self.shared_stack or name != "LIFT_BVH_SHARED_STACK"}
+        mode = wavefront_mode(ctx) if wavefront is None else ("on" if wavefront else "off")
         # paths still under way when the queue runs out go on in the next frame (passes/carry.py)
         self.carry = None
-        carry = carry_mode() if queued else "off"
-        if carry != "off":
-            megakernel_defines["LIFT_CARRY_PATHS"] = True
-            if carry == "always":
-                megakernel_defines["LIFT_CARRY_PARK_ALWAYS"] = True
-            self.carry = CarriedPaths(ctx, size, int(ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)))
+        carry = carry_mode(gpu=not is_software(ctx)) if queued else "off"
+        if carry == "faster" and mode != "off":
+            carry = "off"   # a wavefront cannot carry; one choice timed at a time (the wavefront's)
+        carry_defines = dict(megakernel_defines, LIFT_CARRY_PATHS=True)
+        if carry == "always":
+            carry_defines["LIFT_CARRY_PARK_ALWAYS"] = True
+        if carry in ("on", "always"):
+            megakernel_defines = carry_defines
+            self.carry = self._carried_paths()
+        # faster: the megakernel with the carry code is built on a render's first frame that may
+        # park, and the two are timed on the frames after it (run, CarryTuning)
+        self.carry_tuning = CarryTuning(carry_defines) if carry == "faster" else None
+        self.carry_tuned_ms = None     # once chosen: each way's mean frame ms
+        self._resumed = False          # the last dispatch resumed parked paths (late)
+        self._carry_leaving = False    # the plain megakernel was kept: the carry buffers go next frame
         self.defines = megakernel_defines  # what the megakernel was built with (benchmarks rebuild it from them)
         self.source = shaders.assemble(generate_main(plugin, self.local_size), megakernel_defines,
                                        include_dirs=[plugin.folder], main_name=f"<{plugin.name} host main>")
@@ -473,7 +487,6 @@ class TracePass:
         self.frame = ctx.texture(size, 4, dtype="f4")
         self.wavefront = None
         self.wavefront_fallback = None  # why a wavefront asked for runs as the megakernel
-        mode = wavefront_mode(ctx) if wavefront is None else ("on" if wavefront else "off")
         # "faster": both ways timed on the first frames, alternately, then the faster kept
         self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
         self.tuned_ms = None  # once chosen: each way's frame ms (fastest_half_mean)
@@ -497,30 +510,36 @@ class TracePass:
     def late(self):
         """Samples that landed a frame late (paths this frame resumed), which the accumulation
         adds to the frame: (image, tag image, this frame's tag), or None when it resumed none."""
-        if self.carry is None or not self.carry.resumed:
+        if self.carry is None or not self._resumed:
             return None
         return self.carry.late, self.carry.late_tag, self.carry.tag
+
+    def _carried_paths(self) -> CarriedPaths:
+        return CarriedPaths(self.ctx, self.size, int(self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)))
 
     def discard_parked(self) -> None:
         """Forget the paths the last frame parked (the camera moved, accumulation restarted)."""
         if self.carry is not None:
             self.carry.discard()
+        if self.carry_tuning is not None:
+            self.carry_tuning.abort()
 
     def run(self, uniforms: dict, visibility=None, park: bool = False) -> None:
         """One frame. `park`: paths still under way once the pixel queue has run out may be
         parked for the next frame's dispatch (passes/carry.py; where carrying is on), which
         must then be run with the same camera; the default runs every path to its end."""
+        if self._carry_leaving:   # the carry code lost its timing: its buffers, once read
+            self._carry_leaving = False
+            self.carry.release()
+            self.carry = None
+        if self.carry_tuning is not None:
+            self._run_carry_tuning(uniforms, visibility, park)
+            return
         if self.tuning is None:
             self._run(uniforms, visibility, self.wavefront is not None, park)
             return
         # the first frames, and any while the GPU's clock is still low: not timed
-        early = False
-        if TUNING_DELAY_S > 0:
-            now = time.perf_counter()
-            if self._tuning_from is None:
-                self._tuning_from = now + TUNING_DELAY_S
-            early = now < self._tuning_from
-        if early or not self._clock_is_up() or not self._wavefront_ran:
+        if not self._ready_to_time() or not self._wavefront_ran:
             # the wavefront's first frame (its programs' first dispatches, its buffers' first
             # use) is never timed: it runs first, untimed; then the megakernel
             self._run(uniforms, visibility, not self._wavefront_ran)
@@ -541,6 +560,58 @@ class TracePass:
             close = abs(ms[0] - ms[1]) < TUNING_CLOSE * min(ms)
             if not close or timed + 1 >= 2 * TUNING_FRAMES * TUNING_ROUNDS:
                 self._keep_the_faster()
+
+    def _run_carry_tuning(self, uniforms: dict, visibility, park: bool) -> None:
+        """A frame while the carry code's worth is being timed ($LIFT_GL_CARRY_PATHS faster):
+        frames that may park run in blocks of either megakernel (CarryTuning), each block timed
+        whole between two finishes; the others, and those before the clock is up, run the
+        plain one untimed (or the carrying one, to finish paths the frame before parked)."""
+        t = self.carry_tuning
+        if not park or (t.way is None and not self._ready_to_time()):
+            t.abort()
+            waiting = self.carry is not None and self.carry.parked
+            self._run(uniforms, visibility, False, False, program=t.program if waiting else None)
+            return
+        if t.program is None:   # built now, and its first dispatch (first-use costs) untimed
+            t.source = shaders.assemble(generate_main(self.plugin, self.local_size), t.defines,
+                                        include_dirs=[self.plugin.folder], main_name=f"<{self.plugin.name} host main>")
+            t.program = shaders.compile_compute(self.ctx, t.source)
+            self.carry = self._carried_paths()
+        if not t.warmed:
+            t.warmed = True
+            self._run(uniforms, visibility, False, False, program=t.program)
+            return
+        if t.way is None:
+            self.ctx.finish()
+            t.start(time.perf_counter())
+        last = t.last()
+        self._run(uniforms, visibility, False, t.parks(park), program=t.program if t.way == "carry" else None)
+        t.frames += 1
+        if last:
+            self.ctx.finish()
+            if t.end(time.perf_counter()):
+                self._keep_carry(t)
+
+    def _keep_carry(self, t: CarryTuning) -> None:
+        """The faster way's megakernel becomes the trace program; the other's is released."""
+        self.carry_tuning = None
+        self.carry_tuned_ms = t.frame_ms()
+        if t.faster() == "carry":
+            self.program.release()
+            self.program, self.source, self.defines = t.program, t.source, t.defines
+        else:   # every block ends with its paths done: nothing is parked now
+            t.program.release()
+            self._carry_leaving = True   # its late image still holds this frame's samples
+
+    def _ready_to_time(self) -> bool:
+        """Whether a tuning frame may be timed: TUNING_DELAY_S after the first, and the clock up."""
+        if TUNING_DELAY_S > 0:
+            now = time.perf_counter()
+            if self._tuning_from is None:
+                self._tuning_from = now + TUNING_DELAY_S
+            if now < self._tuning_from:
+                return False
+        return self._clock_is_up()
 
     def _clock_is_up(self) -> bool:
         """Whether the SM clock reads at least TUNING_CLOCK of its maximum (true without NVML,
@@ -568,14 +639,18 @@ class TracePass:
             self.wavefront_fallback = (f"the megakernel was faster on this scene's first frames "
                                        f"({ms['megakernel']:.2f} against {ms['wavefront']:.2f} ms)")
 
-    def _run(self, uniforms: dict, visibility, as_wavefront: bool, park: bool = False) -> None:
+    def _run(self, uniforms: dict, visibility, as_wavefront: bool, park: bool = False, program=None) -> None:
+        """One dispatch (or the wavefront's): `program` a megakernel other than self.program (the
+        carrying one while CarryTuning times it)."""
+        self._resumed = False
         if as_wavefront:
             self.discard_parked()   # the wavefront's kernels resume nothing: those samples are lost
-        for program in self.wavefront.programs if as_wavefront else (self.program,):
-            set_uniforms(program, uniforms)
-            if visibility is not None and "u_visibility" in program:
+        megakernel = program or self.program
+        for prog in self.wavefront.programs if as_wavefront else (megakernel,):
+            set_uniforms(prog, uniforms)
+            if visibility is not None and "u_visibility" in prog:
                 visibility.use(location=0)
-                program["u_visibility"].value = 0
+                prog["u_visibility"].value = 0
         if as_wavefront:
             self.wavefront.run(self.frame, int(uniforms["u_samples"]))
             return
@@ -584,9 +659,12 @@ class TracePass:
             self.splats.bind()
         if self.pixel_queue is not None:
             reset_pixel_queue(self.ctx, self.pixel_queue)
-        if self.carry is not None:
-            self.carry.before_dispatch(self.program, park)
-        self.program.run(*groups(*self.size, self.local_size))
+        # the carrying megakernel: self.program where carrying is on, or the tuning's
+        carries = self.carry is not None and (program is not None or self.carry_tuning is None)
+        if carries:
+            self.carry.before_dispatch(megakernel, park)
+            self._resumed = self.carry.resumed
+        megakernel.run(*groups(*self.size, self.local_size))
         # The frame's image stores must be done before the accumulation loads them, and the next
         # frame's dispatch must not overwrite it under the accumulation: on an H100 the plain
         # megakernel without this barrier left a few thousand pixels of a 1080p frame after the
@@ -602,6 +680,8 @@ class TracePass:
             self.pixel_queue.release()
         if self.carry is not None:
             self.carry.release()
+        if self.carry_tuning is not None and self.carry_tuning.program is not None:
+            self.carry_tuning.program.release()
         if self.wavefront is not None:
             self.wavefront.release()
         if self.splats is not None:

@@ -119,11 +119,13 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # calls, and its clock then stayed down
     warm = warm_up(lambda: (renderer.render(spp=16 * spf), renderer.ctx.finish()), clock)
     # On a GPU the trace pass times its two ways on its first frames, each between two
-    # finishes (passes/trace.py, TUNING_*): those end before the timed frames start.
+    # finishes (passes/trace.py, TUNING_*; with and without the carry code, CarryTuning, on
+    # frames that may park: renders of several frames): those end before the timed frames start.
     trace = getattr(renderer, "trace", None)
     give_up = time.perf_counter() + 20.0
-    while getattr(trace, "tuning", None) is not None and time.perf_counter() < give_up:
-        renderer.render(spp=spf)
+    while (getattr(trace, "tuning", None) is not None or getattr(trace, "carry_tuning", None) is not None) \
+            and time.perf_counter() < give_up:
+        renderer.render(spp=16 * spf)
     frame_seconds, frame_mhz = [], []
     for _ in range(max(repeat, 1)):
         renderer.reset()
@@ -143,6 +145,8 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     trace_way = "wavefront" if getattr(trace, "wavefront", None) is not None else "megakernel"
     tuned_ms = getattr(trace, "tuned_ms", None)
     tuning_frames_ms = getattr(trace, "tuning_frames_ms", None)
+    carry = getattr(trace, "carry", None) is not None   # paths carried into the next frame
+    carry_tuned_ms = getattr(trace, "carry_tuned_ms", None)
     renderer.release()
 
     counting = make(count_rays=True)
@@ -170,7 +174,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             "gpu_buffers": [{"name": n, "binding": b, "bytes": int(size)} for n, b, size in buffers],
             "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
             "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
-            "wavefront_tuning_frames_ms": tuning_frames_ms,
+            "wavefront_tuning_frames_ms": tuning_frames_ms, "carry": carry, "carry_tuned_ms": carry_tuned_ms,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
             # the per-pass run, and the warm-up before them
             "sm_clock": {"frames_mhz": frame_mhz, "passes_mhz": pass_mhz, "warm_up": warm}}
