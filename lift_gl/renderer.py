@@ -689,10 +689,11 @@ class Renderer:
             return PixelFilter("box", (0.5, 0.5))
         return self.scene.pixel_filter
 
-    def render_frame(self, samples: int | None = None, park: bool = False) -> None:
+    def render_frame(self, samples: int | None = None, park: bool = False, frames_left: int | None = None) -> None:
         """One frame of `samples` per pixel. `park`: a still camera's paths still under way at
         the frame's end may go on in the next frame's dispatch, which must follow with the same
-        camera (passes/carry.py; render() asks for it on every frame but the last)."""
+        camera (passes/carry.py; render() asks for it on every frame but the last).
+        `frames_left`: the render's frames from this one on, where known (passes/trace.py)."""
         samples = samples or self.samples_per_frame
         jitter = filtered_jitter(frame_jitter(self.frame_index, self.seed), self.scene.pixel_filter,
                                  self.scene.film_size, self.size)
@@ -712,7 +713,7 @@ class Renderer:
                         **filter_uniforms(self._compiled_pixel_filter(), self.scene.film_size, self.size))
         with self._timed("trace"):
             self.trace.run(uniforms, self.gbuffer.visibility if self.gbuffer is not None else None,
-                           park=park and self.reproject is None and self.reduced is None)
+                           park=park and self.reproject is None and self.reduced is None, frames_left=frames_left)
         if self.reduced is not None:
             scale = int(self._reduced_setting("scale"))
             offset = block_offset(self.frame_index, scale)
@@ -827,7 +828,8 @@ class Renderer:
             n = self.samples_per_frame if spp is None else min(self.samples_per_frame, spp - done)
             # every frame but the last may leave paths to the next one (a timed render does not
             # know its last frame)
-            self.render_frame(n, park=seconds is None and spp is not None and done + n < spp)
+            self.render_frame(n, park=seconds is None and spp is not None and done + n < spp,
+                              frames_left=None if spp is None else -(-(spp - done) // self.samples_per_frame))
             done += n
             frames += 1
             queued += 1

@@ -195,3 +195,17 @@ def test_carry_tuning_blocks():
     assert t.frame_ms() == pytest.approx({"carry": 900.0, "plain": 1000.0})
     assert t.faster() == "carry"
     assert not t.parks(False)
+
+
+def test_a_render_too_short_to_time_the_carry_code_does_not_build_it(monkeypatch):
+    from lift_gl.passes.carry import CARRY_TUNING_FRAMES
+
+    r = _tuning_renderer(monkeypatch)
+    try:
+        r.render(spp=CARRY_TUNING_FRAMES - 1)
+        assert r.trace.carry_tuning.program is None and r.trace.carry is None
+        assert (r.accumulate.read_totals()[..., 3] == CARRY_TUNING_FRAMES - 1).all()
+        r.render(spp=CARRY_TUNING_FRAMES + 2)   # long enough: built and timed
+        assert r.trace.carry_tuning is None and r.trace.carry_tuned_ms is not None
+    finally:
+        r.release()

@@ -116,6 +116,9 @@ class CarriedPaths:
 CARRY_BLOCK = 8
 CARRY_ROUNDS = 3
 CARRY_ORDER = ("carry", "plain", "plain", "carry")
+# A render shorter than the choice (its untimed first frame and the blocks) does not start it:
+# it would only pay for building the second megakernel.
+CARRY_TUNING_FRAMES = 1 + 2 * CARRY_ROUNDS * CARRY_BLOCK
 
 
 class CarryTuning:

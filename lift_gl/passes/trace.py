@@ -56,7 +56,7 @@ from .. import shaders
 from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
-from .carry import CarriedPaths, CarryTuning, carry_mode
+from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
 from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
@@ -524,16 +524,18 @@ class TracePass:
         if self.carry_tuning is not None:
             self.carry_tuning.abort()
 
-    def run(self, uniforms: dict, visibility=None, park: bool = False) -> None:
+    def run(self, uniforms: dict, visibility=None, park: bool = False, frames_left: int | None = None) -> None:
         """One frame. `park`: paths still under way once the pixel queue has run out may be
         parked for the next frame's dispatch (passes/carry.py; where carrying is on), which
-        must then be run with the same camera; the default runs every path to its end."""
+        must then be run with the same camera; the default runs every path to its end.
+        `frames_left`: the render's frames from this one on, where known (a render too short to
+        time the carry code does not build it)."""
         if self._carry_leaving:   # the carry code lost its timing: its buffers, once read
             self._carry_leaving = False
             self.carry.release()
             self.carry = None
         if self.carry_tuning is not None:
-            self._run_carry_tuning(uniforms, visibility, park)
+            self._run_carry_tuning(uniforms, visibility, park, frames_left)
             return
         if self.tuning is None:
             self._run(uniforms, visibility, self.wavefront is not None, park)
@@ -561,13 +563,14 @@ class TracePass:
             if not close or timed + 1 >= 2 * TUNING_FRAMES * TUNING_ROUNDS:
                 self._keep_the_faster()
 
-    def _run_carry_tuning(self, uniforms: dict, visibility, park: bool) -> None:
+    def _run_carry_tuning(self, uniforms: dict, visibility, park: bool, frames_left: int | None = None) -> None:
         """A frame while the carry code's worth is being timed ($LIFT_GL_CARRY_PATHS faster):
         frames that may park run in blocks of either megakernel (CarryTuning), each block timed
         whole between two finishes; the others, and those before the clock is up, run the
         plain one untimed (or the carrying one, to finish paths the frame before parked)."""
         t = self.carry_tuning
-        if not park or (t.way is None and not self._ready_to_time()):
+        too_short = t.program is None and frames_left is not None and frames_left < CARRY_TUNING_FRAMES
+        if not park or too_short or (t.way is None and not self._ready_to_time()):
             t.abort()
             waiting = self.carry is not None and self.carry.parked
             self._run(uniforms, visibility, False, False, program=t.program if waiting else None)

@@ -242,9 +242,9 @@ class OpenCLTracePass:
         self.host_out = np.empty((h, w, 4), np.float32)
         self.frame = ctx.texture(size, 4, dtype="f4")
 
-    def run(self, uniforms: dict, visibility=None, park: bool = False) -> None:
-        """One frame (`park` as TracePass.run takes it: this pass carries no paths, every path
-        runs to its end)."""
+    def run(self, uniforms: dict, visibility=None, park: bool = False, frames_left: int | None = None) -> None:
+        """One frame (`park` and `frames_left` as TracePass.run takes them: this pass carries no
+        paths, every path runs to its end)."""
         cl, queue = self.cl, self.queue
         mf = cl.mem_flags
         frame = cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=pack_frame(uniforms))
