@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..passes.carry import CARRY_TUNING_FRAMES
 from .gpu_clock import ClockReader, warm_up
 
 
@@ -125,7 +126,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     give_up = time.perf_counter() + 20.0
     while (getattr(trace, "tuning", None) is not None or getattr(trace, "carry_tuning", None) is not None) \
             and time.perf_counter() < give_up:
-        renderer.render(spp=16 * spf)
+        renderer.render(spp=(CARRY_TUNING_FRAMES + 1) * spf)   # long enough to start the carry choice
     frame_seconds, frame_mhz = [], []
     for _ in range(max(repeat, 1)):
         renderer.reset()
