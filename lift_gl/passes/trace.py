@@ -480,8 +480,7 @@ class TracePass:
         self._resumed = False          # the last dispatch resumed parked paths (late)
         self._carry_leaving = False    # the plain megakernel was kept: the carry buffers go next frame
         self.defines = megakernel_defines  # what the megakernel was built with (benchmarks rebuild it from them)
-        self.source = shaders.assemble(generate_main(plugin, self.local_size), megakernel_defines,
-                                       include_dirs=[plugin.folder], main_name=f"<{plugin.name} host main>")
+        self.source = self._megakernel_source(megakernel_defines)
         self.program = shaders.compile_compute(ctx, self.source)
         self.pixel_queue = ctx.buffer(reserve=4) if queued else None
         self.frame = ctx.texture(size, 4, dtype="f4")
@@ -513,6 +512,11 @@ class TracePass:
         if self.carry is None or not self._resumed:
             return None
         return self.carry.late, self.carry.late_tag, self.carry.tag
+
+    def _megakernel_source(self, defines: dict):
+        """The megakernel's source with these defines (its work groups, the plugin's main)."""
+        return shaders.assemble(generate_main(self.plugin, self.local_size), defines,
+                                include_dirs=[self.plugin.folder], main_name=f"<{self.plugin.name} host main>")
 
     def _carried_paths(self) -> CarriedPaths:
         return CarriedPaths(self.ctx, self.size, int(self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)))
@@ -576,8 +580,7 @@ class TracePass:
             self._run(uniforms, visibility, False, False, program=t.program if waiting else None)
             return
         if t.program is None:   # built now, and its first dispatch (first-use costs) untimed
-            t.source = shaders.assemble(generate_main(self.plugin, self.local_size), t.defines,
-                                        include_dirs=[self.plugin.folder], main_name=f"<{self.plugin.name} host main>")
+            t.source = self._megakernel_source(t.defines)
             t.program = shaders.compile_compute(self.ctx, t.source)
             self.carry = self._carried_paths()
         if not t.warmed:
