@@ -557,7 +557,8 @@ def measure(args) -> int:
     if axis == "leaf":
         splits = ["" if v == "default" else v for v in splits]
     rounds = args.split_rounds if splits[0] is not None else 1
-    runs = {(v, k): {"label": args.label + (f"{axis}={v or 'default'}" if v is not None else ""), "machine": machine,
+    runs = {(v, k): {"label": " ".join(s for s in (args.label, f"{axis}={v or 'default'}" if v is not None else "") if s),
+                     "machine": machine,
                      "gl": describe(ctx), "max_depth": args.max_depth, f"bvh_{axis}": v, "round": k, "results": []}
             for v in splits for k in range(rounds)}
 
