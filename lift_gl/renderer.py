@@ -646,6 +646,8 @@ class Renderer:
             elif carry is not None:
                 queue += (f"; paths under way when the queue runs out go on in the next frame "
                           f"($LIFT_GL_CARRY_PATHS, {carry.buffer.size / 2**20:.1f} MiB for them)")
+            elif getattr(self.trace, "carry_fallback", None):
+                queue += f"; paths are not carried into the next frame: {self.trace.carry_fallback}"
             if why:
                 return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why}{'; ' + queue if queue else ''})"
             return f" (megakernel, {queue})" if queue else ""

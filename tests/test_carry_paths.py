@@ -209,3 +209,28 @@ def test_a_render_too_short_to_time_the_carry_code_does_not_build_it(monkeypatch
         assert r.trace.carry_tuning is None and r.trace.carry_tuned_ms is not None
     finally:
         r.release()
+
+
+def test_a_driver_that_rejects_the_carry_code_keeps_the_plain_megakernel(monkeypatch):
+    """The carry code compiles only when a render starts timing it; a driver that rejects it
+    (a ShaderError) must not end the render: the plain megakernel goes on, and why is kept."""
+    from lift_gl import shaders
+    from lift_gl.errors import ShaderError
+    from lift_gl.passes.carry import CARRY_TUNING_FRAMES
+
+    r = _tuning_renderer(monkeypatch)
+    try:
+        real = shaders.compile_compute
+
+        def reject_carry(ctx, source):
+            if "#define LIFT_CARRY_PATHS" in source.text:
+                raise ShaderError("unsupported", "carry.glsl", 1)
+            return real(ctx, source)
+
+        monkeypatch.setattr(shaders, "compile_compute", reject_carry)
+        r.render(spp=CARRY_TUNING_FRAMES + 2)
+        assert r.trace.carry_tuning is None and r.trace.carry is None
+        assert "did not compile" in r.trace.carry_fallback and "did not compile" in r.explain()
+        assert (r.accumulate.read_totals()[..., 3] == CARRY_TUNING_FRAMES + 2).all()
+    finally:
+        r.release()

@@ -56,6 +56,7 @@ from .. import shaders
 from ..gl.context import is_software
 from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
+from ..errors import ShaderError
 from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
 from .common import LOCAL_SIZE, groups, set_uniforms
 from .splat import SplatBuffer, splat_defines
@@ -477,6 +478,7 @@ class TracePass:
         # park, and the two are timed on the frames after it (run, CarryTuning)
         self.carry_tuning = CarryTuning(carry_defines) if carry == "faster" else None
         self.carry_tuned_ms = None     # once chosen: each way's mean frame ms
+        self.carry_fallback = None     # why the carry code could not be timed
         self._resumed = False          # the last dispatch resumed parked paths (late)
         self._carry_leaving = False    # the plain megakernel was kept: the carry buffers go next frame
         self.defines = megakernel_defines  # what the megakernel was built with (benchmarks rebuild it from them)
@@ -581,7 +583,13 @@ class TracePass:
             return
         if t.program is None:   # built now, and its first dispatch (first-use costs) untimed
             t.source = self._megakernel_source(t.defines)
-            t.program = shaders.compile_compute(self.ctx, t.source)
+            try:
+                t.program = shaders.compile_compute(self.ctx, t.source)
+            except ShaderError as exc:   # a driver that rejects the carry code: the plain megakernel stays
+                self.carry_tuning = None
+                self.carry_fallback = f"the megakernel with the carry code did not compile: {exc}"
+                self._run(uniforms, visibility, False, False)
+                return
             self.carry = self._carried_paths()
         if not t.warmed:
             t.warmed = True
