@@ -40,6 +40,14 @@ that much more shared memory (a diagnostic of what occupancy and the L1 cache it
 cost), groups8/16/24 trace with node-group stack entries (LIFT_BVH_GROUP_STACK) that many deep
 (exact where the tree has no more levels), the _s8x8 / _s16x4 ones in 64-invocation groups.
 
+Twelfth session (docs/gpu.md): occ_NAME is variant NAME with the occupancy probe of
+benchmarks/gpu_occupancy.py (NVIDIA only; the JSON's `occupancy`: the warps an SM held; the
+probe's atomics make its time meaningless); maxreg64/96 add NVIDIA's register pragma (ignored);
+with $LIFT_GL_CARRY_PATHS=on the base has the carry code and nocarry, slim_nocarry,
+carry_nostores, carry_nopark, carry_noresume take it or its parts out; queue_order_long_first,
+_short_first and _identity hand out the pixel queue's tiles in an order computed from the
+G-buffer's albedo (tile_orders).
+
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
 text, from which local-memory arrays and register use can be read).
 """
