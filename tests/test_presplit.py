@@ -122,10 +122,46 @@ def test_resolve_splits(monkeypatch):
                                                        min_splits=0.0, sliver_budget=0.0)
     monkeypatch.setenv(ps.ENV_VAR, "budget=1:sliver_ratio=16:min_triangles=10")
     assert ps.resolve_splits(None) == ps.SplitSettings(budget=1.0, sliver_ratio=16.0, min_triangles=10)
-    for bad in ("lots", "budget=x", "budgte=1", "budget=-1", "auto=1", "budget=1:"):
+    monkeypatch.setenv(ps.ENV_VAR, "auto-no-slivers")
+    assert ps.resolve_splits(None) == ps.AUTO_NO_SLIVERS and ps.AUTO_NO_SLIVERS.key() != ps.AUTO.key()
+    assert ps.AUTO.slivers and not ps.AUTO_NO_SLIVERS.slivers
+    for bad in ("lots", "budget=x", "budgte=1", "budget=-1", "auto=1", "budget=1:", "slivers=1"):
         monkeypatch.setenv(ps.ENV_VAR, bad)
         with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
             ps.resolve_splits(None)
+
+
+def test_auto_keeps_the_sliver_split_within_its_tolerance(monkeypatch):
+    """auto's slivers-only candidate (docs/gpu.md "Twelfth session"): where no candidate lowers
+    the SAH cost by AUTO_MIN_GAIN, it is kept if its cost is within SLIVER_TOLERANCE of the tree
+    without splits, and not otherwise; auto-no-slivers never takes it, nor does auto from
+    AUTO_LBVH_TRIANGLES. The SAH cost is replaced by one that grows with the extra references,
+    so that every split costs."""
+    tris = slivers(length=0.4)
+    n = len(tris)
+
+    def cost_of(per_extra):
+        return lambda bvh: 10.0 * (1.0 + per_extra * (bvh.order.size - n) / n)
+
+    sliver_refs = ps.presplit(tris.astype(np.float32), ps.SLIVER_CANDIDATE)[0].size
+    assert sliver_refs > n   # the candidate splits these slivers
+    per_ref = (sliver_refs - n) / n
+    # a cost rise of half the tolerance: kept by auto only (not auto-no-slivers)
+    monkeypatch.setattr(cache_mod, "sah_cost", cost_of(0.5 * ps.SLIVER_TOLERANCE / per_ref))
+    assert cache_mod.build_with(tris, "sah", ps.AUTO_NO_SLIVERS).order.size == n
+    kept = cache_mod.build_with(tris, "sah", ps.AUTO)
+    assert kept.order.size == sliver_refs
+    monkeypatch.setattr(cache_mod, "AUTO_LBVH_TRIANGLES", n)
+    assert cache_mod.build_with(tris, "sah", ps.AUTO).order.size == n
+    monkeypatch.setattr(cache_mod, "AUTO_LBVH_TRIANGLES", n + 1)
+    # twice the tolerance: the tree without splits
+    monkeypatch.setattr(cache_mod, "sah_cost", cost_of(2.0 * ps.SLIVER_TOLERANCE / per_ref))
+    assert cache_mod.build_with(tris, "sah", ps.AUTO).order.size == n
+    # the kept tree finds the hits of the tree without splits
+    o, d = random_rays(2000, seed=3)
+    t_split, _ = intersect_numpy(kept, tris[kept.order], o, d)
+    t_plain, _ = intersect_numpy(plain := build_bvh(tris), tris[plain.order], o, d)
+    assert disagreements(t_split, t_plain, rtol=1e-6).mean() == 0
 
 
 def _sliver(start, direction, length: float, width: float, across) -> np.ndarray:

@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from .bvh import BVH, LARGE_BINS, LARGE_NODE, LAYOUT_VERSION, MAX_LEAF, SAH_BINS, TRAVERSAL_COST, build_bvh, sah_cost
-from .presplit import AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SplitSettings, presplit, resolve_splits
+from .presplit import (AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SLIVER_CANDIDATE, SLIVER_TOLERANCE, SplitSettings,
+                       presplit, resolve_splits)
 from .wide import MAX_LEAF_COUNT
 
 ENV_VAR = "LIFT_GL_CACHE_DIR"
@@ -136,11 +137,18 @@ def build_with(tri_positions: np.ndarray, builder: str, splits: SplitSettings = 
         prims, ref_tri = _split_refs(pos, splits) or (prims, ref_tri)
     bvh = _build_plain(prims, builder, bins=bins)
     if split and splits.auto:
-        best_cost = sah_cost(bvh) * (1.0 - AUTO_MIN_GAIN)
+        plain_cost = sah_cost(bvh)
+        best_cost = plain_cost * (1.0 - AUTO_MIN_GAIN)
         for candidate in AUTO_CANDIDATES:
             refs = _split_refs(pos, candidate)
             if refs is not None and (cost := sah_cost(split := _build_plain(refs[0], builder, bins=bins))) < best_cost:
                 (prims, ref_tri), bvh, best_cost = refs, split, cost
+        # no candidate kept: slivers alone (as the finer bins, only where the SAH build is the default)
+        if splits.slivers and ref_tri is None and pos.shape[0] < AUTO_LBVH_TRIANGLES:
+            refs = _split_refs(pos, SLIVER_CANDIDATE)
+            if refs is not None and sah_cost(split := _build_plain(refs[0], builder, bins=bins)) \
+                    <= plain_cost * (1.0 + SLIVER_TOLERANCE):
+                (prims, ref_tri), bvh = refs, split
     bvh = _finer_top(prims, builder, bvh, bins)
     if ref_tri is not None:
         bvh.order = ref_tri[bvh.order].astype(np.uint32)

@@ -58,7 +58,13 @@ class SplitSettings:
     them set the pace of their warp on a GPU; the SAH cost, a mean over rays, does not show it
     (docs/bvh.md, "Slivers").
     auto: build the tree without splits and with each of AUTO_CANDIDATES, and keep the one
-    of least SAH cost (accel/cache.py build_with)."""
+    of least SAH cost (accel/cache.py build_with).
+    slivers (with auto, the default; $LIFT_GL_BVH_SPLITS=auto-no-slivers leaves it out): where
+    no candidate lowers the SAH cost enough, also try SLIVER_CANDIDATE (slivers split, nearly
+    nothing else) and keep it where its SAH cost is within SLIVER_TOLERANCE of the tree without
+    splits: its gain is in the warps' longest rays, which the SAH cost does not see (docs/gpu.md
+    "Twelfth session": of ten scenes it changes only the classroom's tree, whose trace it made
+    0.980x on an H100). Tried below AUTO_LBVH_TRIANGLES only (accel/cache.py)."""
     budget: float = 0.3
     min_extent: float = 0.01
     max_extent: float = 0.3
@@ -68,6 +74,7 @@ class SplitSettings:
     sliver_ratio: float = 8.0
     sliver_budget: float = 2.0
     auto: bool = False
+    slivers: bool = False
 
     @property
     def enabled(self) -> bool:
@@ -76,7 +83,8 @@ class SplitSettings:
     def key(self) -> str:
         """What the on-disk cache keys on (accel/cache.py)."""
         if self.auto:
-            return "presplit:auto:" + ";".join(c.key() for c in AUTO_CANDIDATES) + f";min_gain={AUTO_MIN_GAIN:g}"
+            slivers = f";slivers:{SLIVER_CANDIDATE.key()};tolerance={SLIVER_TOLERANCE:g}" if self.slivers else ""
+            return "presplit:auto:" + ";".join(c.key() for c in AUTO_CANDIDATES) + f";min_gain={AUTO_MIN_GAIN:g}" + slivers
         sliver = f",sliver={self.sliver_ratio:g}x{self.sliver_budget:g}" if self.sliver_ratio > 0 and self.sliver_budget > 0 else ""
         return (f"presplit:budget={self.budget:g},extent={self.min_extent:g}..{self.max_extent:g},"
                 f"over_median={self.min_over_median:g},min_tris={self.min_triangles},min_splits={self.min_splits:g}"
@@ -92,7 +100,13 @@ OFF = SplitSettings(budget=0.0)
 # the splits do not lower by AUTO_MIN_GAIN keeps the tree without them.
 AUTO_CANDIDATES = (SplitSettings(),)
 AUTO_MIN_GAIN = 0.03
-AUTO = SplitSettings(auto=True)
+AUTO = SplitSettings(auto=True, slivers=True)
+AUTO_NO_SLIVERS = SplitSettings(auto=True)
+# auto's extra candidate where no other is kept: slivers across the axes split down to 0.05% of the scene's
+# diagonal (the classroom's far geometry makes 1% 3.1 m, larger than anything in the room), a
+# sliver ratio of 4 (8 changed nothing there), and a budget for the rest too small to matter.
+SLIVER_CANDIDATE = SplitSettings(budget=0.01, min_extent=0.0005, sliver_ratio=4.0)
+SLIVER_TOLERANCE = 0.01
 
 
 def resolve_splits(splits) -> SplitSettings:
@@ -112,6 +126,8 @@ def resolve_splits(splits) -> SplitSettings:
     text = str(splits).strip().lower()
     if text in ("on", "auto"):
         return AUTO
+    if text == "auto-no-slivers":
+        return AUTO_NO_SLIVERS
     if text in ("off", "none"):
         return OFF
     if "=" in text:
@@ -121,7 +137,7 @@ def resolve_splits(splits) -> SplitSettings:
     except ValueError:
         budget = -1.0
     if not (0.0 <= budget <= 8.0):
-        raise ValueError(f"bad BVH split setting {splits!r} (from {source}): use auto, off or a budget "
+        raise ValueError(f"bad BVH split setting {splits!r} (from {source}): use auto, auto-no-slivers, off or a budget "
                          "fraction of extra references between 0 and 8 (e.g. 0.3)")
     return SplitSettings(budget=budget, max_extent=float("inf"), min_triangles=0, min_over_median=0.0, min_splits=0.0,
                          sliver_budget=0.0) \
@@ -130,7 +146,7 @@ def resolve_splits(splits) -> SplitSettings:
 
 def _settings_from_fields(text: str, splits, source: str) -> SplitSettings:
     """SplitSettings from 'name=value:name=value' (resolve_splits)."""
-    names = {f for f in SplitSettings.__dataclass_fields__ if f != "auto"}
+    names = {f for f in SplitSettings.__dataclass_fields__ if f not in ("auto", "slivers")}
     fields = {}
     for part in text.split(":"):
         name, _, value = part.partition("=")
