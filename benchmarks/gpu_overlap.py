@@ -94,7 +94,7 @@ def main(argv=None) -> int:
         "tail, barrier, bulk": lambda: (tail.run(1), barrier(), bulk.run(groups)),
         "bulk, tail": lambda: (bulk.run(groups), tail.run(1)),
     }
-    record = {"gl": describe(ctx), "args": vars(args) | {"out": str(args.out)}, "median_ms": {}}
+    record = {"gl": describe(ctx), "args": {k: v for k, v in vars(args).items() if k != "out"}, "median_ms": {}}
     print(record["gl"], flush=True)
     for name, run in cases.items():
         record["median_ms"][name] = median_ms(ctx, run, args.reps)
