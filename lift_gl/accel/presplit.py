@@ -102,9 +102,10 @@ AUTO_CANDIDATES = (SplitSettings(),)
 AUTO_MIN_GAIN = 0.03
 AUTO = SplitSettings(auto=True, slivers=True)
 AUTO_NO_SLIVERS = SplitSettings(auto=True)
-# auto's extra candidate where no other is kept: slivers across the axes split down to 0.05% of the scene's
-# diagonal (the classroom's far geometry makes 1% 3.1 m, larger than anything in the room), a
-# sliver ratio of 4 (8 changed nothing there), and a budget for the rest too small to matter.
+# auto's extra candidate where no other is kept: slivers across the axes split down to 0.05%
+# of the scene's diagonal (the classroom's far geometry makes 1% 3.1 m, larger than anything in
+# the room), a sliver ratio of 4 (8 changed nothing there), and a budget for the rest too small
+# to matter.
 SLIVER_CANDIDATE = SplitSettings(budget=0.01, min_extent=0.0005, sliver_ratio=4.0)
 SLIVER_TOLERANCE = 0.01
 
