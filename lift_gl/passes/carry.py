@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..env_settings import env_choice
+from .common import set_uniforms
 
 CARRY_ENV_VAR = "LIFT_GL_CARRY_PATHS"
 CARRY_BINDING = 15
@@ -90,9 +91,8 @@ class CarriedPaths:
         self.buffer.bind_to_storage_buffer(CARRY_BINDING)
         self.late.bind_to_image(LATE_IMAGE_UNIT, read=False, write=True)
         self.late_tag.bind_to_image(LATE_TAG_IMAGE_UNIT, read=False, write=True)
-        for name, value in (("u_carry_side", self.side), ("u_park", int(park)), ("u_late_tag", self.tag)):
-            if name in program:   # (benchmarks/gpu_pt_variants.py's edits may leave one unused)
-                program[name].value = value
+        # (set_uniforms skips a uniform the compiler dropped: benchmarks/gpu_pt_variants.py's edits may)
+        set_uniforms(program, {"u_carry_side": self.side, "u_park": int(park), "u_late_tag": self.tag})
 
     def discard(self) -> None:
         """Forget the parked paths (the camera moved, the accumulation restarted)."""

@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..passes.carry import CARRY_TUNING_FRAMES
 from .gpu_clock import ClockReader, warm_up
 
 
@@ -101,6 +100,7 @@ def denoise_seconds(renderer, runs: int) -> float:
 def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, backend="auto", plugin_dirs=(),
                denoisers=()) -> dict:
     """Timings of one scene at one size; see the module's docstring."""
+    from ..passes.carry import CARRY_TUNING_FRAMES
     from ..renderer import Renderer
 
     def make(**kw):
