@@ -76,6 +76,11 @@ def _sub(text: str, old: str, new: str, count: int = 1) -> str:
     return text.replace(old, new) if count == 0 else text.replace(old, new, count)
 
 
+def _after_version(text: str, line: str) -> str:
+    """The program with `line` put right after its first line (#version)."""
+    return text.replace("\n", f"\n{line}\n", 1)
+
+
 def shape(x: int, y: int, shared: bool = True):
     """Work groups of x by y invocations, the BVH stack in shared memory or local arrays
     (LIFT_BVH_SHARED_STACK, shaders/lift/bvh.glsl)."""
@@ -84,7 +89,7 @@ def shape(x: int, y: int, shared: bool = True):
                       f"layout(local_size_x = {x}, local_size_y = {y}) in;", text)
         text = re.sub(r"#define LIFT_BVH_SHARED_STACK \d+\n", "", text)
         if shared:
-            text = text.replace("\n", f"\n#define LIFT_BVH_SHARED_STACK {x * y}\n", 1)  # after #version
+            text = _after_version(text, f"#define LIFT_BVH_SHARED_STACK {x * y}")
         return text
     edit.local = (x, y)
     return edit
@@ -138,7 +143,7 @@ def no_light_samples(text: str) -> str:
 def bdpt_unpacked(text: str) -> str:
     """bdpt's stored light subpath with its directions as floats (BDPT_PACK_NORMALS 0) rather
     than one octahedral word each: what the packing saves in local memory, at some rounding."""
-    return text.replace("\n", "\n#define BDPT_PACK_NORMALS 0\n", 1)  # after #version
+    return _after_version(text, "#define BDPT_PACK_NORMALS 0")
 
 
 def define(name: str):
@@ -147,7 +152,7 @@ def define(name: str):
     a definition of NAME the renderer made."""
     def edit(text):
         text = undefine(name.split()[0])(text)
-        return text.replace("\n", f"\n#define {name}\n", 1)  # after #version
+        return _after_version(text, f"#define {name}")
     return edit
 
 
@@ -164,7 +169,7 @@ def pragma(option: str):
     options (unroll none, ifcvt none, inline none, maxregcount N; other drivers ignore them),
     to tell how much of a variant's time is the compiler's choice of code shape."""
     def edit(text):
-        return text.replace("\n", f"\n#pragma optionNV({option})\n", 1)  # after #version
+        return _after_version(text, f"#pragma optionNV({option})")
     return edit
 
 
@@ -322,7 +327,7 @@ def bdpt_shared_vertices(n: int):
     """bdpt with the first n stored light vertices in shared memory (BDPT_SHARED_VERTICES; GPUs
     only, where the BVH stack is shared too), the rest in the local array."""
     def edit(text):
-        return text.replace("\n", f"\n#define BDPT_SHARED_VERTICES {n}\n", 1)  # after #version
+        return _after_version(text, f"#define BDPT_SHARED_VERTICES {n}")
     return edit
 
 
@@ -355,7 +360,7 @@ def queue_per_sm(text: str) -> str:
     gl_SMCountNV), counter s owning the s-th of gl_SMCountNV runs of consecutive tiles: the
     warps of one SM work on one part of the image at a time (its L1 sees one region), and an SM
     whose run is done takes from the next. The same image; NVIDIA only."""
-    text = text.replace("\n", "\n#extension GL_NV_shader_thread_group : require\n", 1)   # after #version
+    text = _after_version(text, "#extension GL_NV_shader_thread_group : require")
     text = _sub(text, "coherent buffer LiftPixelQueue { uint lift_queue_next; };",
                 f"coherent buffer LiftPixelQueue {{ uint lift_queue_next[{QUEUE_COUNTERS_MAX}]; }};")
     return _sub(text, "uint item = atomicAdd(lift_queue_next, 1u);",
@@ -501,7 +506,7 @@ def occupancy(edit=None):
     def probed(text):
         text = edit(text) if edit else text
         enter, leave, decl = occupancy_probe()
-        text = text.replace("\n", "\n#extension GL_NV_shader_thread_group : require\n", 1)   # after #version
+        text = _after_version(text, "#extension GL_NV_shader_thread_group : require")
         text = _sub(text, "void lift_report_invocation() {", decl + "void lift_report_invocation() {\n" + leave)
         return _sub(text, "void main() {", "void main() {\n" + enter)
     probed.local = getattr(edit, "local", None)
