@@ -456,6 +456,22 @@ def drop_at_end(text: str) -> str:
                 "                break;\n            }\n")
 
 
+# Coherent sampling (thirteenth session): `coherent_tiles` is pt's parameter `coherent_sampling` on
+# (lift_gl/passes/common.py rng_key_function: a tile's pixels draw the same random numbers);
+# coherent_roulette shares only the roulette's number.
+def coherent_roulette(text: str) -> str:
+    """Only the Russian roulette's number shared by the tile (keyed on tile, frame, sample
+    and depth): a warp's paths end together; directions and light samples stay per pixel."""
+    text = _sub(text, "bool path_step(inout PathState path, inout Rng rng) {",
+                "uint lift_rr_key;\nbool path_step(inout PathState path, inout Rng rng) {")
+    text = _sub(text, "if (rng_next(rng) >= survive) goes_on = false;",
+                "if (float(pcg_hash(lift_rr_key + uint(depth) * 0x9e3779b9u) >> 8u) * (1.0 / 16777216.0) >= survive) goes_on = false;")
+    return _sub(text, "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame",
+                "    uvec2 lift_tile = uvec2(pixel) / uvec2(8u, 4u);\n"
+                "    lift_rr_key = pcg_hash(lift_tile.x + pcg_hash(lift_tile.y + pcg_hash(u_frame + pcg_hash(s + u_seed))));\n"
+                "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame")
+
+
 # The plugin parameters of the scene being measured (run_scene sets it): const_params needs
 # their values, which a source edit alone does not know.
 CURRENT_PARAMS: dict = {}
@@ -628,6 +644,8 @@ VARIANTS = {
     "pending_shared": (pending_shared, {}, True),
     "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
     "drop_at_end": (drop_at_end, {}, False),
+    "coherent_tiles": (None, {"coherent_sampling": True}, False),
+    "coherent_rr": (coherent_roulette, {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
     "live_plus8": (live_plus(8), {}, True),

@@ -282,3 +282,26 @@ class GpuTimer:
     @property
     def last_ms(self) -> float:
         return self.last_ns / 1e6
+
+
+# A plugin parameter of this name and type turns coherent sampling on and off (pt has it).
+COHERENT_PARAM = "coherent_sampling"  # (`coherent` alone is a GLSL keyword)
+
+
+def rng_key_function(plugin, tile: tuple[int, int]) -> str:
+    """GLSL `uvec2 lift_rng_key(uvec2 pixel)`: what a pixel's random numbers are keyed on.
+
+    The pixel itself; or, where the plugin declares a bool parameter `coherent_sampling` and it is on,
+    the pixel's tile of the work group's shape: coherent sampling (Sadeghi, Chen and Jensen
+    2009). The pixels of a tile, which run in one warp on a GPU (and the pixel queue hands
+    out a tile at a time), then draw the same numbers: their light samples, bounce directions
+    and Russian roulette agree, so the warp's rays travel together through the BVH. Each
+    pixel's own numbers are as random as before (the estimate is unbiased and its variance
+    per pixel the same); what changes is that the noise of a tile's pixels is correlated
+    (docs/gpu.md "Thirteenth session")."""
+    param = plugin.params.get(COHERENT_PARAM)
+    if param is None or param.type != "bool":
+        return "uvec2 lift_rng_key(uvec2 pixel) { return pixel; }"
+    return ("uvec2 lift_rng_key(uvec2 pixel) {\n"
+            f"    return {COHERENT_PARAM} ? pixel / uvec2({tile[0]}u, {tile[1]}u) : pixel;  // its tile, or itself\n"
+            "}")

@@ -58,7 +58,7 @@ from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
 from ..errors import ShaderError
 from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
-from .common import LOCAL_SIZE, groups, set_uniforms
+from .common import LOCAL_SIZE, groups, rng_key_function, set_uniforms
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 
@@ -127,9 +127,10 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 #include "lift/primary_hit.glsl"
 #endif
 
+{rng_key}
 // The random numbers of this frame's sample s of a pixel.
 Rng lift_sample_rng(ivec2 pixel, uint s) {{
-    return rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
+    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame, s, u_sample_base + s, u_seed, u_stream);
 }}
 
 // A sample's radiance into its pixel's sum; a NaN or Inf one is dropped and counted, never
@@ -413,6 +414,7 @@ def param_declarations(plugin: Plugin) -> str:
 
 def generate_main(plugin: Plugin, local_size: tuple[int, int] = (LOCAL_SIZE, LOCAL_SIZE)) -> str:
     return MAIN_TEMPLATE.format(local_x=local_size[0], local_y=local_size[1], params=param_declarations(plugin),
+                                rng_key=rng_key_function(plugin, local_size),
                                 entry=plugin.entry_path.as_posix())
 
 

@@ -40,7 +40,7 @@ import moderngl
 from .. import shaders
 from ..errors import LiftError
 from ..env_settings import env_choice
-from .common import groups
+from .common import groups, rng_key_function
 
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
@@ -92,6 +92,7 @@ uniform uint u_wave_sample;  // which sample of this frame the wave runs
 #include "{entry}"
 // ---- host ----
 #include "lift/primary_hit.glsl"
+{rng_key}
 
 struct WaveSlot {{
     PathState path;
@@ -144,7 +145,7 @@ void main() {{
             Ray primary_ray = camera_ray(vec2(pixel) + u_jitter);
             Hit primary_hit = gbuffer_hit(ivec2(pixel), primary_ray);
             uint s = u_wave_sample;
-            rng = rng_init_pixel_sample(pixel, u_frame, s, u_sample_base + s, u_seed, u_stream);
+            rng = rng_init_pixel_sample(lift_rng_key(pixel), u_frame, s, u_sample_base + s, u_seed, u_stream);
             path = path_start(primary_ray, primary_hit);
             if (s > 0u) cut = wave_slots[index].cut;
         }}
@@ -274,7 +275,8 @@ class WavefrontTrace:
         if self.ballot:
             defines["LIFT_WAVE_BALLOT"] = True
         text = WAVE_TEMPLATE.format(group=self.group, tile_x=local_size[0], tile_y=local_size[1], params=params,
-                                    prefix=self.prefix, entry=plugin.entry_path.as_posix(), slots=SLOTS_BINDING,
+                                    rng_key=rng_key_function(plugin, local_size), prefix=self.prefix,
+                                    entry=plugin.entry_path.as_posix(), slots=SLOTS_BINDING,
                                     queues=QUEUES_BINDING, control=CONTROL_BINDING)
         self.source = shaders.assemble(text, defines, include_dirs=[plugin.folder],
                                        main_name=f"<{plugin.name} wavefront>")
