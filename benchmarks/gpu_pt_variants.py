@@ -48,6 +48,10 @@ carry_nostores, carry_nopark, carry_noresume take it or its parts out; queue_ord
 _short_first and _identity hand out the pixel queue's tiles in an order computed from the
 G-buffer's albedo (tile_orders).
 
+Thirteenth session (docs/gpu.md): coherent_tiles is pt's `coherent_sampling` on (a work group's
+tile of pixels drawing the same random numbers), coherent_rr shares only the roulette's number
+by tile; both change the image on purpose (not exact), each pixel's expectation unchanged.
+
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
 text, from which local-memory arrays and register use can be read).
 """
