@@ -49,7 +49,8 @@ _short_first and _identity hand out the pixel queue's tiles in an order computed
 G-buffer's albedo (tile_orders).
 
 Thirteenth session (docs/gpu.md): coherent_tiles is pt's `coherent_sampling` on (a work group's
-tile of pixels drawing the same random numbers), coherent_rr shares only the roulette's number
+tile of pixels drawing the same random numbers, the tiles' grid moving from frame to frame),
+coherent_fixed the same with the grid fixed, coherent_rr shares only the roulette's number
 by tile; both change the image on purpose (not exact), each pixel's expectation unchanged.
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
@@ -463,6 +464,12 @@ def drop_at_end(text: str) -> str:
 # Coherent sampling (thirteenth session): `coherent_tiles` is pt's parameter `coherent_sampling` on
 # (lift_gl/passes/common.py rng_key_function: a tile's pixels draw the same random numbers);
 # coherent_roulette shares only the roulette's number.
+def fixed_tiles(text: str) -> str:
+    """Coherent sampling's tiles in the image's grid in every frame (its first version: the
+    noise's blocks then stay in place) instead of a grid offset from frame to frame."""
+    return _sub(text, "    if (!coherent_sampling) return ivec2(0);", "    return ivec2(0);")
+
+
 def coherent_roulette(text: str) -> str:
     """Only the Russian roulette's number shared by the tile (keyed on tile, frame, sample
     and depth): a warp's paths end together; directions and light samples stay per pixel."""
@@ -649,6 +656,7 @@ VARIANTS = {
     "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
     "drop_at_end": (drop_at_end, {}, False),
     "coherent_tiles": (None, {"coherent_sampling": True}, False),
+    "coherent_fixed": (fixed_tiles, {"coherent_sampling": True}, False),
     "coherent_rr": (coherent_roulette, {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
@@ -885,7 +893,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     cpu = is_software(ctx)
     base_source = r.trace.source.text
     uniforms = trace_uniforms(r)
-    programs, info = {}, {}
+    programs, info, sources = {}, {}, {}
     for name in names:
         if name == "camera":
             src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
@@ -910,9 +918,11 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             dump_dir.mkdir(parents=True, exist_ok=True)
             (dump_dir / f"{Path(path).parent.name}_{name}.bin").write_bytes(blob)
         programs[name] = (prog, dict(uniforms, **over), local)
+        sources[name] = src
         info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
                       "binary": binary_summary(blob)}
     names = [name for name in names if name in programs]   # less the skipped ones
+    offset_tiles = {name for name, (prog, unif, local) in programs.items() if "lift_tile_offset() {\n" in sources[name]}
     w, h = size
     frame = r.trace.frame
     splats = r.trace.splats
@@ -947,7 +957,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             orders[name.removeprefix("occ_")].bind_to_storage_buffer(TILE_ORDER_BINDING)
         if r.trace.carry is not None and "u_park" in prog:   # carrying compiled in: its buffer, nothing parks
             r.trace.carry.before_dispatch(prog, park=False)
-        prog.run((w + lx - 1) // lx, (h + ly - 1) // ly, 1)
+        # a program that offsets its tiles (coherent sampling: lift_tile_offset) needs a tile
+        # more each way (passes/common.py tile_dispatch_size)
+        more = 1 if name in offset_tiles else 0
+        prog.run((w + lx - 1) // lx + more, (h + ly - 1) // ly + more, 1)
 
     def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
         if splats is not None:

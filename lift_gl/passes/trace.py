@@ -58,7 +58,7 @@ from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
 from ..errors import ShaderError
 from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
-from .common import LOCAL_SIZE, groups, rng_key_function, set_uniforms
+from .common import LOCAL_SIZE, groups, rng_key_function, set_uniforms, tile_dispatch_size
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 
@@ -204,7 +204,8 @@ void lift_store_late(ivec2 pixel, vec3 sum, float valid) {{
 
 void lift_trace_pixel_queue() {{
     const uint tile_w = {local_x}u, tile_h = {local_y}u, group = tile_w * tile_h;
-    uvec2 tiles = (uvec2(u_resolution) + uvec2(tile_w - 1u, tile_h - 1u)) / uvec2(tile_w, tile_h);
+    // tiles from lift_tile_offset() up and left of the image's corner (0 but with coherent sampling)
+    uvec2 tiles = (uvec2(u_resolution + lift_tile_offset()) + uvec2(tile_w - 1u, tile_h - 1u)) / uvec2(tile_w, tile_h);
     uint items = tiles.x * tiles.y * group;
 #ifdef HAS_MOTION
     g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
@@ -249,8 +250,9 @@ void lift_trace_pixel_queue() {{
             uint item = atomicAdd(lift_queue_next, 1u);
             if (item >= items) break;
             uint tile = item / group, lane = item % group;
-            pixel = ivec2(uvec2(tile % tiles.x, tile / tiles.x) * uvec2(tile_w, tile_h) + uvec2(lane % tile_w, lane / tile_w));
-            if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) continue;
+            pixel = ivec2(uvec2(tile % tiles.x, tile / tiles.x) * uvec2(tile_w, tile_h) + uvec2(lane % tile_w, lane / tile_w))
+                    - lift_tile_offset();
+            if (any(greaterThanEqual(pixel, ivec2(u_resolution))) || any(lessThan(pixel, ivec2(0)))) continue;
             s = 0u;
             sum = vec3(0.0);
             valid = 0.0;
@@ -315,8 +317,8 @@ void main() {{
     lift_report_invocation();
     return;
 #endif
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy) - lift_tile_offset();  // the work group is a tile
+    if (any(greaterThanEqual(pixel, ivec2(u_resolution))) || any(lessThan(pixel, ivec2(0)))) return;
     vec3 sum = vec3(0.0);
     float valid = 0.0;
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS)
@@ -680,7 +682,7 @@ class TracePass:
         if carries:
             self.carry.before_dispatch(megakernel, park)
             self._resumed = self.carry.resumed
-        megakernel.run(*groups(*self.size, self.local_size))
+        megakernel.run(*groups(*tile_dispatch_size(self.plugin, self.size, self.local_size), self.local_size))
         # The frame's image stores must be done before the accumulation loads them, and the next
         # frame's dispatch must not overwrite it under the accumulation: on an H100 the plain
         # megakernel without this barrier left a few thousand pixels of a 1080p frame after the

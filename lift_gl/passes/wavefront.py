@@ -40,7 +40,7 @@ import moderngl
 from .. import shaders
 from ..errors import LiftError
 from ..env_settings import env_choice
-from .common import groups, rng_key_function
+from .common import groups, rng_key_function, tile_dispatch_size
 
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
@@ -137,9 +137,12 @@ void main() {{
 #endif
     if (WAVE_MODE == 0u) {{
         // the megakernel's pixel tiles, so that neighbouring pixels share a subgroup
-        uvec2 pixel = gl_WorkGroupID.xy * uvec2({tile_x}u, {tile_y}u)
-                      + uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u);
-        running = all(lessThan(pixel, size));
+        // (a grid offset by lift_tile_offset(), 0 but with coherent sampling)
+        ivec2 place = ivec2(gl_WorkGroupID.xy * uvec2({tile_x}u, {tile_y}u)
+                            + uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u))
+                      - lift_tile_offset();
+        uvec2 pixel = uvec2(max(place, ivec2(0)));
+        running = all(greaterThanEqual(place, ivec2(0))) && all(lessThan(pixel, size));
         index = pixel.y * size.x + pixel.x;
         if (running) {{
             Ray primary_ray = camera_ray(vec2(pixel) + u_jitter);
@@ -263,6 +266,7 @@ class WavefrontTrace:
         for each mode (start, step, tail) instead of one with the mode a uniform."""
         self.ctx = ctx
         self.size = size
+        self.plugin = plugin
         self.tile = local_size
         self.group = local_size[0] * local_size[1]
         self.steps = DEFAULT_STEPS if steps is None else int(steps)
@@ -327,7 +331,8 @@ class WavefrontTrace:
                 prog["u_wave_sample"].value = s
             if generic:
                 start["u_wave_mode"].value = MODE_START
-            dispatch("start", s, 0, lambda: start.run(*groups(w, h, self.tile)))
+            dispatch("start", s, 0, lambda: start.run(*groups(*tile_dispatch_size(self.plugin, self.size, self.tile),
+                                                              self.tile)))
             for k in range(self.steps + 1):
                 ctx.memory_barrier(WAVE_BARRIERS)
                 if k < 2:
