@@ -462,12 +462,13 @@ def drop_at_end(text: str) -> str:
 
 
 # Coherent sampling (thirteenth session): `coherent_tiles` is pt's parameter `coherent_sampling` on
-# (lift_gl/passes/common.py rng_key_function: a tile's pixels draw the same random numbers);
+# (lift_gl/passes/common.py coherent_sampling_source: a tile's pixels draw the same random numbers);
 # coherent_roulette shares only the roulette's number.
 def fixed_tiles(text: str) -> str:
     """Coherent sampling's tiles in the image's grid in every frame (its first version: the
     noise's blocks then stay in place) instead of a grid offset from frame to frame."""
-    return _sub(text, "    if (!coherent_sampling) return ivec2(0);", "    return ivec2(0);")
+    return _sub(text, "ivec2 lift_tile_offset() {  // this frame's offset of the grid of tiles",
+                "ivec2 lift_tile_offset() {\n    return ivec2(0);")
 
 
 def coherent_roulette(text: str) -> str:
@@ -655,8 +656,8 @@ VARIANTS = {
     "pending_shared": (pending_shared, {}, True),
     "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
     "drop_at_end": (drop_at_end, {}, False),
-    "coherent_tiles": (None, {"coherent_sampling": True}, False),
-    "coherent_fixed": (fixed_tiles, {"coherent_sampling": True}, False),
+    "coherent_tiles": (define("LIFT_COHERENT_SAMPLING"), {}, False),
+    "coherent_fixed": (compose(define("LIFT_COHERENT_SAMPLING"), fixed_tiles), {}, False),
     "coherent_rr": (coherent_roulette, {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
@@ -922,7 +923,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
                       "binary": binary_summary(blob)}
     names = [name for name in names if name in programs]   # less the skipped ones
-    offset_tiles = {name for name, (prog, unif, local) in programs.items() if "lift_tile_offset() {\n" in sources[name]}
+    offset_tiles = {name for name in programs if "#define LIFT_COHERENT_SAMPLING" in sources[name]}
     w, h = size
     frame = r.trace.frame
     splats = r.trace.splats

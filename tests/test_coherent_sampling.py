@@ -1,4 +1,4 @@
-"""Coherent sampling (pt's `coherent_sampling`; lift_gl/passes/common.py rng_key_function): the
+"""Coherent sampling (pt's `coherent_sampling`; lift_gl/passes/common.py coherent_sampling_source): the
 pixels of a work group's tile draw the same random numbers, so that a GPU warp's rays stay
 together. Each pixel's estimate keeps its distribution: the same expectation (checked against
 the independent sampler per block and over the whole image, and against the furnace's
@@ -15,7 +15,8 @@ import pytest
 from scipy import stats
 
 from conftest import REPO
-from lift_gl.passes.common import COHERENT_PARAM, rng_key_function, tile_dispatch_size
+from lift_gl.passes.common import tile_dispatch_size
+from lift_gl.plugins import COHERENT_DEFINE, COHERENT_PARAM, param_defines
 from lift_gl.passes.trace import PIXEL_QUEUE_ENV_VAR
 from lift_gl.passes.wavefront import WAVEFRONT_ENV_VAR
 from lift_gl.renderer import Renderer
@@ -137,10 +138,33 @@ def test_pixel_queue_and_wavefront_keep_the_coherent_image(monkeypatch, scene_na
 
 def test_only_a_bool_parameter_of_that_name_turns_it_on():
     def plugin(params):
-        return SimpleNamespace(params={name: SimpleNamespace(type=t) for name, t in params.items()})
+        return SimpleNamespace(params={name: SimpleNamespace(type=t, default=False, define="")
+                                       for name, t in params.items()})
 
-    assert "/ uvec2(8u, 4u) : pixel" in rng_key_function(plugin({COHERENT_PARAM: "bool"}), (8, 4))
-    assert tile_dispatch_size(plugin({COHERENT_PARAM: "bool"}), (64, 48), (8, 4)) == (71, 51)
-    for params in ({}, {COHERENT_PARAM: "int"}, {"coherent_other": "bool"}):
-        assert "uvec2 lift_rng_key(uvec2 pixel) { return pixel; }" in rng_key_function(plugin(params), (8, 4))
-        assert tile_dispatch_size(plugin(params), (64, 48), (8, 4)) == (64, 48)
+    assert param_defines(plugin({COHERENT_PARAM: "bool"}), {COHERENT_PARAM: True}) == {COHERENT_DEFINE: 1}
+    assert param_defines(plugin({COHERENT_PARAM: "bool"}), {}) == {}   # off by default
+    for params in ({COHERENT_PARAM: "int"}, {"coherent_other": "bool"}):
+        assert param_defines(plugin(params), {name: True for name in params}) == {}
+    assert tile_dispatch_size({COHERENT_DEFINE: 1}, (64, 48), (8, 4)) == (71, 51)
+    assert tile_dispatch_size({}, (64, 48), (8, 4)) == (64, 48)
+
+
+def test_switching_it_recompiles_and_off_is_the_program_without_it():
+    scene = cornell_scene()
+    r = Renderer(scene, size=(32, 32), integrator="pt", seed=4)
+    try:
+        off_source = r.trace.source.text
+        off = r.render(spp=2)
+        r.set_params(**ON)   # a compile-time switch: a new trace program
+        assert COHERENT_DEFINE in r.trace.defines and r.trace.source.text != off_source
+        on = r.render(spp=2)
+        r.set_params(**{COHERENT_PARAM: False})
+        assert COHERENT_DEFINE not in r.trace.defines and r.trace.source.text == off_source
+        np.testing.assert_array_equal(r.render(spp=2), off)
+    finally:
+        r.release()
+    fresh = Renderer(scene, size=(32, 32), integrator="pt", seed=4, params=ON)
+    try:
+        np.testing.assert_array_equal(fresh.render(spp=2), on)
+    finally:
+        fresh.release()

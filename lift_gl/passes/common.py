@@ -5,6 +5,7 @@ import time
 
 import numpy as np
 
+from ..plugins import COHERENT_DEFINE
 from ..scene.pack import PackedScene, still_motion
 from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chunks, plan_buffers
 
@@ -284,49 +285,38 @@ class GpuTimer:
         return self.last_ns / 1e6
 
 
-# A plugin parameter of this name and type turns coherent sampling on and off (pt has it).
-COHERENT_PARAM = "coherent_sampling"  # (`coherent` alone is a GLSL keyword)
-
-
-def has_coherent_sampling(plugin) -> bool:
-    """Whether the plugin declares the bool parameter that turns coherent sampling on."""
-    param = plugin.params.get(COHERENT_PARAM)
-    return param is not None and param.type == "bool"
-
-
-def rng_key_function(plugin, tile: tuple[int, int]) -> str:
+def coherent_sampling_source(tile: tuple[int, int]) -> str:
     """GLSL `uvec2 lift_rng_key(uvec2 pixel)`, what a pixel's random numbers are keyed on, and
     `ivec2 lift_tile_offset()`, where this frame's tiles of pixels start.
 
-    The pixel itself, and tiles in the image's grid; or, where the plugin declares a bool
-    parameter `coherent_sampling` and it is on, the pixel's tile of the work group's shape:
-    coherent sampling (Sadeghi, Chen and Jensen 2009). The pixels of a tile, which run in one
-    warp on a GPU (and the pixel queue hands out a tile at a time), then draw the same
-    numbers: their light samples, bounce directions and Russian roulette agree, so the warp's
-    rays travel together through the BVH. Each pixel's own numbers are as random as before (the
-    estimate is unbiased and its variance per pixel the same); what changes is that the noise
-    of a tile's pixels is correlated. So that the accumulated noise has no fixed grid, the
-    tiles move: each frame's grid is offset by a hash of the frame and the seed, and the
-    dispatch maps its work groups (and the queue its items) onto that grid, so a warp still
-    holds one tile (docs/gpu.md "Thirteenth session")."""
-    if not has_coherent_sampling(plugin):
-        return ("ivec2 lift_tile_offset() { return ivec2(0); }\n"
-                "uvec2 lift_rng_key(uvec2 pixel) { return pixel; }")
+    The pixel itself, and tiles in the image's grid; or, compiled with COHERENT_DEFINE (a
+    plugin's bool parameter `coherent_sampling` on: lift_gl/plugins.py param_defines), the
+    pixel's tile of the work group's shape: coherent sampling (Sadeghi, Chen and Jensen 2009).
+    The pixels of a tile, which run in one warp on a GPU (and the pixel queue hands out a tile
+    at a time), then draw the same numbers: their light samples, bounce directions and Russian
+    roulette agree, so the warp's rays travel together through the BVH. Each pixel's own
+    numbers are as random as before (the estimate is unbiased and its variance per pixel the
+    same); what changes is that the noise of a tile's pixels is correlated. So that the
+    accumulated noise keeps no fixed grid, the tiles move: each frame's grid is offset by a hash
+    of the frame and the seed, and the dispatch maps its work groups (and the queue its items)
+    onto that grid, so a warp still holds one tile (docs/gpu.md "Thirteenth session"). Off,
+    the program is the one without any of this (a compile-time switch: no cost)."""
     w, h = tile
-    return f"""// Coherent sampling: this frame's offset of the grid of tiles (0 when off).
-ivec2 lift_tile_offset() {{
-    if (!{COHERENT_PARAM}) return ivec2(0);
+    return f"""#ifdef {COHERENT_DEFINE}
+ivec2 lift_tile_offset() {{  // this frame's offset of the grid of tiles
     uint bits = pcg_hash(u_frame ^ pcg_hash(u_seed + 0x2545f491u));
     return ivec2(int(bits % {w}u), int((bits / {w}u) % {h}u));
 }}
-uvec2 lift_rng_key(uvec2 pixel) {{  // the pixel's tile, or the pixel
-    return {COHERENT_PARAM} ? (pixel + uvec2(lift_tile_offset())) / uvec2({w}u, {h}u) : pixel;
-}}"""
+uvec2 lift_rng_key(uvec2 pixel) {{ return (pixel + uvec2(lift_tile_offset())) / uvec2({w}u, {h}u); }}  // its tile
+#else
+ivec2 lift_tile_offset() {{ return ivec2(0); }}
+uvec2 lift_rng_key(uvec2 pixel) {{ return pixel; }}
+#endif"""
 
 
-def tile_dispatch_size(plugin, size, tile) -> tuple[int, int]:
-    """The invocations a trace dispatch covers: the image, and for a plugin with coherent
-    sampling one tile more each way, for the grid's offset (lift_tile_offset)."""
-    if not has_coherent_sampling(plugin):
+def tile_dispatch_size(defines: dict, size, tile) -> tuple[int, int]:
+    """The invocations a trace dispatch covers: the image, and with coherent sampling one tile
+    more each way, for the grid's offset (lift_tile_offset)."""
+    if COHERENT_DEFINE not in defines:
         return tuple(size)
     return size[0] + tile[0] - 1, size[1] + tile[1] - 1

@@ -58,7 +58,7 @@ from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
 from ..errors import ShaderError
 from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
-from .common import LOCAL_SIZE, groups, rng_key_function, set_uniforms, tile_dispatch_size
+from .common import LOCAL_SIZE, coherent_sampling_source, groups, set_uniforms, tile_dispatch_size
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 
@@ -416,7 +416,7 @@ def param_declarations(plugin: Plugin) -> str:
 
 def generate_main(plugin: Plugin, local_size: tuple[int, int] = (LOCAL_SIZE, LOCAL_SIZE)) -> str:
     return MAIN_TEMPLATE.format(local_x=local_size[0], local_y=local_size[1], params=param_declarations(plugin),
-                                rng_key=rng_key_function(plugin, local_size),
+                                rng_key=coherent_sampling_source(local_size),
                                 entry=plugin.entry_path.as_posix())
 
 
@@ -682,7 +682,7 @@ class TracePass:
         if carries:
             self.carry.before_dispatch(megakernel, park)
             self._resumed = self.carry.resumed
-        megakernel.run(*groups(*tile_dispatch_size(self.plugin, self.size, self.local_size), self.local_size))
+        megakernel.run(*groups(*tile_dispatch_size(self.defines, self.size, self.local_size), self.local_size))
         # The frame's image stores must be done before the accumulation loads them, and the next
         # frame's dispatch must not overwrite it under the accumulation: on an H100 the plain
         # megakernel without this barrier left a few thousand pixels of a 1080p frame after the

@@ -40,7 +40,7 @@ import moderngl
 from .. import shaders
 from ..errors import LiftError
 from ..env_settings import env_choice
-from .common import groups, rng_key_function, tile_dispatch_size
+from .common import coherent_sampling_source, groups, tile_dispatch_size
 
 WAVEFRONT_ENV_VAR = "LIFT_GL_WAVEFRONT"
 SLOTS_BINDING, QUEUES_BINDING, CONTROL_BINDING = 11, 12, 14
@@ -266,7 +266,7 @@ class WavefrontTrace:
         for each mode (start, step, tail) instead of one with the mode a uniform."""
         self.ctx = ctx
         self.size = size
-        self.plugin = plugin
+        self.dispatch_size = tile_dispatch_size(defines, size, local_size)   # (coherent sampling's offset tiles)
         self.tile = local_size
         self.group = local_size[0] * local_size[1]
         self.steps = DEFAULT_STEPS if steps is None else int(steps)
@@ -279,7 +279,7 @@ class WavefrontTrace:
         if self.ballot:
             defines["LIFT_WAVE_BALLOT"] = True
         text = WAVE_TEMPLATE.format(group=self.group, tile_x=local_size[0], tile_y=local_size[1], params=params,
-                                    rng_key=rng_key_function(plugin, local_size), prefix=self.prefix,
+                                    rng_key=coherent_sampling_source(local_size), prefix=self.prefix,
                                     entry=plugin.entry_path.as_posix(), slots=SLOTS_BINDING,
                                     queues=QUEUES_BINDING, control=CONTROL_BINDING)
         self.source = shaders.assemble(text, defines, include_dirs=[plugin.folder],
@@ -331,8 +331,7 @@ class WavefrontTrace:
                 prog["u_wave_sample"].value = s
             if generic:
                 start["u_wave_mode"].value = MODE_START
-            dispatch("start", s, 0, lambda: start.run(*groups(*tile_dispatch_size(self.plugin, self.size, self.tile),
-                                                              self.tile)))
+            dispatch("start", s, 0, lambda: start.run(*groups(*self.dispatch_size, self.tile)))
             for k in range(self.steps + 1):
                 ctx.memory_barrier(WAVE_BARRIERS)
                 if k < 2:
