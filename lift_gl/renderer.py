@@ -45,7 +45,7 @@ from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
 from .passes.upsample import UpsamplePass
-from .plugins import Plugin, find_plugin, load_manifest, param_defines
+from .plugins import COHERENT_DEFINE, Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
 from .scene.instances import flatten_instances, only_instances_moved
 from .scene.model import PixelFilter, Scene
@@ -518,6 +518,12 @@ class Renderer:
                  f"parameters: {', '.join(f'{k}={v}' for k, v in self.params.items())}"]
         if self.plugin.biased:
             lines.append(f"BIASED: {self.plugin.biased}")
+        if COHERENT_DEFINE in getattr(self.trace, "defines", {}):
+            w, h = self.trace.local_size
+            lines.append(f"coherent sampling: the pixels of each {w}x{h} tile share their random numbers (the "
+                         "tiles move every frame): unbiased per pixel, the noise correlated in blocks"
+                         + ("; the denoiser keeps such blocks (docs/gpu.md, Thirteenth session)"
+                            if self.denoise_pass is not None else ""))
         if self.clamp_sigma > 0 and self.reproject is not None:
             lines.append(f"BIASED: temporal neighbourhood clamp (+-{self.clamp_sigma:g} sigma) on moving frames")
         if self.denoise_pass is not None:

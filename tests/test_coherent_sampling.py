@@ -155,8 +155,10 @@ def test_switching_it_recompiles_and_off_is_the_program_without_it():
     try:
         off_source = r.trace.source.text
         off = r.render(spp=2)
+        assert "coherent sampling" not in r.explain()
         r.set_params(**ON)   # a compile-time switch: a new trace program
         assert COHERENT_DEFINE in r.trace.defines and r.trace.source.text != off_source
+        assert "coherent sampling: the pixels of each" in r.explain()
         on = r.render(spp=2)
         r.set_params(**{COHERENT_PARAM: False})
         assert COHERENT_DEFINE not in r.trace.defines and r.trace.source.text == off_source
