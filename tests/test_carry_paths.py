@@ -22,10 +22,10 @@ REPO = Path(__file__).resolve().parent.parent
 SIZE = (40, 24)
 
 
-def _renderer(monkeypatch, carry: str, scene="cornell.toml") -> Renderer:
+def _renderer(monkeypatch, carry: str, scene="cornell.toml", params=None) -> Renderer:
     monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
     monkeypatch.setenv("LIFT_GL_CARRY_PATHS", carry)
-    return Renderer(load_scene(REPO / "scenes" / scene), size=SIZE, integrator="pt")
+    return Renderer(load_scene(REPO / "scenes" / scene), size=SIZE, integrator="pt", params=params)
 
 
 def _parked(r: Renderer) -> int:
@@ -34,11 +34,14 @@ def _parked(r: Renderer) -> int:
     return int(counts[r.trace.carry.side])
 
 
-@pytest.mark.parametrize("scene", ["cornell.toml", "showcase.toml"])
-def test_carried_paths_give_the_same_samples(monkeypatch, scene):
+@pytest.mark.parametrize("scene, params", [
+    ("cornell.toml", None), ("showcase.toml", None),
+    ("cornell.toml", {"coherent_sampling": True}),   # a parked path keeps its tile's numbers as the grid moves
+])
+def test_carried_paths_give_the_same_samples(monkeypatch, scene, params):
     images, totals = {}, {}
     for carry in ("off", "always"):
-        r = _renderer(monkeypatch, carry, scene)
+        r = _renderer(monkeypatch, carry, scene, params)
         try:
             assert (r.trace.carry is not None) == (carry == "always")
             if carry == "always":
