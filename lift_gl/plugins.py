@@ -147,20 +147,26 @@ class Plugin:
 
 
 # A bool parameter of this name is the host's too: on, it compiles the trace pass with
-# COHERENT_DEFINE, coherent sampling (lift_gl/passes/common.py coherent_sampling_source).
+# COHERENT_DEFINE, coherent sampling (lift_gl/passes/common.py coherent_sampling_source), and
+# an int parameter INTERLEAVE_PARAM, where the plugin has one, with INTERLEAVE_DEFINE.
 # (`coherent` alone is a GLSL keyword.)
 COHERENT_PARAM = "coherent_sampling"
 COHERENT_DEFINE = "LIFT_COHERENT_SAMPLING"
+INTERLEAVE_PARAM = "coherent_interleave"
+INTERLEAVE_DEFINE = "LIFT_COHERENT_INTERLEAVE"
 
 
 def param_defines(plugin: Plugin, values: dict) -> dict:
     """The compile-time constants of the plugin's parameters that have a `define`, for these
     values: the shader is specialised to them (and recompiled when one changes); and the
-    host's COHERENT_DEFINE where the plugin's `coherent_sampling` is on."""
+    host's COHERENT_DEFINE (and INTERLEAVE_DEFINE) where the plugin's `coherent_sampling` is on."""
     defines = {p.define: int(values.get(name, p.default)) for name, p in plugin.params.items() if p.define}
     coherent = plugin.params.get(COHERENT_PARAM)
     if coherent is not None and coherent.type == "bool" and values.get(COHERENT_PARAM, coherent.default):
         defines[COHERENT_DEFINE] = 1
+        interleave = plugin.params.get(INTERLEAVE_PARAM)
+        if interleave is not None and interleave.type == "int":
+            defines[INTERLEAVE_DEFINE] = max(1, int(values.get(INTERLEAVE_PARAM, interleave.default)))
     return defines
 
 

@@ -16,7 +16,7 @@ from scipy import stats
 
 from conftest import REPO
 from lift_gl.passes.common import tile_dispatch_size
-from lift_gl.plugins import COHERENT_DEFINE, COHERENT_PARAM, param_defines
+from lift_gl.plugins import COHERENT_DEFINE, COHERENT_PARAM, INTERLEAVE_DEFINE, INTERLEAVE_PARAM, param_defines
 from lift_gl.passes.trace import PIXEL_QUEUE_ENV_VAR
 from lift_gl.passes.wavefront import WAVEFRONT_ENV_VAR
 from lift_gl.renderer import Renderer
@@ -52,11 +52,16 @@ def test_coherent_furnace_converges_to_the_albedo():
     assert_mean_is(images.mean(axis=(1, 2, 3)), ALBEDO)
 
 
-def _residuals(coherent: bool, seeds, size=(64, 64), spp=1) -> np.ndarray:
+def _residuals(coherent: bool, seeds, size=(64, 64), spp=1, interleave=1) -> np.ndarray:
     """(K, H, W) the furnace's luminance error (its exact value is known) after spp frames."""
     images = render_seeds(furnace_scene(ALBEDO, size=size), "pt", seeds, spp=spp, size=size,
-                          params={COHERENT_PARAM: coherent})
+                          params={COHERENT_PARAM: coherent, INTERLEAVE_PARAM: interleave})
     return images.mean(axis=-1) - ALBEDO
+
+
+def _lag_correlation(residual: np.ndarray, lag: int) -> float:
+    """Correlation of the errors of pixels `lag` apart in a row, pooled over rows and the stack."""
+    return float((residual[..., :-lag] * residual[..., lag:]).mean() / (residual ** 2).mean())
 
 
 def _column_correlations(residual: np.ndarray, tile_w: int) -> np.ndarray:
@@ -92,6 +97,20 @@ def test_noise_is_correlated_inside_a_frames_tiles_which_move():
     assert corr.min() > 0.3, corr
 
 
+def test_interleaved_tiles_keep_neighbours_independent():
+    # interleave 2: a tile is every other pixel of a block twice its size, so a pixel's
+    # neighbour belongs to another tile (independent numbers) and the pixel two apart to its
+    # own (in 14 of 16 columns of a 16-wide block)
+    residual = _residuals(True, range(8), interleave=2)
+    assert abs(_lag_correlation(residual, 1)) < 0.15, _lag_correlation(residual, 1)
+    assert _lag_correlation(residual, 2) > 0.7, _lag_correlation(residual, 2)
+    # and the expectation is unchanged (the Cornell box, against independent sampling)
+    coherent = render_seeds(cornell_scene(), "pt", range(200, 216), spp=4,
+                            params=dict(ON, **{INTERLEAVE_PARAM: 2}))
+    independent = render_seeds(cornell_scene(), "pt", range(300, 316), spp=4)
+    assert_same_expectation(coherent, independent, block=8)
+
+
 def test_each_pixels_variance_is_unchanged():
     # the variance of a pixel's 1-spp estimate over independent renders, averaged per tile,
     # paired tile by tile (tiles are independent of each other either way); a t test on the
@@ -114,11 +133,11 @@ def test_each_pixels_variance_is_unchanged():
     assert 0.8 < coherent.mean() / independent.mean() < 1.25
 
 
-def _render(monkeypatch, scene_name, queue="off", wavefront="off", spp=4, spf=1):
+def _render(monkeypatch, scene_name, queue="off", wavefront="off", spp=4, spf=1, interleave=1):
     monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, queue)
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, wavefront)
-    r = Renderer(load_scene(REPO / "scenes" / scene_name), size=(37, 29), integrator="pt", seed=3, params=ON,
-                 samples_per_frame=spf)
+    r = Renderer(load_scene(REPO / "scenes" / scene_name), size=(37, 29), integrator="pt", seed=3,
+                 params=dict(ON, **{INTERLEAVE_PARAM: interleave}), samples_per_frame=spf)
     try:
         image = r.render(spp=spp)
         return image, r.trace.pixel_queue is not None, r.trace.wavefront is not None
@@ -126,12 +145,15 @@ def _render(monkeypatch, scene_name, queue="off", wavefront="off", spp=4, spf=1)
         r.release()
 
 
-@pytest.mark.parametrize("scene_name, spf", [("cornell.toml", 1), ("showcase.toml", 1), ("cornell.toml", 2)])
-def test_pixel_queue_and_wavefront_keep_the_coherent_image(monkeypatch, scene_name, spf):
-    # 37x29: the moving tiles overhang the image on every side
-    plain, had_queue, had_wave = _render(monkeypatch, scene_name, spf=spf)
-    queued, has_queue, _ = _render(monkeypatch, scene_name, queue="on", spf=spf)
-    wave, _, has_wave = _render(monkeypatch, scene_name, wavefront="on", spf=spf)
+@pytest.mark.parametrize("scene_name, spf, interleave", [
+    ("cornell.toml", 1, 1), ("showcase.toml", 1, 1), ("cornell.toml", 2, 1), ("cornell.toml", 1, 2),
+    ("showcase.toml", 2, 3)])
+def test_pixel_queue_and_wavefront_keep_the_coherent_image(monkeypatch, scene_name, spf, interleave):
+    # 37x29: the moving tiles (and blocks of interleaved tiles) overhang the image on every side
+    kw = {"spf": spf, "interleave": interleave}
+    plain, had_queue, had_wave = _render(monkeypatch, scene_name, **kw)
+    queued, has_queue, _ = _render(monkeypatch, scene_name, queue="on", **kw)
+    wave, _, has_wave = _render(monkeypatch, scene_name, wavefront="on", **kw)
     assert (had_queue, had_wave, has_queue, has_wave) == (False, False, True, True)
     assert np.isfinite(plain).all() and plain.max() > 0
     np.testing.assert_array_equal(queued, plain)
@@ -145,9 +167,15 @@ def test_only_a_bool_parameter_of_that_name_turns_it_on():
 
     assert param_defines(plugin({COHERENT_PARAM: "bool"}), {COHERENT_PARAM: True}) == {COHERENT_DEFINE: 1}
     assert param_defines(plugin({COHERENT_PARAM: "bool"}), {}) == {}   # off by default
+    both = plugin({COHERENT_PARAM: "bool", INTERLEAVE_PARAM: "int"})
+    assert param_defines(both, {COHERENT_PARAM: True, INTERLEAVE_PARAM: 4}) == {COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: 4}
+    assert param_defines(both, {INTERLEAVE_PARAM: 4}) == {}   # only with coherent sampling on
     for params in ({COHERENT_PARAM: "int"}, {"coherent_other": "bool"}):
         assert param_defines(plugin(params), {name: True for name in params}) == {}
-    assert tile_dispatch_size({COHERENT_DEFINE: 1}, (64, 48), (8, 4)) == (71, 51)
+    # whole blocks over the image moved by up to a block less a pixel: 9 x 13 tiles of 8x4,
+    # interleaved by 2 five by seven blocks of 2 x 2 tiles
+    assert tile_dispatch_size({COHERENT_DEFINE: 1}, (64, 48), (8, 4)) == (72, 52)
+    assert tile_dispatch_size({COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: 2}, (64, 48), (8, 4)) == (80, 56)
     assert tile_dispatch_size({}, (64, 48), (8, 4)) == (64, 48)
 
 

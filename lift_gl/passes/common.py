@@ -5,7 +5,7 @@ import time
 
 import numpy as np
 
-from ..plugins import COHERENT_DEFINE
+from ..plugins import COHERENT_DEFINE, INTERLEAVE_DEFINE
 from ..scene.pack import PackedScene, still_motion
 from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chunks, plan_buffers
 
@@ -286,37 +286,59 @@ class GpuTimer:
 
 
 def coherent_sampling_source(tile: tuple[int, int]) -> str:
-    """GLSL `uvec2 lift_rng_key(uvec2 pixel)`, what a pixel's random numbers are keyed on, and
-    `ivec2 lift_tile_offset()`, where this frame's tiles of pixels start.
+    """GLSL for the host's pixel loop: `lift_tile_pixel(group, lane)`, the pixel a work group's
+    (or the pixel queue's tile's) lane takes; `lift_tile_groups(resolution)`, how many such
+    tiles cover the image; `lift_rng_key(pixel)`, what a pixel's random numbers are keyed on.
 
-    The pixel itself, and tiles in the image's grid; or, compiled with COHERENT_DEFINE (a
-    plugin's bool parameter `coherent_sampling` on: lift_gl/plugins.py param_defines), the
-    pixel's tile of the work group's shape: coherent sampling (Sadeghi, Chen and Jensen 2009).
-    The pixels of a tile, which run in one warp on a GPU (and the pixel queue hands out a tile
-    at a time), then draw the same numbers: their light samples, bounce directions and Russian
-    roulette agree, so the warp's rays travel together through the BVH. Each pixel's own
+    Without COHERENT_DEFINE: tiles of the work group's shape in the image's grid, and the
+    pixel itself as the key. With it (a plugin's bool parameter `coherent_sampling` on:
+    lift_gl/plugins.py param_defines), coherent sampling (Sadeghi, Chen and Jensen 2009): the
+    pixels of a tile, which run in one warp on a GPU (and the pixel queue hands out a tile at a
+    time), draw the same numbers, so their light samples, bounce directions and Russian
+    roulette agree and the warp's rays travel together through the BVH. Each pixel's own
     numbers are as random as before (the estimate is unbiased and its variance per pixel the
-    same); what changes is that the noise of a tile's pixels is correlated. So that the
-    accumulated noise keeps no fixed grid, the tiles move: each frame's grid is offset by a hash
-    of the frame and the seed, and the dispatch maps its work groups (and the queue its items)
-    onto that grid, so a warp still holds one tile (docs/gpu.md "Thirteenth session"). Off,
-    the program is the one without any of this (a compile-time switch: no cost)."""
+    same); what changes is that the noise of a tile's pixels is correlated. Two things spread
+    that correlation out:
+    - the grid moves: each frame's is offset by a hash of the frame and the seed, so the
+      accumulated noise keeps no fixed grid;
+    - with LIFT_COHERENT_INTERLEAVE k > 1 (the paper's interleaved sampling), a tile's pixels
+      are every k-th pixel of a block k times its size, and the block's k x k tiles draw
+      different numbers: neighbouring pixels are independent, and a pixel's noise is
+      correlated with pixels k apart (docs/gpu.md "Thirteenth session").
+    Off, the program is the one without any of this (a compile-time switch: no cost)."""
     w, h = tile
     return f"""#ifdef {COHERENT_DEFINE}
-ivec2 lift_tile_offset() {{  // this frame's offset of the grid of tiles
+#ifndef {INTERLEAVE_DEFINE}
+#define {INTERLEAVE_DEFINE} 1
+#endif
+const uint lift_interleave = uint({INTERLEAVE_DEFINE});
+const uvec2 lift_block = lift_interleave * uvec2({w}u, {h}u);  // k x k tiles, interleaved
+ivec2 lift_tile_offset() {{  // this frame's offset of the grid of blocks
     uint bits = pcg_hash(u_frame ^ pcg_hash(u_seed + 0x2545f491u));
-    return ivec2(int(bits % {w}u), int((bits / {w}u) % {h}u));
+    return ivec2(int(bits % lift_block.x), int((bits / lift_block.x) % lift_block.y));
 }}
-uvec2 lift_rng_key(uvec2 pixel) {{ return (pixel + uvec2(lift_tile_offset())) / uvec2({w}u, {h}u); }}  // its tile
+uvec2 lift_tile_groups(ivec2 resolution) {{  // whole blocks over the offset image
+    return (uvec2(resolution + lift_tile_offset()) + lift_block - 1u) / lift_block * lift_interleave;
+}}
+ivec2 lift_tile_pixel(uvec2 group, uvec2 lane) {{
+    uvec2 block = group / lift_interleave, phase = group % lift_interleave;
+    return ivec2(block * lift_block + phase + lift_interleave * lane) - lift_tile_offset();
+}}
+uvec2 lift_rng_key(uvec2 pixel) {{  // its tile: its block and its phase in the block
+    uvec2 p = pixel + uvec2(lift_tile_offset());
+    return p / lift_block * lift_interleave + p % lift_interleave;
+}}
 #else
-ivec2 lift_tile_offset() {{ return ivec2(0); }}
+uvec2 lift_tile_groups(ivec2 resolution) {{ return (uvec2(resolution) + uvec2({w - 1}u, {h - 1}u)) / uvec2({w}u, {h}u); }}
+ivec2 lift_tile_pixel(uvec2 group, uvec2 lane) {{ return ivec2(group * uvec2({w}u, {h}u) + lane); }}
 uvec2 lift_rng_key(uvec2 pixel) {{ return pixel; }}
 #endif"""
 
 
 def tile_dispatch_size(defines: dict, size, tile) -> tuple[int, int]:
-    """The invocations a trace dispatch covers: the image, and with coherent sampling one tile
-    more each way, for the grid's offset (lift_tile_offset)."""
+    """The invocations a trace dispatch covers: the image; with coherent sampling, whole blocks
+    (interleave x tile) over the image moved by the largest offset (lift_tile_groups)."""
     if COHERENT_DEFINE not in defines:
         return tuple(size)
-    return size[0] + tile[0] - 1, size[1] + tile[1] - 1
+    k = int(defines.get(INTERLEAVE_DEFINE, 1))
+    return tuple(-(-(n + k * t - 1) // (k * t)) * k * t for n, t in zip(size, tile))

@@ -137,10 +137,9 @@ void main() {{
 #endif
     if (WAVE_MODE == 0u) {{
         // the megakernel's pixel tiles, so that neighbouring pixels share a subgroup
-        // (a grid offset by lift_tile_offset(), 0 but with coherent sampling)
-        ivec2 place = ivec2(gl_WorkGroupID.xy * uvec2({tile_x}u, {tile_y}u)
-                            + uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u))
-                      - lift_tile_offset();
+        // (moved and interleaved with coherent sampling)
+        ivec2 place = lift_tile_pixel(gl_WorkGroupID.xy,
+                                      uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u));
         uvec2 pixel = uvec2(max(place, ivec2(0)));
         running = all(greaterThanEqual(place, ivec2(0))) && all(lessThan(pixel, size));
         index = pixel.y * size.x + pixel.x;
