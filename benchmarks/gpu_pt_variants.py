@@ -467,8 +467,8 @@ def drop_at_end(text: str) -> str:
 def fixed_tiles(text: str) -> str:
     """Coherent sampling's tiles in the image's grid in every frame (its first version: the
     noise's blocks then stay in place) instead of a grid offset from frame to frame."""
-    return _sub(text, "ivec2 lift_tile_offset() {  // this frame's offset of the grid of tiles",
-                "ivec2 lift_tile_offset() {\n    return ivec2(0);")
+    return _sub(text, "ivec2 lift_tile_offset(uvec2 tile) {  // this frame's offset of the grid of blocks (k x k tiles)",
+                "ivec2 lift_tile_offset(uvec2 tile) {\n    return ivec2(0);")
 
 
 def coherent_roulette(text: str) -> str:

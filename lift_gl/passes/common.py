@@ -286,9 +286,10 @@ class GpuTimer:
 
 
 def coherent_sampling_source(tile: tuple[int, int]) -> str:
-    """GLSL for the host's pixel loop: `lift_tile_pixel(group, lane)`, the pixel a work group's
-    (or the pixel queue's tile's) lane takes; `lift_tile_groups(resolution)`, how many such
-    tiles cover the image; `lift_rng_key(pixel)`, what a pixel's random numbers are keyed on.
+    """GLSL for the host's pixel loop: `lift_tile_pixel(group, lane, tile)`, the pixel a work
+    group's (or the pixel queue's tile's) lane takes; `lift_tile_groups(resolution, tile)`, how
+    many such tiles cover the image; `lift_rng_key(pixel)`, what a pixel's random numbers are
+    keyed on (tiles of `tile`, the work group's shape).
 
     Without COHERENT_DEFINE: tiles of the work group's shape in the image's grid, and the
     pixel itself as the key. With it (a plugin's bool parameter `coherent_sampling` on:
@@ -312,25 +313,27 @@ def coherent_sampling_source(tile: tuple[int, int]) -> str:
 #define {INTERLEAVE_DEFINE} 1
 #endif
 const uint lift_interleave = uint({INTERLEAVE_DEFINE});
-const uvec2 lift_block = lift_interleave * uvec2({w}u, {h}u);  // k x k tiles, interleaved
-ivec2 lift_tile_offset() {{  // this frame's offset of the grid of blocks
+ivec2 lift_tile_offset(uvec2 tile) {{  // this frame's offset of the grid of blocks (k x k tiles)
+    uvec2 block = lift_interleave * tile;
     uint bits = pcg_hash(u_frame ^ pcg_hash(u_seed + 0x2545f491u));
-    return ivec2(int(bits % lift_block.x), int((bits / lift_block.x) % lift_block.y));
+    return ivec2(int(bits % block.x), int((bits / block.x) % block.y));
 }}
-uvec2 lift_tile_groups(ivec2 resolution) {{  // whole blocks over the offset image
-    return (uvec2(resolution + lift_tile_offset()) + lift_block - 1u) / lift_block * lift_interleave;
+uvec2 lift_tile_groups(ivec2 resolution, uvec2 tile) {{  // whole blocks over the moved image
+    uvec2 block = lift_interleave * tile;
+    return (uvec2(resolution + lift_tile_offset(tile)) + block - 1u) / block * lift_interleave;
 }}
-ivec2 lift_tile_pixel(uvec2 group, uvec2 lane) {{
+ivec2 lift_tile_pixel(uvec2 group, uvec2 lane, uvec2 tile) {{
     uvec2 block = group / lift_interleave, phase = group % lift_interleave;
-    return ivec2(block * lift_block + phase + lift_interleave * lane) - lift_tile_offset();
+    return ivec2(block * lift_interleave * tile + phase + lift_interleave * lane) - lift_tile_offset(tile);
 }}
 uvec2 lift_rng_key(uvec2 pixel) {{  // its tile: its block and its phase in the block
-    uvec2 p = pixel + uvec2(lift_tile_offset());
-    return p / lift_block * lift_interleave + p % lift_interleave;
+    const uvec2 tile = uvec2({w}u, {h}u);
+    uvec2 p = pixel + uvec2(lift_tile_offset(tile));
+    return p / (lift_interleave * tile) * lift_interleave + p % lift_interleave;
 }}
 #else
-uvec2 lift_tile_groups(ivec2 resolution) {{ return (uvec2(resolution) + uvec2({w - 1}u, {h - 1}u)) / uvec2({w}u, {h}u); }}
-ivec2 lift_tile_pixel(uvec2 group, uvec2 lane) {{ return ivec2(group * uvec2({w}u, {h}u) + lane); }}
+uvec2 lift_tile_groups(ivec2 resolution, uvec2 tile) {{ return (uvec2(resolution) + tile - 1u) / tile; }}
+ivec2 lift_tile_pixel(uvec2 group, uvec2 lane, uvec2 tile) {{ return ivec2(group * tile + lane); }}
 uvec2 lift_rng_key(uvec2 pixel) {{ return pixel; }}
 #endif"""
 

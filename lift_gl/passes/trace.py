@@ -204,7 +204,7 @@ void lift_store_late(ivec2 pixel, vec3 sum, float valid) {{
 
 void lift_trace_pixel_queue() {{
     const uint tile_w = {local_x}u, tile_h = {local_y}u, group = tile_w * tile_h;
-    uvec2 tiles = lift_tile_groups(ivec2(u_resolution));   // (moved and interleaved with coherent sampling)
+    uvec2 tiles = lift_tile_groups(ivec2(u_resolution), uvec2(tile_w, tile_h));   // (moved, interleaved: coherent sampling)
     uint items = tiles.x * tiles.y * group;
 #ifdef HAS_MOTION
     g_ray_time = 0.0;  // the moment the G-buffer shows: shutter open
@@ -249,7 +249,8 @@ void lift_trace_pixel_queue() {{
             uint item = atomicAdd(lift_queue_next, 1u);
             if (item >= items) break;
             uint tile = item / group, lane = item % group;
-            pixel = lift_tile_pixel(uvec2(tile % tiles.x, tile / tiles.x), uvec2(lane % tile_w, lane / tile_w));
+            pixel = lift_tile_pixel(uvec2(tile % tiles.x, tile / tiles.x), uvec2(lane % tile_w, lane / tile_w),
+                                    uvec2(tile_w, tile_h));
             if (any(greaterThanEqual(pixel, ivec2(u_resolution))) || any(lessThan(pixel, ivec2(0)))) continue;
             s = 0u;
             sum = vec3(0.0);
@@ -315,7 +316,7 @@ void main() {{
     lift_report_invocation();
     return;
 #endif
-    ivec2 pixel = lift_tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationID.xy);  // the work group is a tile
+    ivec2 pixel = lift_tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationID.xy, gl_WorkGroupSize.xy);  // a group: a tile
     if (any(greaterThanEqual(pixel, ivec2(u_resolution))) || any(lessThan(pixel, ivec2(0)))) return;
     vec3 sum = vec3(0.0);
     float valid = 0.0;

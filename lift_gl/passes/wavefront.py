@@ -139,7 +139,8 @@ void main() {{
         // the megakernel's pixel tiles, so that neighbouring pixels share a subgroup
         // (moved and interleaved with coherent sampling)
         ivec2 place = lift_tile_pixel(gl_WorkGroupID.xy,
-                                      uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u));
+                                      uvec2(gl_LocalInvocationIndex % {tile_x}u, gl_LocalInvocationIndex / {tile_x}u),
+                                      uvec2({tile_x}u, {tile_y}u));
         uvec2 pixel = uvec2(max(place, ivec2(0)));
         running = all(greaterThanEqual(place, ivec2(0))) && all(lessThan(pixel, size));
         index = pixel.y * size.x + pixel.x;
