@@ -50,8 +50,9 @@ G-buffer's albedo (tile_orders).
 
 Thirteenth session (docs/gpu.md): coherent_tiles is pt's `coherent_sampling` on (a work group's
 tile of pixels drawing the same random numbers, the tiles' grid moving from frame to frame),
-coherent_fixed the same with the grid fixed, coherent_rr shares only the roulette's number
-by tile; both change the image on purpose (not exact), each pixel's expectation unchanged.
+coherent_fixed the same with the grid fixed, coherent_interleave2/4 with interleaved tiles;
+coherent_rr shares only the roulette's number by tile. All change the image on purpose (not
+exact), each pixel's expectation unchanged.
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
 text, from which local-memory arrays and register use can be read).
@@ -71,6 +72,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from lift_gl.report.gpu_clock import ClockReader, warm_up  # noqa: E402
 from lift_gl.report.records import write_json  # noqa: E402
+from lift_gl.passes.common import tile_dispatch_size  # noqa: E402
 
 
 # ---- source edits ----
@@ -658,6 +660,8 @@ VARIANTS = {
     "drop_at_end": (drop_at_end, {}, False),
     "coherent_tiles": (define("LIFT_COHERENT_SAMPLING"), {}, False),
     "coherent_fixed": (compose(define("LIFT_COHERENT_SAMPLING"), fixed_tiles), {}, False),
+    "coherent_interleave2": (compose(define("LIFT_COHERENT_SAMPLING"), define("LIFT_COHERENT_INTERLEAVE 2")), {}, False),
+    "coherent_interleave4": (compose(define("LIFT_COHERENT_SAMPLING"), define("LIFT_COHERENT_INTERLEAVE 4")), {}, False),
     "coherent_rr": (coherent_roulette, {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
@@ -923,7 +927,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
                       "binary": binary_summary(blob)}
     names = [name for name in names if name in programs]   # less the skipped ones
-    offset_tiles = {name for name in programs if "#define LIFT_COHERENT_SAMPLING" in sources[name]}
+    offset_tiles = {name: {"LIFT_COHERENT_SAMPLING": 1, "LIFT_COHERENT_INTERLEAVE": int(m.group(1)) if m else 1}
+                    for name in programs if "#define LIFT_COHERENT_SAMPLING" in sources[name]
+                    for m in [re.search(r"#define LIFT_COHERENT_INTERLEAVE (\d+)", sources[name])]}
     w, h = size
     frame = r.trace.frame
     splats = r.trace.splats
@@ -958,10 +964,13 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             orders[name.removeprefix("occ_")].bind_to_storage_buffer(TILE_ORDER_BINDING)
         if r.trace.carry is not None and "u_park" in prog:   # carrying compiled in: its buffer, nothing parks
             r.trace.carry.before_dispatch(prog, park=False)
-        # a program that offsets its tiles (coherent sampling: lift_tile_offset) needs a tile
-        # more each way (passes/common.py tile_dispatch_size)
-        more = 1 if name in offset_tiles else 0
-        prog.run((w + lx - 1) // lx + more, (h + ly - 1) // ly + more, 1)
+        # a program that moves (and interleaves) its tiles, coherent sampling, covers whole
+        # blocks over the moved image (passes/common.py tile_dispatch_size)
+        if name in offset_tiles:
+            gx, gy = (n // t for n, t in zip(tile_dispatch_size(offset_tiles[name], (w, h), (lx, ly)), (lx, ly)))
+        else:
+            gx, gy = (w + lx - 1) // lx, (h + ly - 1) // ly
+        prog.run(gx, gy, 1)
 
     def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
         if splats is not None:
