@@ -72,7 +72,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from lift_gl.report.gpu_clock import ClockReader, warm_up  # noqa: E402
 from lift_gl.report.records import write_json  # noqa: E402
-from lift_gl.passes.common import tile_dispatch_size  # noqa: E402
+from lift_gl.passes.common import groups, tile_dispatch_size  # noqa: E402
 
 
 # ---- source edits ----
@@ -471,6 +471,15 @@ def fixed_tiles(text: str) -> str:
     noise's blocks then stay in place) instead of a grid offset from frame to frame."""
     return _sub(text, "ivec2 lift_tile_offset(uvec2 tile) {  // this frame's offset of the grid of blocks (k x k tiles)",
                 "ivec2 lift_tile_offset(uvec2 tile) {\n    return ivec2(0);")
+
+
+def coherence_defines(text: str) -> dict:
+    """The coherent-sampling defines of a program's source, for tile_dispatch_size: the first
+    #define of each name (the renderer's or a variant's, before the shader's own default)."""
+    found = {}
+    for name, value in re.findall(r"#define (LIFT_COHERENT_SAMPLING|LIFT_COHERENT_INTERLEAVE)\b ?(\d*)", text):
+        found.setdefault(name, int(value or 1))
+    return found
 
 
 def coherent_roulette(text: str) -> str:
@@ -898,7 +907,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     cpu = is_software(ctx)
     base_source = r.trace.source.text
     uniforms = trace_uniforms(r)
-    programs, info, sources = {}, {}, {}
+    programs, info, coherence = {}, {}, {}
     for name in names:
         if name == "camera":
             src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
@@ -923,13 +932,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             dump_dir.mkdir(parents=True, exist_ok=True)
             (dump_dir / f"{Path(path).parent.name}_{name}.bin").write_bytes(blob)
         programs[name] = (prog, dict(uniforms, **over), local)
-        sources[name] = src
+        coherence[name] = coherence_defines(src)   # how many work groups its dispatch needs
         info[name] = {"exact": exact, "local_size": list(local), "compile_s": compile_s,
                       "binary": binary_summary(blob)}
     names = [name for name in names if name in programs]   # less the skipped ones
-    offset_tiles = {name: {"LIFT_COHERENT_SAMPLING": 1, "LIFT_COHERENT_INTERLEAVE": int(m.group(1)) if m else 1}
-                    for name in programs if "#define LIFT_COHERENT_SAMPLING" in sources[name]
-                    for m in [re.search(r"#define LIFT_COHERENT_INTERLEAVE (\d+)", sources[name])]}
     w, h = size
     frame = r.trace.frame
     splats = r.trace.splats
@@ -966,11 +972,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             r.trace.carry.before_dispatch(prog, park=False)
         # a program that moves (and interleaves) its tiles, coherent sampling, covers whole
         # blocks over the moved image (passes/common.py tile_dispatch_size)
-        if name in offset_tiles:
-            gx, gy = (n // t for n, t in zip(tile_dispatch_size(offset_tiles[name], (w, h), (lx, ly)), (lx, ly)))
-        else:
-            gx, gy = (w + lx - 1) // lx, (h + ly - 1) // ly
-        prog.run(gx, gy, 1)
+        prog.run(*groups(*tile_dispatch_size(coherence[name], (w, h), (lx, ly)), (lx, ly)))
 
     def resolve_splats():  # outside the timing: adds light tracing's splats to the frame, clears them
         if splats is not None:
