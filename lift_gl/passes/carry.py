@@ -15,8 +15,8 @@ Who may park: the renderer asks for it frame by frame (Renderer.render: a still 
 frame of a render of known length but its last, which finishes every path). Parked paths that
 cannot land (the camera moved, a reset) are discarded: those pixels miss one sample, which the
 per-pixel count accounts for. $LIFT_GL_CARRY_PATHS = on | off | faster | always | auto
-(carry_mode; auto is faster on GPUs: timed on a render's first frames). Only the queued megakernel (a plugin with LIFT_PATH_STEPS on a GPU, or with
-$LIFT_GL_PIXEL_QUEUE=on) can carry.
+(carry_mode; auto is faster on GPUs: timed on a render's first frames). Only the queued
+megakernel (a plugin with LIFT_PATH_STEPS on a GPU, or with $LIFT_GL_PIXEL_QUEUE=on) can carry.
 """
 from __future__ import annotations
 
