@@ -31,9 +31,10 @@ iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
 
 The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
 one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
-diagnostics of what rasterizing costs on this GPU), and `traced` (TracedGBufferPass, one
-camera ray a pixel). Variant `camera`: pt with camera rays traced in the trace pass instead
-of a G-buffer (primary = "camera", one sample a frame).
+diagnostics of what rasterizing costs on this GPU), `traced` (TracedGBufferPass, one camera
+ray a pixel) and `traced_visibility` (its program for frames, writing only the visibility).
+Variant `camera`: pt with camera rays traced in the trace pass instead of a G-buffer
+(primary = "camera", one sample a frame).
 
 Shared memory (docs/gpu.md "A stack of node groups"): pad2k ... pad32k give each work group
 that much more shared memory (a diagnostic of what occupancy and the L1 cache it displaces
@@ -51,7 +52,9 @@ G-buffer's albedo (tile_orders).
 Thirteenth session (docs/gpu.md): coherent_tiles is pt's `coherent_sampling` on (a work group's
 tile of pixels drawing the same random numbers, the tiles' grid moving from frame to frame),
 coherent_fixed the same with the grid fixed, coherent_interleave2/4 with interleaved tiles;
-coherent_rr shares only the roulette's number by tile. All change the image on purpose (not
+coherent_rr shares only the roulette's number by tile; coherent_light, coherent_bounce (and
+their _rr forms) share only the light sample's, the BSDF sample's numbers (and the roulette's)
+(fourteenth session). All change the image on purpose (not
 exact), each pixel's expectation unchanged.
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
@@ -495,6 +498,40 @@ def coherent_roulette(text: str) -> str:
                 "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame")
 
 
+
+def coherent_parts(light: bool = False, bounce: bool = False, roulette: bool = False):
+    """Some dimensions of a vertex's random numbers shared by the tile (fixed 8x4 tiles, keyed
+    on tile, frame, sample, depth and dimension, as coherent_rr): the light sample's three
+    (light, point), the BSDF sample's three (lobe, direction), the roulette's one. The pixel's
+    own numbers are still drawn (and dropped) for those dimensions, so that the others are the
+    ones the base draws. Diagnostics of which shared dimension makes a warp's rays coherent."""
+    def edit(text):
+        text = _sub(text, "bool path_step(inout PathState path, inout Rng rng) {",
+                    "uint lift_rr_key;\n"
+                    "float lift_shared_u(int depth, uint dim) {\n"
+                    "    return float(pcg_hash(lift_rr_key + uint(depth) * 0x9e3779b9u + dim * 0x85ebca6bu) >> 8u) * (1.0 / 16777216.0);\n"
+                    "}\n"
+                    "vec3 lift_shared3(int depth, uint dim) {\n"
+                    "    return vec3(lift_shared_u(depth, dim), lift_shared_u(depth, dim + 1u), lift_shared_u(depth, dim + 2u));\n"
+                    "}\n"
+                    "bool path_step(inout PathState path, inout Rng rng) {")
+        if light:
+            text = _sub(text, "if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls)",
+                        "vec3 lift_u_light = vec3(rng_next(rng), sample_pair(rng));\n"
+                        "        if (sample_light(s.p, lift_shared3(depth, 0u) + 0.0 * lift_u_light, ls)")
+        if bounce:
+            text = _sub(text, "bool goes_on = bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs);",
+                        "vec3 lift_u_bsdf = vec3(sample_pair(rng), rng_next(rng));\n"
+                        "    bool goes_on = bsdf_sample(m, wo, lift_shared3(depth, 3u) + 0.0 * lift_u_bsdf, bs);")
+        if roulette:
+            text = _sub(text, "if (rng_next(rng) >= survive) goes_on = false;",
+                        "if (lift_shared_u(depth, 6u) + 0.0 * rng_next(rng) >= survive) goes_on = false;")
+        return _sub(text, "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame",
+                    "    uvec2 lift_tile = uvec2(pixel) / uvec2(8u, 4u);\n"
+                    "    lift_rr_key = pcg_hash(lift_tile.x + pcg_hash(lift_tile.y + pcg_hash(u_frame + pcg_hash(s + u_seed))));\n"
+                    "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame")
+    return edit
+
 # The plugin parameters of the scene being measured (run_scene sets it): const_params needs
 # their values, which a source edit alone does not know.
 CURRENT_PARAMS: dict = {}
@@ -672,6 +709,10 @@ VARIANTS = {
     "coherent_interleave2": (compose(define("LIFT_COHERENT_SAMPLING"), define("LIFT_COHERENT_INTERLEAVE 2")), {}, False),
     "coherent_interleave4": (compose(define("LIFT_COHERENT_SAMPLING"), define("LIFT_COHERENT_INTERLEAVE 4")), {}, False),
     "coherent_rr": (coherent_roulette, {}, False),
+    "coherent_light": (coherent_parts(light=True), {}, False),
+    "coherent_bounce": (coherent_parts(bounce=True), {}, False),
+    "coherent_light_rr": (coherent_parts(light=True, roulette=True), {}, False),
+    "coherent_bounce_rr": (coherent_parts(bounce=True, roulette=True), {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
     "live_plus8": (live_plus(8), {}, True),
@@ -985,8 +1026,9 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
 
     def raster(name):
         r.buffers.bind()
-        if name == "traced":
-            traced_pass.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
+        if name in ("traced", "traced_visibility"):   # the second: what a frame runs (only the visibility)
+            traced_pass.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms,
+                            visibility_only=name == "traced_visibility")
             return
         g = raster_pass
         vao = gb_vaos[name]
@@ -1024,7 +1066,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             occupancy_seen[name] = occupancy_summary(np.frombuffer(probe.read(), np.uint32))
         images[name] = np.frombuffer(frame.read(), np.float32).reshape(h, w, 4)[..., :3].copy()
     times = {name: [] for name in names}
-    gb_names = [*gb, "traced"] if gb else []
+    gb_names = [*gb, "traced", "traced_visibility"] if gb else []
     gb_times = {name: [] for name in gb_names}
     # an idle GPU's clock rises only under sustained work (lift_gl/report/gpu_clock.py)
     clock = ClockReader(ctx.info.get("GL_RENDERER", ""))

@@ -711,8 +711,9 @@ class Renderer:
         moved, motion = self._motion() if self.reproject is not None else (False, None)
         if self.gbuffer is not None:
             with self._timed("gbuffer"):
+                # Only a [reduced] plugin's passes read more of it than the trace pass's visibility.
                 self.gbuffer.run(self.camera, self.packed.bounds, jitter, self.scene_uniforms, self.camera_uniforms,
-                                 motion)
+                                 motion, visibility_only=self.reduced is None)
         uniforms = dict(self.scene_uniforms, **self.camera_uniforms,
                         **param_uniforms(self.plugin, self.params),
                         u_frame=self.frame_index, u_seed=self.seed & 0xFFFFFFFF, u_samples=samples,

@@ -10,9 +10,16 @@ from conftest import REPO
 from lift_gl.errors import LiftError
 from lift_gl.passes.gbuffer import GBUFFER_ENV_VAR, GBufferPass, TracedGBufferPass
 from lift_gl.renderer import Renderer
+from lift_gl.passes.camera import frame_jitter
+from lift_gl.passes.pixel_filter import filtered_jitter
 from lift_gl.scene.loader import load_scene
 
 SIZE = (64, 48)
+
+
+def _visibility(gbuffer) -> np.ndarray:
+    w, h = gbuffer.visibility.size
+    return np.frombuffer(gbuffer.visibility.read(), np.uint32).reshape(h, w, 4).copy()
 
 
 def _render(monkeypatch, mode, scene, **kw):
@@ -21,9 +28,9 @@ def _render(monkeypatch, mode, scene, **kw):
     try:
         image = r.render(spp=2)
         w, h = SIZE
-        g = r.gbuffer
-        out = {"image": image, "kind": type(g),
-               "vis": np.frombuffer(g.visibility.read(), np.uint32).reshape(h, w, 4).copy(),
+        frame_vis = _visibility(r.gbuffer)  # the last frame's (jittered)
+        g = r._guides()  # every output, through the pixel centres (a frame writes only the visibility)
+        out = {"image": image, "kind": type(g), "frame_vis": frame_vis, "vis": _visibility(g),
                "nd": np.frombuffer(g.normal_depth.read(), np.float32).reshape(h, w, 4).copy(),
                "albedo": np.frombuffer(g.albedo.read(), np.float16).reshape(h, w, 4).astype(np.float32),
                "explain": r.explain()}
@@ -51,7 +58,38 @@ def test_traced_gbuffer_matches_the_raster(monkeypatch, scene_name):
     np.testing.assert_allclose(traced["albedo"][hit], raster["albedo"][hit], atol=2e-3)
     np.testing.assert_array_equal(traced["nd"][~(prim_t > 0)], 0.0)  # background as the raster clears it
     # pt rebuilds the primary hit along the same ray either way: the same paths.
-    np.testing.assert_array_equal(traced["image"][same], raster["image"][same])
+    same_frame = raster["frame_vis"][..., 0] == traced["frame_vis"][..., 0]
+    assert same_frame.mean() > 0.99, same_frame.mean()
+    np.testing.assert_array_equal(traced["image"][same_frame], raster["image"][same_frame])
+
+
+def test_frames_write_only_the_visibility(monkeypatch):
+    """A frame runs the program that writes only the visibility (all the trace pass reads), and
+    it is the full program's, bit for bit; the guides (AOVs, denoiser) run the full one; a
+    [reduced] plugin, whose passes read the albedo and normals, gets the full one every frame."""
+    monkeypatch.setenv(GBUFFER_ENV_VAR, "traced")
+    scene = load_scene(REPO / "scenes" / "showcase.toml")  # triangles, spheres, textures
+    r = Renderer(scene, size=SIZE, integrator="pt", seed=2)
+    try:
+        r.render(spp=1)
+        g = r.gbuffer
+        assert set(g._programs) == {True}  # nothing asked for more
+        frame_vis = _visibility(g)
+        assert (frame_vis[..., 0] > 0).mean() > 0.5
+        jitter = filtered_jitter(frame_jitter(0, r.seed), r.scene.pixel_filter, r.scene.film_size, r.size)
+        r.buffers.bind()
+        g.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)  # the full program
+        np.testing.assert_array_equal(_visibility(g), frame_vis)
+        albedo = r.aov("albedo")
+        assert set(g._programs) == {True, False} and albedo.max() > 0.1
+    finally:
+        r.release()
+    r = Renderer(scene, size=SIZE, integrator="hybrid", seed=2)
+    try:
+        r.render(spp=1)
+        assert set(r.gbuffer._programs) == {False}
+    finally:
+        r.release()
 
 
 def test_motion_vectors_keep_the_raster(monkeypatch):

@@ -68,6 +68,26 @@ def test_camera_ray_goes_through_the_projected_pixel(session):
     assert distance < pixel_size
 
 
+def test_pick_with_a_ray_cast_gbuffer(tmp_path, monkeypatch):
+    """GPUs with few raster units cast the G-buffer's rays (passes/gbuffer.py TracedGBufferPass):
+    picking reads the same visibility there."""
+    from lift_gl.passes.gbuffer import GBUFFER_ENV_VAR, TracedGBufferPass
+
+    monkeypatch.setenv(GBUFFER_ENV_VAR, "traced")
+    scene_file = tmp_path / "cornell.toml"
+    scene_file.write_text(CORNELL.read_text())
+    s = ViewSession(create_context(), scene_file, seed=3, resolution=Resolution(window=(48, 48)))
+    try:
+        assert isinstance(s.renderer.gbuffer, TracedGBufferPass)
+        s.step()
+        camera, size = s.renderer.scene.camera, s.renderer.size
+        assert s.editor.pick(project(camera, size, edit.object_center(s.scene, LIGHT))) == LIGHT
+        assert s.editor.pick(project(camera, size, [0.0, 0.01, 0.5])) == ObjectRef("mesh", 0)
+        assert s.editor.pick(project(camera, size, [0.4, 0.4, 0.7])) == ObjectRef("sphere", 0)
+    finally:
+        s.release()
+
+
 def test_pick_select_and_drag_a_light_in_its_plane(session):
     editor = session.editor
     camera, size = session.renderer.scene.camera, session.renderer.size

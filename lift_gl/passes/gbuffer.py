@@ -103,8 +103,10 @@ class GBufferPass:
         return shaders.compile_program(self.ctx, vert, frag)
 
     def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict,
-            motion_uniforms: dict | None = None) -> None:
-        """motion_uniforms (motion vectors only): lift_gl/temporal.py motion_uniforms()."""
+            motion_uniforms: dict | None = None, visibility_only: bool = False) -> None:
+        """motion_uniforms (motion vectors only): lift_gl/temporal.py motion_uniforms().
+        visibility_only: the caller reads only the visibility; the raster writes every output
+        all the same (its cost is rasterizing, not the stores: docs/gpu.md)."""
         uniforms = dict(scene_uniforms, **camera_uniforms, **(motion_uniforms or {}))
         uniforms["u_view_proj"] = view_projection(camera, self.size, bounds, jitter).ravel()
         uniforms["u_inv_far"] = 1.0 / near_far(camera, bounds)[1]
@@ -163,7 +165,13 @@ class TracedGBufferPass:
     compute pass over lift/bvh.glsl) instead of the raster: the same outputs, for GPUs whose
     raster units are the bottleneck (traced_gbuffer_wanted). No motion vectors: temporal
     reprojection keeps the raster pass. The primary hit is then the traced camera ray's,
-    which the trace pass rebuilds exactly (lift/primary_hit.glsl)."""
+    which the trace pass rebuilds exactly (lift/primary_hit.glsl).
+
+    A frame whose other passes read only the visibility (run(visibility_only=True): the
+    renderer's frames but a [reduced] plugin's) runs a second program that leaves normal_depth
+    and albedo unwritten, and with them the surface's normal and the material's textures: 8-11%
+    of the pass on an H100 (docs/gpu.md, Fourteenth session). The guides (the denoiser's, the
+    AOVs: Renderer._guides) and picking run the full one."""
 
     name = "gbuffer"
     inputs = ("scene", "camera", "jitter")
@@ -185,17 +193,35 @@ class TracedGBufferPass:
         defines = dict(defines, LIFT_GBUFFER_LOCAL_X=self.local_size[0], LIFT_GBUFFER_LOCAL_Y=self.local_size[1])
         if shared_stack:
             defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
-        self.program = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "gbuffer_traced.comp", defines))
+        self._defines = defines
+        self._programs = {}  # visibility_only -> program, each compiled on its first run
+        self._fbo = None  # made on the first read through `fbo` (the viewer's picking)
+
+    def program(self, visibility_only: bool = False) -> moderngl.ComputeShader:
+        if visibility_only not in self._programs:
+            defines = dict(self._defines, LIFT_GBUFFER_VISIBILITY_ONLY=True) if visibility_only else self._defines
+            self._programs[visibility_only] = shaders.compile_compute(
+                self.ctx, shaders.assemble(SHADER_DIR / "gbuffer_traced.comp", defines))
+        return self._programs[visibility_only]
+
+    @property
+    def fbo(self) -> moderngl.Framebuffer:
+        """Its images as a framebuffer, as the raster pass has one: for reading a few texels."""
+        if self._fbo is None:
+            self._fbo = self.ctx.framebuffer([self.visibility, self.normal_depth, self.albedo])
+        return self._fbo
 
     def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict,
-            motion_uniforms: dict | None = None) -> None:
-        set_uniforms(self.program, dict(scene_uniforms, **camera_uniforms, u_jitter=tuple(float(v) for v in jitter)))
+            motion_uniforms: dict | None = None, visibility_only: bool = False) -> None:
+        program = self.program(visibility_only)
+        set_uniforms(program, dict(scene_uniforms, **camera_uniforms, u_jitter=tuple(float(v) for v in jitter)))
         self.visibility.bind_to_image(0, read=False, write=True)
         self.normal_depth.bind_to_image(1, read=False, write=True)
         self.albedo.bind_to_image(2, read=False, write=True)
-        self.program.run(*groups(*self.size, self.local_size))
+        program.run(*groups(*self.size, self.local_size))
         self.ctx.memory_barrier()  # the trace pass fetches these images: no overlap on a GPU
 
     def release(self) -> None:
-        for obj in (self.visibility, self.normal_depth, self.albedo, self.program):
-            obj.release()
+        for obj in (self.visibility, self.normal_depth, self.albedo, self._fbo, *self._programs.values()):
+            if obj is not None:
+                obj.release()

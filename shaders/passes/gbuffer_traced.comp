@@ -22,8 +22,10 @@ void main() {
     Hit hit;
     if (!trace_closest(ray, hit)) {  // background: the raster's clear values
         imageStore(u_visibility_out, pixel, uvec4(0u));
+#ifndef LIFT_GBUFFER_VISIBILITY_ONLY
         imageStore(u_normal_depth_out, pixel, vec4(0.0));
         imageStore(u_albedo_out, pixel, vec4(0.0));
+#endif
         return;
     }
     Surface s = surface_at(ray, hit);
@@ -38,6 +40,8 @@ void main() {
     if (hit.instance != NO_INSTANCE) tag |= (hit.instance + 1u) << 16u;
 #endif
     imageStore(u_visibility_out, pixel, uvec4(hit.prim + 1u, floatBitsToUint(bary.x), floatBitsToUint(bary.y), tag));
+#ifndef LIFT_GBUFFER_VISIBILITY_ONLY  // the frame needs only what the trace pass reads
     imageStore(u_normal_depth_out, pixel, vec4(n, view_depth));
     imageStore(u_albedo_out, pixel, vec4(bsdf_albedo(material_at(s.material, s.uv)), 1.0));
+#endif
 }
