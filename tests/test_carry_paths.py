@@ -174,26 +174,36 @@ def test_carry_tuning_finishes_parked_paths_when_a_frame_may_not_park(monkeypatc
 
 def test_carry_tuning_blocks():
     """CarryTuning's bookkeeping: blocks in CARRY_ORDER, the carry block's last frame parking
-    nothing, a cut block not counted, and the way of less time per frame kept."""
-    from lift_gl.passes.carry import CARRY_BLOCK, CARRY_ORDER, CARRY_ROUNDS, CarryTuning
+    nothing, a cut block not counted, only a block's middle frames timed (the carry way's first
+    frame resumes nothing and its last runs the whole tail, which a carrying render never does),
+    and the way of less time per frame kept."""
+    from lift_gl.passes.carry import CARRY_BLOCK, CARRY_ORDER, CARRY_ROUNDS, CARRY_TIMED, CarryTuning
 
     t = CarryTuning({})
     clock = 0.0
     for block in range(2 * CARRY_ROUNDS):
-        way = t.start(clock)
+        way = t.start()
         assert way == CARRY_ORDER[block % len(CARRY_ORDER)]
         if block == 1:   # a block cut short is not counted, and the same way comes next
             t.frames += 1
             t.abort()
-            assert t.start(clock) == way and t.frames == 0
-        parks = []
-        while not t.last():
+            assert t.start() == way and t.frames == 0
+        parks, reads = [], 0
+        while True:
+            last = t.last()
             parks.append(t.parks(True))
+            # a frame: the carry way's steady frames 0.9 s, its first and last (no resume, the
+            # whole tail) 5 s; the plain way's 1 s
+            clock += (5.0 if t.frames in (0, CARRY_BLOCK - 1) else 0.9) if way == "carry" else 1.0
             t.frames += 1
-        parks.append(t.parks(True))
+            if t.clock_due():
+                t.clock(clock)
+                reads += 1
+            if last:
+                break
+        assert reads == 2 and t.frames == CARRY_BLOCK == CARRY_TIMED + 2
         assert parks == ([True] * (CARRY_BLOCK - 1) + [False] if way == "carry" else [False] * CARRY_BLOCK)
-        clock += CARRY_BLOCK * (0.9 if way == "carry" else 1.0)
-        done = t.end(clock)
+        done = t.end()
         assert done == (block == 2 * CARRY_ROUNDS - 1)
     assert t.frame_ms() == pytest.approx({"carry": 900.0, "plain": 1000.0})
     assert t.faster() == "carry"

@@ -104,16 +104,21 @@ class CarriedPaths:
         self.late_tag.release()
 
 
-# $LIFT_GL_CARRY_PATHS=faster: frames a timed block, and blocks of each way. A block is timed
-# whole, its frames queued as a render queues them (a wait after every frame cost the small
-# scenes' frames 4x their time on an H100, mostly the wait, and let the GPU's clock drop: the
-# first version of this choice, timing each frame alone, kept the slower way on the
-# cornell-box and the Covered Dragon in one process of two; docs/gpu.md "Twelfth session").
-# A carry block's last frame parks nothing, so every block ends with all its paths done and
-# both ways' blocks do the same work (the carry way's first frame resumes nothing, its last
-# finishes the paths parked before it). Blocks in the order carry, plain, plain, carry, ...
-# (a drift in the GPU's clock then weighs both alike).
-CARRY_BLOCK = 8
+# $LIFT_GL_CARRY_PATHS=faster: frames a block, and blocks of each way. A block's frames are
+# queued as a render queues them and timed together between two finishes (a wait after every
+# frame cost the small scenes' frames 4x their time on an H100, mostly the wait, and let the
+# GPU's clock drop: the first version of this choice, timing each frame alone, kept the slower
+# way on the cornell-box and the Covered Dragon in one process of two; docs/gpu.md "Twelfth
+# session"). A carry block's last frame parks nothing, so every block ends with all its paths
+# done and both ways' blocks do the same work. Only the frames between a block's first and last
+# are timed (CARRY_TIMED): the carry way's first frame resumes nothing and its last runs its
+# whole tail, which a render that carries never does, so a block timed whole charged the carry
+# way one frame's tail per block (about 0.09 ms a frame on the classroom at 1080p, as much as
+# the two ways differ there, and it kept the plain way in some processes: docs/gpu.md
+# "Fourteenth session"). Blocks in the order carry, plain, plain, carry, ... (a drift in the
+# GPU's clock then weighs both alike).
+CARRY_BLOCK = 10
+CARRY_TIMED = CARRY_BLOCK - 2
 CARRY_ROUNDS = 3
 CARRY_ORDER = ("carry", "plain", "plain", "carry")
 # A render shorter than the choice (its untimed first frame and the blocks) does not start it:
@@ -123,23 +128,25 @@ CARRY_TUNING_FRAMES = 1 + 2 * CARRY_ROUNDS * CARRY_BLOCK
 
 class CarryTuning:
     """The choice between the megakernel with the carry code and without it, made by timing
-    whole blocks of frames of a render that may park (passes/trace.py runs the frames; this
-    keeps the blocks' times and says which way comes next and whether a frame may park)."""
+    blocks of frames of a render that may park (passes/trace.py runs the frames; this keeps
+    the blocks' times and says which way comes next, whether a frame may park and when the
+    clock is read)."""
 
     def __init__(self, defines: dict):
         self.defines = defines      # the carry program's
         self.program = None         # built on the first frame that may park
         self.source = None
         self.warmed = False         # its first dispatch ran, untimed
-        self.blocks = {"carry": [], "plain": []}   # seconds of each finished block
+        self.blocks = {"carry": [], "plain": []}   # seconds of each finished block's timed frames
         self.way = None             # the block under way ...
         self.frames = 0             # ... its frames run
-        self.began = 0.0            # ... and when it began (after a finish)
+        self.began = None           # ... when its timed frames began (after a finish)
+        self.timed = None           # ... and how long they took
 
-    def start(self, now: float) -> str:
-        """Begins the next block (its way, in CARRY_ORDER) at `now`."""
+    def start(self) -> str:
+        """Begins the next block (its way, in CARRY_ORDER)."""
         done = sum(len(v) for v in self.blocks.values())
-        self.way, self.frames, self.began = CARRY_ORDER[done % len(CARRY_ORDER)], 0, now
+        self.way, self.frames, self.began, self.timed = CARRY_ORDER[done % len(CARRY_ORDER)], 0, None, None
         return self.way
 
     def parks(self, park: bool) -> bool:
@@ -150,9 +157,20 @@ class CarryTuning:
         """Whether the frame about to run ends its block."""
         return self.frames == CARRY_BLOCK - 1
 
-    def end(self, now: float) -> bool:
-        """The block under way ended at `now` (after a finish); true once every block is timed."""
-        self.blocks[self.way].append(now - self.began)
+    def clock_due(self) -> bool:
+        """Whether the clock is read now, after a finish (the block's frames run so far counted):
+        after its first frame (the timed ones begin) and before its last (they end)."""
+        return self.frames in (1, CARRY_BLOCK - 1)
+
+    def clock(self, now: float) -> None:
+        if self.frames == 1:
+            self.began = now
+        else:
+            self.timed = now - self.began
+
+    def end(self) -> bool:
+        """The block under way ended; true once every block is timed."""
+        self.blocks[self.way].append(self.timed)
         self.way = None
         return all(len(v) >= CARRY_ROUNDS for v in self.blocks.values())
 
@@ -161,8 +179,8 @@ class CarryTuning:
         self.way = None
 
     def frame_ms(self) -> dict:
-        """Each way's mean frame time over its blocks, ms."""
-        return {k: 1e3 * sum(v) / (len(v) * CARRY_BLOCK) for k, v in self.blocks.items() if v}
+        """Each way's mean time of a timed frame over its blocks, ms."""
+        return {k: 1e3 * sum(v) / (len(v) * CARRY_TIMED) for k, v in self.blocks.items() if v}
 
     def faster(self) -> str:
         ms = self.frame_ms()

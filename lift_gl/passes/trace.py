@@ -574,8 +574,8 @@ class TracePass:
 
     def _run_carry_tuning(self, uniforms: dict, visibility, park: bool, frames_left: int | None = None) -> None:
         """A frame while the carry code's worth is being timed ($LIFT_GL_CARRY_PATHS faster):
-        frames that may park run in blocks of either megakernel (CarryTuning), each block timed
-        whole between two finishes; the others, and those before the clock is up, run the
+        frames that may park run in blocks of either megakernel (CarryTuning), each block's
+        frames but its first and last timed between two finishes; the others, and those before the clock is up, run the
         plain one untimed (or the carrying one, to finish paths the frame before parked)."""
         t = self.carry_tuning
         too_short = t.program is None and frames_left is not None and frames_left < CARRY_TUNING_FRAMES
@@ -599,15 +599,15 @@ class TracePass:
             self._run(uniforms, visibility, False, False, program=t.program)
             return
         if t.way is None:
-            self.ctx.finish()
-            t.start(time.perf_counter())
+            t.start()
         last = t.last()
         self._run(uniforms, visibility, False, t.parks(park), program=t.program if t.way == "carry" else None)
         t.frames += 1
-        if last:
+        if t.clock_due():
             self.ctx.finish()
-            if t.end(time.perf_counter()):
-                self._keep_carry(t)
+            t.clock(time.perf_counter())
+        if last and t.end():
+            self._keep_carry(t)
 
     def _keep_carry(self, t: CarryTuning) -> None:
         """The faster way's megakernel becomes the trace program; the other's is released."""
