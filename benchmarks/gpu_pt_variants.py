@@ -54,7 +54,8 @@ tile of pixels drawing the same random numbers, the tiles' grid moving from fram
 coherent_fixed the same with the grid fixed, coherent_interleave2/4 with interleaved tiles;
 coherent_rr shares only the roulette's number by tile; coherent_light, coherent_bounce (and
 their _rr forms) share only the light sample's, the BSDF sample's numbers (and the roulette's)
-(fourteenth session). All change the image on purpose (not
+(fourteenth session); for bdpt, bdpt_own_light / bdpt_own_camera: coherent sampling with
+the light / camera subpath drawn from the pixel's own numbers. All change the image on purpose (not
 exact), each pixel's expectation unchanged.
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
@@ -532,6 +533,24 @@ def coherent_parts(light: bool = False, bounce: bool = False, roulette: bool = F
                     "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame")
     return edit
 
+
+def bdpt_own_subpath(which: str):
+    """bdpt with coherent sampling but one subpath drawn from the pixel's own numbers (keyed on
+    the pixel, another seed): `light` (the camera subpath shared by the tile: light tracing's
+    splats stay independent) or `camera` (the light subpath shared)."""
+    def edit(text):
+        text = define("LIFT_COHERENT_SAMPLING")(text)
+        text = _sub(text, "// ---- plugin ----", "Rng lift_own_rng;   // the pixel's own numbers\n// ---- plugin ----")
+        text = _sub(text, "Rng lift_sample_rng(ivec2 pixel, uint s) {",
+                    "Rng lift_sample_rng(ivec2 pixel, uint s) {\n"
+                    "    lift_own_rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x68bc21ebu, u_stream);")
+        if which == "light":
+            return _sub(text, "int light_vertices = light_subpath(depth_limit, rng);",
+                        "int light_vertices = light_subpath(depth_limit, lift_own_rng);")
+        return _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
+                    "return camera_subpath(ray, hit, depth_limit, light_vertices, lift_own_rng);")
+    return edit
+
 # The plugin parameters of the scene being measured (run_scene sets it): const_params needs
 # their values, which a source edit alone does not know.
 CURRENT_PARAMS: dict = {}
@@ -713,6 +732,8 @@ VARIANTS = {
     "coherent_bounce": (coherent_parts(bounce=True), {}, False),
     "coherent_light_rr": (coherent_parts(light=True, roulette=True), {}, False),
     "coherent_bounce_rr": (coherent_parts(bounce=True, roulette=True), {}, False),
+    "bdpt_own_light": (bdpt_own_subpath("light"), {}, False),
+    "bdpt_own_camera": (bdpt_own_subpath("camera"), {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
     "live_plus8": (live_plus(8), {}, True),

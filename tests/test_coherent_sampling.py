@@ -46,6 +46,15 @@ def test_coherent_sampling_keeps_each_pixels_expectation():
     assert_same_expectation(coherent, independent, block=8)
 
 
+def test_bdpt_coherent_sampling_keeps_each_pixels_expectation():
+    # bdpt declares the same parameters: its tile shares camera and light subpaths (light
+    # tracing's splats are then one path per tile, which makes them noisier, not biased)
+    coherent = render_seeds(cornell_scene(), "bdpt", range(16), spp=4, params=ON)
+    independent = render_seeds(cornell_scene(), "bdpt", range(100, 116), spp=4)
+    assert not np.array_equal(coherent[0], independent[0])
+    assert_same_expectation(coherent, independent, block=8)
+
+
 def test_coherent_furnace_converges_to_the_albedo():
     # each render's image mean is one estimate; renders are independent, pixels are not
     images = render_seeds(furnace_scene(ALBEDO), "pt", range(24), spp=2, params=ON)
