@@ -120,6 +120,13 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 
 // ---- plugin parameters ----
 {params}
+#ifdef LIFT_COHERENT_SAMPLING
+// Coherent sampling gives `rng` to the pixels of a tile alike; this holds the pixel's own
+// numbers for the sample radiance() is called for (set by lift_sample_rng), for a plugin that
+// wants some draws unshared: bdpt's light subpaths. Not for path_step(), which may resume
+// another pixel's path.
+Rng lift_own_rng;
+#endif
 // ---- plugin ----
 #include "{entry}"
 // ---- host ----
@@ -130,6 +137,9 @@ uniform vec2 u_jitter;  // this frame's subpixel offset (G-buffer primary)
 {rng_key}
 // The random numbers of this frame's sample s of a pixel.
 Rng lift_sample_rng(ivec2 pixel, uint s) {{
+#ifdef LIFT_COHERENT_SAMPLING
+    lift_own_rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x68bc21ebu, u_stream);
+#endif
     return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame, s, u_sample_base + s, u_seed, u_stream);
 }}
 

@@ -25,7 +25,14 @@
 
 vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
     int depth_limit = bdpt_depth_limit();
+#ifdef LIFT_COHERENT_SAMPLING
+    // Coherent sampling shares `rng` by tile, so the tile's camera subpaths travel together; its
+    // light subpaths stay the pixel's own: one shared light path, splatted once by every pixel
+    // of the tile, made light tracing's noise the tile's size times larger (docs/gpu.md).
+    int light_vertices = light_subpath(depth_limit, lift_own_rng);
+#else
     int light_vertices = light_subpath(depth_limit, rng);
+#endif
 
     // ---- t = 1: every light vertex seen by the pinhole, splatted ----
     PathVertex y_prev = light_vertex(0);  // each join reads one stored vertex: y_{s-2} is kept from the last
