@@ -45,7 +45,7 @@ from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
 from .passes.trace import TracePass, param_uniforms
 from .passes.upsample import UpsamplePass
-from .plugins import COHERENT_DEFINE, Plugin, find_plugin, load_manifest, param_defines
+from .plugins import COHERENT_DEFINE, INTERLEAVE_DEFINE, Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
 from .scene.instances import flatten_instances, only_instances_moved
 from .scene.model import PixelFilter, Scene
@@ -520,8 +520,11 @@ class Renderer:
             lines.append(f"BIASED: {self.plugin.biased}")
         if COHERENT_DEFINE in getattr(self.trace, "defines", {}):
             w, h = self.trace.local_size
-            lines.append(f"coherent sampling: the pixels of each {w}x{h} tile share their random numbers (the "
-                         "tiles move every frame): unbiased per pixel, the noise correlated in blocks"
+            k = int(self.trace.defines.get(INTERLEAVE_DEFINE, 1))
+            spread = f" (its pixels {k} apart in a {k * w}x{k * h} block: interleaved)" if k > 1 else ""
+            lines.append(f"coherent sampling: the pixels of each {w}x{h} tile{spread} share their random numbers "
+                         "(the tiles move every frame; a plugin may draw some of its own: bdpt's light subpaths): "
+                         "unbiased per pixel, the noise correlated in blocks"
                          + ("; the denoiser keeps such blocks (docs/gpu.md, Thirteenth session)"
                             if self.denoise_pass is not None else ""))
         if self.clamp_sigma > 0 and self.reproject is not None:

@@ -215,6 +215,9 @@ def test_switching_it_recompiles_and_off_is_the_program_without_it():
         assert COHERENT_DEFINE in r.trace.defines and r.trace.source.text != off_source
         assert "coherent sampling: the pixels of each" in r.explain()
         on = r.render(spp=2)
+        r.set_params(**{INTERLEAVE_PARAM: 2})
+        assert "its pixels 2 apart in a" in r.explain() and INTERLEAVE_DEFINE in r.trace.defines
+        r.set_params(**{INTERLEAVE_PARAM: 1})
         r.set_params(**{COHERENT_PARAM: False})
         assert COHERENT_DEFINE not in r.trace.defines and r.trace.source.text == off_source
         np.testing.assert_array_equal(r.render(spp=2), off)
