@@ -584,9 +584,10 @@ class TracePass:
 
     def _run_carry_tuning(self, uniforms: dict, visibility, park: bool, frames_left: int | None = None) -> None:
         """A frame while the carry code's worth is being timed ($LIFT_GL_CARRY_PATHS faster):
-        frames that may park run in blocks of either megakernel (CarryTuning), each block's
-        frames but its first and last timed between two finishes; the others, and those before the clock is up, run the
-        plain one untimed (or the carrying one, to finish paths the frame before parked)."""
+        frames that may park run in blocks of either megakernel (CarryTuning), a block's frames
+        but its first and last timed between two finishes; the others, and those before the
+        clock is up, run the plain one untimed (or the carrying one, to finish paths the frame
+        before parked)."""
         t = self.carry_tuning
         too_short = t.program is None and frames_left is not None and frames_left < CARRY_TUNING_FRAMES
         if not park or too_short or (t.way is None and not self._ready_to_time()):
