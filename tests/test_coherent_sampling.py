@@ -158,6 +158,18 @@ def test_bdpt_keeps_each_pixels_variance_with_its_own_light_subpaths():
     _assert_same_variance_per_tile(luminance(True, 0), luminance(False, 1000))
 
 
+def test_drt_coherent_sampling_keeps_each_pixels_expectation_and_variance():
+    # drt traces its own camera rays (primary = "camera"): the tile shares subpixel and lens
+    # positions too; everything it draws is the pixel's (tile's) own, so the estimate per pixel
+    # keeps its distribution
+    size = (48, 48)
+    coherent = render_seeds(cornell_scene(), "drt", range(48), spp=1, size=size, params=ON)
+    independent = render_seeds(cornell_scene(), "drt", range(1000, 1048), spp=1, size=size)
+    assert not np.array_equal(coherent[0], independent[0])
+    assert_same_expectation(coherent, independent, block=8)
+    _assert_same_variance_per_tile(coherent.mean(axis=-1), independent.mean(axis=-1))
+
+
 def _render(monkeypatch, scene_name, queue="off", wavefront="off", spp=4, spf=1, interleave=1):
     monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, queue)
     monkeypatch.setenv(WAVEFRONT_ENV_VAR, wavefront)
