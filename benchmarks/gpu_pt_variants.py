@@ -54,8 +54,9 @@ tile of pixels drawing the same random numbers, the tiles' grid moving from fram
 coherent_fixed the same with the grid fixed, coherent_interleave2/4 with interleaved tiles;
 coherent_rr shares only the roulette's number by tile; coherent_light, coherent_bounce (and
 their _rr forms) share only the light sample's, the BSDF sample's numbers (and the roulette's)
-(fourteenth session); for bdpt, bdpt_own_light / bdpt_own_camera: coherent sampling with
-the light / camera subpath drawn from the pixel's own numbers. All change the image on purpose (not
+(fourteenth session); for bdpt, bdpt_own_light (its coherent sampling: the light subpath
+drawn from the pixel's own numbers), bdpt_shared (both subpaths shared by the tile) and
+bdpt_own_camera (the camera subpath the pixel's own, the light subpath shared). All change the image on purpose (not
 exact), each pixel's expectation unchanged.
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
@@ -469,7 +470,7 @@ def drop_at_end(text: str) -> str:
 
 # Coherent sampling (thirteenth session): `coherent_tiles` is pt's parameter `coherent_sampling` on
 # (lift_gl/passes/common.py coherent_sampling_source: a tile's pixels draw the same random numbers);
-# coherent_roulette shares only the roulette's number.
+# coherent_parts shares only some of a vertex's numbers.
 def fixed_tiles(text: str) -> str:
     """Coherent sampling's tiles in the image's grid in every frame (its first version: the
     noise's blocks then stay in place) instead of a grid offset from frame to frame."""
@@ -486,26 +487,13 @@ def coherence_defines(text: str) -> dict:
     return found
 
 
-def coherent_roulette(text: str) -> str:
-    """Only the Russian roulette's number shared by the tile (keyed on tile, frame, sample
-    and depth): a warp's paths end together; directions and light samples stay per pixel."""
-    text = _sub(text, "bool path_step(inout PathState path, inout Rng rng) {",
-                "uint lift_rr_key;\nbool path_step(inout PathState path, inout Rng rng) {")
-    text = _sub(text, "if (rng_next(rng) >= survive) goes_on = false;",
-                "if (float(pcg_hash(lift_rr_key + uint(depth) * 0x9e3779b9u) >> 8u) * (1.0 / 16777216.0) >= survive) goes_on = false;")
-    return _sub(text, "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame",
-                "    uvec2 lift_tile = uvec2(pixel) / uvec2(8u, 4u);\n"
-                "    lift_rr_key = pcg_hash(lift_tile.x + pcg_hash(lift_tile.y + pcg_hash(u_frame + pcg_hash(s + u_seed))));\n"
-                "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame")
-
-
-
 def coherent_parts(light: bool = False, bounce: bool = False, roulette: bool = False):
     """Some dimensions of a vertex's random numbers shared by the tile (fixed 8x4 tiles, keyed
-    on tile, frame, sample, depth and dimension, as coherent_rr): the light sample's three
-    (light, point), the BSDF sample's three (lobe, direction), the roulette's one. The pixel's
-    own numbers are still drawn (and dropped) for those dimensions, so that the others are the
-    ones the base draws. Diagnostics of which shared dimension makes a warp's rays coherent."""
+    on tile, frame, sample, depth and dimension): the roulette's one (coherent_rr: a warp's
+    paths end together), the light sample's three (light, point), the BSDF sample's three (lobe,
+    direction). The pixel's own numbers are still drawn (and dropped) for those dimensions, so
+    that the others are the ones the base draws. Diagnostics of which shared dimension makes a
+    warp's rays coherent."""
     def edit(text):
         text = _sub(text, "bool path_step(inout PathState path, inout Rng rng) {",
                     "uint lift_rr_key;\n"
@@ -519,14 +507,14 @@ def coherent_parts(light: bool = False, bounce: bool = False, roulette: bool = F
         if light:
             text = _sub(text, "if (sample_light(s.p, vec3(rng_next(rng), sample_pair(rng)), ls)",
                         "vec3 lift_u_light = vec3(rng_next(rng), sample_pair(rng));\n"
-                        "        if (sample_light(s.p, lift_shared3(depth, 0u) + 0.0 * lift_u_light, ls)")
+                        "        if (sample_light(s.p, lift_shared3(depth, 1u) + 0.0 * lift_u_light, ls)")
         if bounce:
             text = _sub(text, "bool goes_on = bsdf_sample(m, wo, vec3(sample_pair(rng), rng_next(rng)), bs);",
                         "vec3 lift_u_bsdf = vec3(sample_pair(rng), rng_next(rng));\n"
-                        "    bool goes_on = bsdf_sample(m, wo, lift_shared3(depth, 3u) + 0.0 * lift_u_bsdf, bs);")
+                        "    bool goes_on = bsdf_sample(m, wo, lift_shared3(depth, 4u) + 0.0 * lift_u_bsdf, bs);")
         if roulette:
             text = _sub(text, "if (rng_next(rng) >= survive) goes_on = false;",
-                        "if (lift_shared_u(depth, 6u) + 0.0 * rng_next(rng) >= survive) goes_on = false;")
+                        "if (lift_shared_u(depth, 0u) + 0.0 * rng_next(rng) >= survive) goes_on = false;")
         return _sub(text, "    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame",
                     "    uvec2 lift_tile = uvec2(pixel) / uvec2(8u, 4u);\n"
                     "    lift_rr_key = pcg_hash(lift_tile.x + pcg_hash(lift_tile.y + pcg_hash(u_frame + pcg_hash(s + u_seed))));\n"
@@ -534,22 +522,22 @@ def coherent_parts(light: bool = False, bounce: bool = False, roulette: bool = F
     return edit
 
 
-def bdpt_own_subpath(which: str):
-    """bdpt with coherent sampling but one subpath drawn from the pixel's own numbers (keyed on
-    the pixel, another seed): `light` (the camera subpath shared by the tile: light tracing's
-    splats stay independent) or `camera` (the light subpath shared)."""
+def bdpt_coherent(light_shared: bool, camera_own: bool = False):
+    """bdpt with coherent sampling (which draws each pixel's light subpath from the host's
+    lift_own_rng, the pixel's own numbers) and instead its light subpath shared by the tile
+    (`light_shared`: its first version, whose light tracing splatted one path per tile), or with
+    that and the camera subpath drawn from the pixel's own numbers (`camera_own`)."""
     def edit(text):
         text = define("LIFT_COHERENT_SAMPLING")(text)
-        text = _sub(text, "// ---- plugin ----", "Rng lift_own_rng;   // the pixel's own numbers\n// ---- plugin ----")
-        text = _sub(text, "Rng lift_sample_rng(ivec2 pixel, uint s) {",
-                    "Rng lift_sample_rng(ivec2 pixel, uint s) {\n"
-                    "    lift_own_rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x68bc21ebu, u_stream);")
-        if which == "light":
-            return _sub(text, "int light_vertices = light_subpath(depth_limit, rng);",
-                        "int light_vertices = light_subpath(depth_limit, lift_own_rng);")
-        return _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
-                    "return camera_subpath(ray, hit, depth_limit, light_vertices, lift_own_rng);")
+        if light_shared:
+            text = _sub(text, "int light_vertices = light_subpath(depth_limit, lift_own_rng);",
+                        "int light_vertices = light_subpath(depth_limit, rng);")
+        if camera_own:
+            text = _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
+                        "return camera_subpath(ray, hit, depth_limit, light_vertices, lift_own_rng);")
+        return text
     return edit
+
 
 # The plugin parameters of the scene being measured (run_scene sets it): const_params needs
 # their values, which a source edit alone does not know.
@@ -727,13 +715,14 @@ VARIANTS = {
     "coherent_fixed": (compose(define("LIFT_COHERENT_SAMPLING"), fixed_tiles), {}, False),
     "coherent_interleave2": (compose(define("LIFT_COHERENT_SAMPLING"), define("LIFT_COHERENT_INTERLEAVE 2")), {}, False),
     "coherent_interleave4": (compose(define("LIFT_COHERENT_SAMPLING"), define("LIFT_COHERENT_INTERLEAVE 4")), {}, False),
-    "coherent_rr": (coherent_roulette, {}, False),
+    "coherent_rr": (coherent_parts(roulette=True), {}, False),
     "coherent_light": (coherent_parts(light=True), {}, False),
     "coherent_bounce": (coherent_parts(bounce=True), {}, False),
     "coherent_light_rr": (coherent_parts(light=True, roulette=True), {}, False),
     "coherent_bounce_rr": (coherent_parts(bounce=True, roulette=True), {}, False),
-    "bdpt_own_light": (bdpt_own_subpath("light"), {}, False),
-    "bdpt_own_camera": (bdpt_own_subpath("camera"), {}, False),
+    "bdpt_own_light": (define("LIFT_COHERENT_SAMPLING"), {}, False),   # bdpt's coherent sampling as kept
+    "bdpt_shared": (bdpt_coherent(light_shared=True), {}, False),
+    "bdpt_own_camera": (bdpt_coherent(light_shared=True, camera_own=True), {}, False),
     "const_params": (const_params, {}, True),
     "live_plus4": (live_plus(4), {}, True),
     "live_plus8": (live_plus(8), {}, True),

@@ -90,3 +90,20 @@ def test_warp_costs_match_a_lane_by_lane_walk():
     assert got["join_iterations_lane"] == pytest.approx(np.concatenate(lanes).mean())
     assert got["join_iterations_warp"] == pytest.approx(np.mean(warps))
     assert got["join_iterations_warp"] > got["join_iterations_lane"]
+
+
+def test_coherent_bdpt_variants_compile_and_the_kept_one_is_the_parameter():
+    """bdpt_own_light (what `coherent_sampling` does), bdpt_shared (its first version: light
+    subpaths shared by the tile too) and bdpt_own_camera compile on today's bdpt (a variant that
+    declared the host's lift_own_rng a second time failed only on the GPU machine); the first
+    gives the image of bdpt's coherent_tiles, and the other two other images."""
+    from lift_gl.gl.context import create_context
+
+    names = ["base", "coherent_tiles", "bdpt_own_light", "bdpt_shared", "bdpt_own_camera"]
+    res = variants.run_scene(create_context(), str(CORNELL), (24, 16), 6, names, 1, None, integrator="bdpt")
+    v = res["variants"]
+    assert list(v) == names and all(x["finite"] for x in v.values())
+    assert v["bdpt_own_light"]["max_abs_diff_vs_first"] == v["coherent_tiles"]["max_abs_diff_vs_first"] > 0
+    assert v["bdpt_own_light"]["mean_rgb"] == v["coherent_tiles"]["mean_rgb"]
+    for name in ("bdpt_shared", "bdpt_own_camera"):
+        assert v[name]["mean_rgb"] != v["coherent_tiles"]["mean_rgb"], name
