@@ -36,21 +36,13 @@ def _tile(size=(32, 32)) -> tuple[int, int]:
         r.release()
 
 
-def test_coherent_sampling_keeps_each_pixels_expectation():
+@pytest.mark.parametrize("integrator", ["pt", "bdpt"])   # bdpt's tile shares its camera subpaths
+def test_coherent_sampling_keeps_each_pixels_expectation(integrator):
     # independent renders (seeds) of the Cornell box, coherent against independent sampling:
     # Welch's t per 8x8 block and for the whole image (a tile's correlation only makes a
     # block's mean noisier from render to render, which the test measures)
-    coherent = render_seeds(cornell_scene(), "pt", range(16), spp=4, params=ON)
-    independent = render_seeds(cornell_scene(), "pt", range(100, 116), spp=4)
-    assert not np.array_equal(coherent[0], independent[0])
-    assert_same_expectation(coherent, independent, block=8)
-
-
-def test_bdpt_coherent_sampling_keeps_each_pixels_expectation():
-    # bdpt declares the same parameters: its tile shares camera and light subpaths (light
-    # tracing's splats are then one path per tile, which makes them noisier, not biased)
-    coherent = render_seeds(cornell_scene(), "bdpt", range(16), spp=4, params=ON)
-    independent = render_seeds(cornell_scene(), "bdpt", range(100, 116), spp=4)
+    coherent = render_seeds(cornell_scene(), integrator, range(16), spp=4, params=ON)
+    independent = render_seeds(cornell_scene(), integrator, range(100, 116), spp=4)
     assert not np.array_equal(coherent[0], independent[0])
     assert_same_expectation(coherent, independent, block=8)
 
