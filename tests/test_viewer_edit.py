@@ -40,13 +40,25 @@ def project(camera, size, point) -> tuple[int, int]:
     return int((x + 1) / 2 * w), int(h - (y + 1) / 2 * h)
 
 
-@pytest.fixture
-def session(tmp_path):
+def _cornell_session(tmp_path) -> ViewSession:
     scene_file = tmp_path / "cornell.toml"
     scene_file.write_text(CORNELL.read_text())
-    s = ViewSession(create_context(), scene_file, seed=3, resolution=Resolution(window=(48, 48)))
+    return ViewSession(create_context(), scene_file, seed=3, resolution=Resolution(window=(48, 48)))
+
+
+@pytest.fixture
+def session(tmp_path):
+    s = _cornell_session(tmp_path)
     yield s
     s.release()
+
+
+def _assert_picks(session) -> None:
+    """The light, the floor and the sphere picked where the camera sees their points."""
+    editor, camera, size = session.editor, session.renderer.scene.camera, session.renderer.size
+    assert editor.pick(project(camera, size, edit.object_center(session.scene, LIGHT))) == LIGHT
+    assert editor.pick(project(camera, size, [0.0, 0.01, 0.5])) == ObjectRef("mesh", 0)  # the floor
+    assert editor.pick(project(camera, size, [0.4, 0.4, 0.7])) == ObjectRef("sphere", 0)
 
 
 def _fresh_image(session, spp):
@@ -74,16 +86,11 @@ def test_pick_with_a_ray_cast_gbuffer(tmp_path, monkeypatch):
     from lift_gl.passes.gbuffer import GBUFFER_ENV_VAR, TracedGBufferPass
 
     monkeypatch.setenv(GBUFFER_ENV_VAR, "traced")
-    scene_file = tmp_path / "cornell.toml"
-    scene_file.write_text(CORNELL.read_text())
-    s = ViewSession(create_context(), scene_file, seed=3, resolution=Resolution(window=(48, 48)))
+    s = _cornell_session(tmp_path)
     try:
         assert isinstance(s.renderer.gbuffer, TracedGBufferPass)
         s.step()
-        camera, size = s.renderer.scene.camera, s.renderer.size
-        assert s.editor.pick(project(camera, size, edit.object_center(s.scene, LIGHT))) == LIGHT
-        assert s.editor.pick(project(camera, size, [0.0, 0.01, 0.5])) == ObjectRef("mesh", 0)
-        assert s.editor.pick(project(camera, size, [0.4, 0.4, 0.7])) == ObjectRef("sphere", 0)
+        _assert_picks(s)
     finally:
         s.release()
 
@@ -92,11 +99,9 @@ def test_pick_select_and_drag_a_light_in_its_plane(session):
     editor = session.editor
     camera, size = session.renderer.scene.camera, session.renderer.size
     session.step()
+    _assert_picks(session)
     center = edit.object_center(session.scene, LIGHT)
     start = project(camera, size, center)
-    assert editor.pick(start) == LIGHT
-    assert editor.pick(project(camera, size, [0.0, 0.01, 0.5])) == ObjectRef("mesh", 0)  # the floor
-    assert editor.pick(project(camera, size, [0.4, 0.4, 0.7])) == ObjectRef("sphere", 0)
 
     assert editor.press(start)  # an emitter: the drag starts at once
     assert editor.selected == LIGHT and editor.selected_is_emitter
