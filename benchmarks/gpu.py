@@ -32,7 +32,8 @@ value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.m
 node's longest axis or all three, accel/cache.py), `--bvh-bins 32,auto` for $LIFT_GL_BVH_BINS,
 `--bvh-stack-entries children,groups` for $LIFT_GL_BVH_STACK_ENTRIES (the 4-wide traversal's stack entries),
 `--carry-paths off,on` for $LIFT_GL_CARRY_PATHS (paths still under way when a frame's pixel queue
-runs out go on in the next frame, lift_gl/passes/carry.py), and
+runs out go on in the next frame, lift_gl/passes/carry.py),
+`--env VAR=a,b` for any other setting (`--env LIFT_GL_GBUFFER=raster,traced`), and
 `--bvh-width 2,4` does the same for $LIFT_GL_BVH_WIDTH (the binary or 4-wide tree,
 accel/wide.py).
 """
@@ -539,7 +540,8 @@ def measure(args) -> int:
     # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
     # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py),
     # --bvh-stack with $LIFT_GL_BVH_STACK (passes/trace.py trace_layout), --carry-paths with
-    # $LIFT_GL_CARRY_PATHS (passes/carry.py), --bvh-leaf with $LIFT_GL_BVH_LEAF (accel/cache.py).
+    # $LIFT_GL_CARRY_PATHS (passes/carry.py), --bvh-leaf with $LIFT_GL_BVH_LEAF (accel/cache.py),
+    # --env VAR=a,b with any other $LIFT_GL_* variable.
     chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
                                                           ("width", WIDTH_VAR, args.bvh_width),
                                                           ("axes", AXES_VAR, args.bvh_axes),
@@ -547,10 +549,11 @@ def measure(args) -> int:
                                                           ("entries", STACK_VAR, args.bvh_stack_entries),
                                                           ("stack", PLACE_VAR, args.bvh_stack),
                                                           ("carry", CARRY_VAR, args.carry_paths),
-                                                          ("leaf", LEAF_VAR, args.bvh_leaf)) if value]
+                                                          ("leaf", LEAF_VAR, args.bvh_leaf),
+                                                          *_env_axis(args.env)) if value]
     if len(chosen) > 1:
         raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries, --bvh-stack, "
-                         "--carry-paths, --bvh-leaf: one at a time")
+                         "--carry-paths, --bvh-leaf, --env: one at a time")
     axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
     # a leaf setting holds a comma itself (MAX_LEAF,COST): its values are split at semicolons
     splits = [v.strip() for v in values.split(";" if axis == "leaf" else ",") if v.strip()] or [None]
@@ -844,6 +847,18 @@ CARRY_VAR = "LIFT_GL_CARRY_PATHS"
 LEAF_VAR = "LIFT_GL_BVH_LEAF"
 
 
+def _env_axis(text: str | None) -> list:
+    """--env VAR=a,b as an axis (name, variable, values): any $LIFT_GL_* setting the flags
+    above do not name."""
+    if not text:
+        return []
+    var, sep, values = text.partition("=")
+    if not sep or not var.strip() or not values.strip():
+        raise SystemExit(f"--env: VAR=value,value, not {text!r}")
+    var = var.strip()
+    return [(var.lower().removeprefix("lift_gl_"), var, values)]
+
+
 def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
     """$LIFT_GL_BVH_SPLITS (or `var`) for the next renderer (value None: as it was when the run began)."""
     value = previous if value is None else value
@@ -1007,6 +1022,7 @@ def main(argv=None) -> int:
                    "a frame's pixel queue runs out go on in the next frame): as --bvh-splits")
     m.add_argument("--bvh-leaf", help="semicolon-separated $LIFT_GL_BVH_LEAF values (MAX_LEAF or MAX_LEAF,COST: the SAH "
                    "builder's largest leaf and a split's cost in triangle tests; 'default' for unset): as --bvh-splits")
+    m.add_argument("--env", help="VAR=a,b: any environment setting (e.g. LIFT_GL_GBUFFER=raster,traced): as --bvh-splits")
     m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
