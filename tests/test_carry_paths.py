@@ -247,3 +247,32 @@ def test_a_driver_that_rejects_the_carry_code_keeps_the_plain_megakernel(monkeyp
         assert (r.accumulate.read_totals()[..., 3] == CARRY_TUNING_FRAMES + 2).all()
     finally:
         r.release()
+
+
+def test_carry_tuning_lets_no_single_slow_block_decide():
+    """The first case of a fresh process on an H100 timed the carry way's blocks at up to 1.18x
+    their steady time and kept the slower plain megakernel: each way's blocks are summed up by
+    their faster half, so one slow block (here the first carry block at 3x) does not decide,
+    while a way slower in every block still loses."""
+    from lift_gl.passes.carry import CARRY_BLOCK, CARRY_ROUNDS, CARRY_TIMED, CarryTuning
+
+    def tuned(frame_s):   # frame_s(way, block of that way): seconds a frame
+        t = CarryTuning({})
+        clock, seen = 0.0, {"carry": 0, "plain": 0}
+        for _ in range(2 * CARRY_ROUNDS):
+            way = t.start()
+            for _ in range(CARRY_BLOCK):
+                clock += frame_s(way, seen[way])
+                t.frames += 1
+                if t.clock_due():
+                    t.clock(clock)
+            seen[way] += 1
+            t.end()
+        return t
+
+    t = tuned(lambda way, k: (2.7 if k == 0 else 0.9) if way == "carry" else 1.0)
+    assert t.block_ms()["carry"] == pytest.approx([2700.0, 900.0, 900.0])
+    assert len(t.block_ms()["plain"]) == CARRY_ROUNDS and CARRY_TIMED == CARRY_BLOCK - 2
+    assert t.frame_ms() == pytest.approx({"carry": 900.0, "plain": 1000.0}) and t.faster() == "carry"
+    t = tuned(lambda way, k: 1.1 if way == "carry" else (3.0 if k == 1 else 1.0))
+    assert t.faster() == "plain"

@@ -34,6 +34,17 @@ NUM_STATS = 5
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
 
 
+def fastest_half_mean(seconds) -> float:
+    """What a way's timed frames (or blocks of frames) say when two ways are timed against
+    each other (passes/trace.py, passes/carry.py): the mean of the faster half. A transient
+    stall (seen on an H100: four frames in a row of the classroom's tuning at 4x their time,
+    both ways alike) drops out, and under a steady drift the A B B A order still weighs both
+    ways alike (the faster half of A's frames 0, 3, 4, 7 is 4 and 7; of B's 1, 2, 5, 6 it is 5
+    and 6)."""
+    fast = np.sort(np.asarray(seconds, dtype=np.float64))
+    return float(fast[: max(1, (len(fast) + 1) // 2)].mean())
+
+
 def groups(width: int, height: int, local=(LOCAL_SIZE, LOCAL_SIZE)) -> tuple[int, int, int]:
     """Work groups of `local` (x, y) invocations that cover width x height."""
     lx, ly = local

@@ -58,7 +58,7 @@ from ..plugins import GLSL_TYPES, Plugin
 from ..env_settings import env_choice
 from ..errors import ShaderError
 from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
-from .common import LOCAL_SIZE, coherent_sampling_source, groups, set_uniforms, tile_dispatch_size
+from .common import LOCAL_SIZE, coherent_sampling_source, fastest_half_mean, groups, set_uniforms, tile_dispatch_size
 from .splat import SplatBuffer, splat_defines
 from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 
@@ -79,15 +79,6 @@ TUNING_ROUNDS = 3
 TUNING_DELAY_S = 0.3
 TUNING_CLOCK = 0.9
 TUNING_CLOCK_WAIT_S = 3.0
-
-
-def fastest_half_mean(seconds) -> float:
-    """What a way's timed frames say: the mean of the faster half. A transient stall (seen on
-    an H100: four frames in a row of the classroom's tuning at 4x their time, both ways alike)
-    drops out, and under a steady drift the A B B A order still weighs both ways alike (the
-    faster half of A's frames 0, 3, 4, 7 is 4 and 7; of B's 1, 2, 5, 6 it is 5 and 6)."""
-    fast = np.sort(np.asarray(seconds, dtype=np.float64))
-    return float(fast[: max(1, (len(fast) + 1) // 2)].mean())
 
 
 def tuning_way(frame: int) -> str:
@@ -490,7 +481,8 @@ class TracePass:
         # faster: the megakernel with the carry code is built on a render's first frame that may
         # park, and the two are timed on the frames after it (run, CarryTuning)
         self.carry_tuning = CarryTuning(carry_defines) if carry == "faster" else None
-        self.carry_tuned_ms = None     # once chosen: each way's mean frame ms
+        self.carry_tuned_ms = None     # once chosen: each way's frame ms (CarryTuning.frame_ms)
+        self.carry_tuning_blocks_ms = None   # and each of its blocks' (CarryTuning.block_ms)
         self.carry_fallback = None     # why the carry code could not be timed
         self._resumed = False          # the last dispatch resumed parked paths (late)
         self._carry_leaving = False    # the plain megakernel was kept: the carry buffers go next frame
@@ -624,6 +616,7 @@ class TracePass:
         """The faster way's megakernel becomes the trace program; the other's is released."""
         self.carry_tuning = None
         self.carry_tuned_ms = t.frame_ms()
+        self.carry_tuning_blocks_ms = t.block_ms()   # for benchmarks
         if t.faster() == "carry":
             self.program.release()
             self.program, self.source, self.defines = t.program, t.source, t.defines

@@ -148,6 +148,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     tuning_frames_ms = getattr(trace, "tuning_frames_ms", None)
     carry = getattr(trace, "carry", None) is not None   # paths carried into the next frame
     carry_tuned_ms = getattr(trace, "carry_tuned_ms", None)
+    carry_tuning_blocks_ms = getattr(trace, "carry_tuning_blocks_ms", None)
     renderer.release()
 
     counting = make(count_rays=True)
@@ -176,6 +177,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
             "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
             "wavefront_tuning_frames_ms": tuning_frames_ms, "carry": carry, "carry_tuned_ms": carry_tuned_ms,
+            "carry_tuning_blocks_ms": carry_tuning_blocks_ms,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
             # the per-pass run, and the warm-up before them
             "sm_clock": {"frames_mhz": frame_mhz, "passes_mhz": pass_mhz, "warm_up": warm}}
