@@ -18,6 +18,13 @@ lanes busy and the distinct fetches a step). What it tells: whether a scene's ra
 nodes (the tree, the traversal order) or because each visit costs more (memory): a GPU's
 Mrays/s (benchmarks/gpu.py) divided into these counts. Needs no GPU.
 
+A tree for a distant light's shadow rays: `--light-frame` builds a second tree over the scene
+turned so that its first distant light lies along +z and runs the shadow rays towards it
+through both (the fifteenth session: the dining room's sun-frame tree made them visit more
+nodes, not fewer; docs/gpu.md).
+
+    python benchmarks/bvh_visits.py SCENE --light-frame [--rays 3000] [--json FILE]
+
 Where the slow rays are: `--heatmap FILE.png` traces a camera ray and a bounce ray from every
 pixel of a `--heat-size` image and writes their node visits side by side (black, red, yellow:
 0 to the larger of the two 99th percentiles), and prints which materials' leaves the bounce
@@ -347,7 +354,12 @@ def main(argv=None) -> int:
                     "with the scene's binary tree collapsed to each (CollapsedTree), instead of the tables")
     ap.add_argument("--heatmap", type=Path, help="PNG of each pixel's camera and bounce ray node visits (first scene)")
     ap.add_argument("--heat-size", default="192x108", help="the heat map's pixels per half, WxH")
+    ap.add_argument("--light-frame", action="store_true",
+                    help="shadow rays to the first distant light: the renderer's tree against one built over "
+                         "the scene turned so that the light lies along +z")
     args = ap.parse_args(argv)
+    if args.light_frame:
+        return _light_frame(args)
     if args.heatmap:
         return _heatmap(args)
     if args.widths:
@@ -402,6 +414,69 @@ def _widths(args) -> int:
                             "bounce_nodes_mean": float(rays[rays > 0].mean())})
             print(f"| {scene_name(path)} | {width} | {tree.entry.shape[0]:,} | {w.get('steps', 0):.2f} "
                   f"| {w.get('busy_per_step', 0):.1f} | {results[-1]['bounce_nodes_mean']:.1f} |", flush=True)
+    if args.json:
+        write_json(args.json, results, indent=1)
+    return 0
+
+
+def light_frame(direction) -> np.ndarray:
+    """A rotation (rows an orthonormal basis) taking `direction` to +z."""
+    z = np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    a = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(a, z)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z])
+
+
+def light_frame_visits(path, n_rays: int, seed: int = 1) -> dict:
+    """The shadow rays towards a scene's first distant light through the renderer's tree and
+    through a tree built the same way over the scene turned so that the light lies along +z
+    (its shadow rays then run along an axis of every box): nodes, leaves and triangles a ray
+    visits, and whether the two agree on each ray's answer. `path`: a scene file, or a Scene."""
+    import copy
+
+    from lift_gl.scene.loader import load_scene
+    from lift_gl.scene.pack import pack_scene
+
+    scene = load_scene(path) if isinstance(path, (str, Path)) else path
+    if not scene.distant_lights:
+        raise SystemExit(f"{path}: no distant light")
+    world = pack_scene(scene, bvh_width=4)
+    rotation = light_frame(scene.distant_lights[0].direction)
+    turned = copy.deepcopy(scene)
+    for mesh in turned.meshes:
+        mesh.positions = mesh.positions @ rotation.T
+    in_light_frame = pack_scene(turned, bvh_width=4)
+    rng = np.random.default_rng(seed)
+    tree = WideTree(world)
+    o, d, _ = scene_rays(scene, world, tree, n_rays, rng)["shadow"]
+    o_turned = (o + np.asarray(world.origin, np.float64)) @ rotation.T - np.asarray(in_light_frame.origin, np.float64)
+    out, answers = {"scene": str(path) if isinstance(path, (str, Path)) else "", "rays": len(o)}, {}
+    for name, t, origins, dirs in (("world", tree, o, d), ("light_frame", WideTree(in_light_frame), o_turned,
+                                                                       d @ rotation.T)):
+        runs = [traverse(t, origins[i], dirs[i], True) for i in range(len(origins))]
+        nodes = np.array([r["nodes"] for r in runs], np.float64)
+        answers[name] = np.array([r["row"] >= 0 for r in runs])
+        out[name] = {"wide_nodes": int(t.entry.shape[0]), "nodes_mean": float(nodes.mean()),
+                     "leaves_mean": float(np.mean([r["leaves"] for r in runs])),
+                     "triangles_mean": float(np.mean([r["triangles"] for r in runs])),
+                     "warp_nodes": warp_nodes(nodes, rng), "blocked": float(answers[name].mean())}
+    out["answers_differ"] = int((answers["world"] != answers["light_frame"]).sum())
+    return out
+
+
+def _light_frame(args) -> int:
+    results = []
+    print("| scene | tree | shadow rays | blocked | wide nodes visited | leaves | triangles | warp of 32 random rays |")
+    print("|---|---|---|---|---|---|---|---|")
+    for path in args.scenes:
+        r = light_frame_visits(path, args.rays, args.seed)
+        results.append(r)
+        for name in ("world", "light_frame"):
+            k = r[name]
+            print(f"| {scene_name(path)} | {name} | {r['rays']} | {k['blocked']:.3f} | {k['nodes_mean']:.2f} "
+                  f"| {k['leaves_mean']:.2f} | {k['triangles_mean']:.2f} | {k['warp_nodes']:.1f} |")
+        print(f"(answers that differ: {r['answers_differ']})")
     if args.json:
         write_json(args.json, results, indent=1)
     return 0

@@ -116,6 +116,16 @@ def no_shadow_rays(text: str) -> str:
     return _sub(text, head, head + "\n    shadow_wanted = false;")
 
 
+def shadow_rays_of(delta: bool):
+    """Diagnostic: pt's shadow rays traced only for the light samples of delta lights (distant
+    lights: `delta` true) or only for the others (environment, emitters), the rest counted
+    unblocked: what each kind's shadow rays cost."""
+    def edit(text: str) -> str:
+        return _sub(text, "                shadow_wanted = true;",
+                    f"                shadow_wanted = {'' if delta else '!'}ls.is_delta;")
+    return edit
+
+
 def no_path_steps(text: str) -> str:
     """The host's loop over samples calling radiance() instead of the vertex-at-a-time loop."""
     return _sub(text, "#define LIFT_PATH_STEPS\n", "")
@@ -699,6 +709,9 @@ VARIANTS = {
     "env_const": (env_constant, {}, False),
     "env_both": (compose(env_uniform, env_constant), {}, False),
     "nolight": (no_light_samples, {}, False),
+    "noshadow_base": (no_shadow_rays, {}, False),            # every shadow ray skipped, the base's layout
+    "shadow_delta_only": (shadow_rays_of(True), {}, False),   # only distant lights' shadow rays traced
+    "shadow_delta_none": (shadow_rays_of(False), {}, False),  # distant lights' shadow rays skipped
     "unpaired": (undefine("LIFT_TRACE_PAIRED"), {}, True),
     "queue": (define("LIFT_PIXEL_QUEUE"), {}, True),
     "queue_spread4": (queue_spread(4), {}, True),

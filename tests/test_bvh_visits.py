@@ -117,3 +117,21 @@ def test_collapsed_trees_of_any_width(name):
     assert np.mean(visits[2]) > np.mean(visits[4]) > np.mean(visits[8])
     with pytest.raises(ValueError, match="bvh_width=2"):
         bvh_visits.CollapsedTree(wide, 8)
+
+
+def test_a_tree_in_a_distant_lights_frame_answers_its_shadow_rays_alike():
+    """--light-frame: the rotation takes the light's direction to +z, and the second tree, built
+    over the turned scene, blocks exactly the shadow rays the renderer's tree blocks."""
+    from lift_gl.scene.model import DistantLight
+
+    direction = np.array([0.5, 0.5, 0.7])   # in through the box's open side: some rays blocked, some not
+    rotation = bvh_visits.light_frame(direction)
+    np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-12)
+    np.testing.assert_allclose(rotation @ (direction / np.linalg.norm(direction)), [0, 0, 1], atol=1e-12)
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    scene.distant_lights.append(DistantLight(direction=direction / np.linalg.norm(direction),
+                                             irradiance=np.ones(3)))
+    r = bvh_visits.light_frame_visits(scene, 300)
+    assert r["rays"] > 100 and 0.2 < r["world"]["blocked"] < 1.0
+    assert r["answers_differ"] == 0 and r["world"]["blocked"] == r["light_frame"]["blocked"]
+    assert r["light_frame"]["nodes_mean"] >= 1 and r["world"]["nodes_mean"] >= 1
