@@ -117,10 +117,11 @@ class CarriedPaths:
 # the two ways differ there, and it kept the plain way in some processes: docs/gpu.md
 # "Fourteenth session"). Blocks in the order carry, plain, plain, carry, ... (a drift in the
 # GPU's clock then weighs both alike). Each way's blocks are summed up by the mean of its faster
-# half (fastest_half_mean): in two device calls of the fifteenth session the first case of a
-# fresh process timed the carry way at 1.18x its steady time and kept the plain megakernel on
-# the dining room (3.77-3.79 ms frames against 3.37-3.39), where a mean of all blocks lets one
-# slow block decide.
+# half (fastest_half_mean), not by their mean: a render's first carry block runs slow (on an
+# H100 the slowest of the three in 15 of 16 cases, up to 4.1x the others; the dining room's at
+# 6.74 ms a frame against 3.49 and 3.52), and the mean let it keep the plain megakernel in the
+# first case of two processes of two (3.77-3.79 ms frames against 3.37-3.39; docs/gpu.md
+# "Fifteenth session").
 CARRY_BLOCK = 10
 CARRY_TIMED = CARRY_BLOCK - 2
 CARRY_ROUNDS = 3
