@@ -302,6 +302,16 @@ def sah_cost(bvh: BVH) -> float:
     return float((area * per_node).sum() / max(area[0], 1e-300))
 
 
+def bounds_of(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of an (N, D) array, each column reduced on its own: numpy reduces an (N, 3)
+    array along axis 0 a 3-wide row at a time, 13x slower (30M points here: 1.06 s against
+    0.08 for min). The same values, NaN included."""
+    pts = np.asarray(points)
+    columns = range(pts.shape[1])
+    return (np.array([pts[:, i].min() for i in columns], pts.dtype),
+            np.array([pts[:, i].max() for i in columns], pts.dtype))
+
+
 def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray | None,
                 tri_boxes: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The node boxes of the same tree over other positions of its triangles: float32 (T, K, 3)
@@ -318,14 +328,13 @@ def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray | None,
     n = bvh.num_nodes
     first = bvh.first.astype(np.int64)
     count = bvh.count.astype(np.int64)
-    lo = np.empty((n, 3), np.float32)
-    hi = np.empty((n, 3), np.float32)
+    box = np.empty((n, 6), np.float32)   # lo and hi side by side: one gather a child, not two
     # Leaves: their triangle ranges are contiguous and cover 0..T-1, so one segment
     # reduction over the ranges' sorted starts gives every leaf box.
     leaves = np.flatnonzero(count > 0)
     leaves = leaves[np.argsort(first[leaves])]
-    lo[leaves] = np.minimum.reduceat(tri_lo, first[leaves], axis=0)
-    hi[leaves] = np.maximum.reduceat(tri_hi, first[leaves], axis=0)
+    box[leaves, :3] = np.minimum.reduceat(tri_lo, first[leaves], axis=0)
+    box[leaves, 3:] = np.maximum.reduceat(tri_hi, first[leaves], axis=0)
     # Interior nodes, deepest level first: a child's box is ready before its parent's.
     levels, frontier = [], np.zeros(1, np.int64)
     while frontier.size:
@@ -333,9 +342,13 @@ def refit_boxes(bvh: BVH, tri_points_reordered: np.ndarray | None,
         levels.append(inner)
         frontier = np.concatenate((first[inner], first[inner] + 1))
     for inner in reversed(levels):
-        lo[inner] = np.minimum(lo[first[inner]], lo[first[inner] + 1])
-        hi[inner] = np.maximum(hi[first[inner]], hi[first[inner] + 1])
-    return lo, hi
+        # np.take gathers rows faster than fancy indexing (random rows: 4x, 10M of them)
+        a = np.take(box, first[inner], axis=0)
+        b = np.take(box, first[inner] + 1, axis=0)
+        np.minimum(a[:, :3], b[:, :3], out=a[:, :3])
+        np.maximum(a[:, 3:], b[:, 3:], out=a[:, 3:])
+        box[inner] = a
+    return np.ascontiguousarray(box[:, :3]), np.ascontiguousarray(box[:, 3:])
 
 
 # --- reference traversal (tests) -----------------------------------------------------------

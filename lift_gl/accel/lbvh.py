@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-from .bvh import BVH, MAX_DEPTH, MAX_LEAF, build_bvh, empty_bvh, refit_boxes
+from .bvh import BVH, MAX_DEPTH, MAX_LEAF, bounds_of, build_bvh, empty_bvh, refit_boxes
 
 CLUSTER = 64           # refinement: LBVH subtrees of at most this many triangles stay whole
 MORTON_BITS = 10       # per axis: 30-bit codes
@@ -130,9 +130,7 @@ def _sorted_keys(pos: np.ndarray):
 
     context, queue = device()
     n, k = pos.shape[0], pos.shape[1]
-    flat = pos.reshape(-1, 3)
-    lo = flat.min(axis=0).astype(np.float64)
-    hi = flat.max(axis=0).astype(np.float64)
+    lo, hi = (b.astype(np.float64) for b in bounds_of(pos.reshape(-1, 3)))
     extent = np.maximum(hi - lo, 1e-30)
     scale = (2 ** MORTON_BITS) / extent * (1 - 1e-6)   # keep the top cell inside 0..1023
     mf = cl.mem_flags

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bvh import bounds_of
+
 ENV_VAR = "LIFT_GL_BVH_SPLITS"
 MAX_SPLITS_PER_TRIANGLE = 64   # one triangle never becomes more than 65 references
 _GRID_BITS = 30
@@ -289,8 +291,8 @@ def presplit(tris: np.ndarray, settings: SplitSettings):
     ref_tri = np.arange(n, dtype=np.int64)
     if not counts.any():
         return ref_tri, lo, hi
-    s_lo = lo.min(axis=0).astype(np.float64)
-    s_ext = hi.max(axis=0).astype(np.float64) - s_lo
+    s_lo = bounds_of(lo)[0].astype(np.float64)
+    s_ext = bounds_of(hi)[1].astype(np.float64) - s_lo
     s_scale = np.where(s_ext > 0, (1 << _GRID_BITS) / np.where(s_ext > 0, s_ext, 1.0), 0.0)
 
     # finished references, and the pieces still to split: (triangle, box, splits left)

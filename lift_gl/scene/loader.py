@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..accel.bvh import bounds_of
 from ..errors import LiftError, SceneError
 from .model import Camera, Environment, Material, Scene
 
@@ -95,8 +96,9 @@ def scene_bounds(scene: Scene):
     lo, hi = [], []
     for m in scene.meshes:
         if len(m.positions):
-            lo.append(m.positions.min(axis=0))
-            hi.append(m.positions.max(axis=0))
+            box = bounds_of(m.positions)
+            lo.append(box[0])
+            hi.append(box[1])
     for s in scene.spheres:
         lo.append(s.center - s.radius)
         hi.append(s.center + s.radius)

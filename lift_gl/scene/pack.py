@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..accel.bvh import build_bvh, refit_boxes
+from ..accel.bvh import bounds_of, build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached, resolve_builder
 from ..accel.wide import resolve_width, wide_layout
 from .images import pack_images
@@ -140,8 +140,9 @@ def pack_materials(scene: Scene) -> np.ndarray:
 def scene_origin(scene: Scene, extra_bounds: np.ndarray | None = None) -> np.ndarray:
     """The centre of the scene's bounds in float64 (zero for an empty scene); `extra_bounds`
     (2, 3): more that the scene holds (its traced instances)."""
-    lo = [m.positions.min(axis=0) for m in scene.meshes if len(m.positions)]
-    hi = [m.positions.max(axis=0) for m in scene.meshes if len(m.positions)]
+    boxes = [bounds_of(m.positions) for m in scene.meshes if len(m.positions)]
+    lo = [b[0] for b in boxes]
+    hi = [b[1] for b in boxes]
     if extra_bounds is not None:
         lo.append(extra_bounds[0])
         hi.append(extra_bounds[1])
