@@ -39,8 +39,18 @@ CLUSTER = 64           # refinement: LBVH subtrees of at most this many triangle
 MORTON_BITS = 10       # per axis: 30-bit codes
 
 _KERNELS = r"""
-// One work-item a triangle: its box and the Morton code of the box centre.
-// pos: T*k*3 floats (k corners a primitive); origin, scale map the scene box to [0, 1024).
+// pos: T*k*3 floats (k corners a primitive). The box of primitive t.
+void primitive_box(__global const float* pos, const int k, const uint t, float3* lo, float3* hi) {
+    __global const float* p = pos + (size_t)t * k * 3;
+    *lo = (float3)(p[0], p[1], p[2]);
+    *hi = *lo;
+    for (int c = 1; c < k; ++c) {
+        float3 q = (float3)(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
+        *lo = fmin(*lo, q);
+        *hi = fmax(*hi, q);
+    }
+}
+
 uint spread_bits(uint v) {            // 10 bits -> every third bit of 30
     v = (v * 0x00010001u) & 0xFF0000FFu;
     v = (v * 0x00000101u) & 0x0F00F00Fu;
@@ -49,22 +59,26 @@ uint spread_bits(uint v) {            // 10 bits -> every third bit of 30
     return v;
 }
 
+// One work-item a primitive: the Morton code of its box centre, << 32 | its index.
+// origin, scale map the scene box to [0, 1024).
 __kernel void morton_keys(__global const float* pos, const int k, const float4 origin,
-                          const float4 scale, __global ulong* keys, __global float* box_lo,
-                          __global float* box_hi) {
+                          const float4 scale, __global ulong* keys) {
     const uint i = get_global_id(0);
-    __global const float* p = pos + (size_t)i * k * 3;
-    float3 lo = (float3)(p[0], p[1], p[2]);
-    float3 hi = lo;
-    for (int c = 1; c < k; ++c) {
-        float3 q = (float3)(p[3 * c], p[3 * c + 1], p[3 * c + 2]);
-        lo = fmin(lo, q);
-        hi = fmax(hi, q);
-    }
+    float3 lo, hi;
+    primitive_box(pos, k, i, &lo, &hi);
     float3 u = (0.5f * (lo + hi) - origin.xyz) * scale.xyz;
     u = clamp(u, 0.0f, 1023.0f);   // also maps NaN (non-finite input) to 0
     uint code = (spread_bits((uint)u.x) << 2) | (spread_bits((uint)u.y) << 1) | spread_bits((uint)u.z);
     keys[i] = ((ulong)code << 32) | (ulong)i;
+}
+
+// One work-item a sorted key: the box of its primitive, in the keys' order (a gather here
+// instead of two numpy row gathers: 2.2 s of a 10M-triangle build on 2 cores).
+__kernel void sorted_boxes(__global const float* pos, const int k, __global const ulong* keys,
+                           __global float* box_lo, __global float* box_hi) {
+    const uint i = get_global_id(0);
+    float3 lo, hi;
+    primitive_box(pos, k, (uint)(keys[i] & 0xffffffffUL), &lo, &hi);
     vstore3(lo, i, box_lo);
     vstore3(hi, i, box_hi);
 }
@@ -117,13 +131,13 @@ def _cl_kernels() -> dict:
         cl = import_pyopencl("the LBVH builder (lift_gl/accel/lbvh.py)")
         context, _ = device("the LBVH builder (lift_gl/accel/lbvh.py)")
         program = cl.Program(context, _KERNELS).build()
-        _kernels = {name: cl.Kernel(program, name) for name in ("morton_keys", "karras_nodes")}
+        _kernels = {name: cl.Kernel(program, name) for name in ("morton_keys", "sorted_boxes", "karras_nodes")}
     return _kernels
 
 
 def _sorted_keys(pos: np.ndarray):
     """Steps 1-2: the sorted (Morton code << 32 | index) keys, uint64 (T,), and the triangle
-    boxes (lo, hi), float32 (T, 3) each, in input order."""
+    boxes (lo, hi), float32 (T, 3) each, in the keys' order."""
     import pyopencl as cl
 
     from ..opencl import device
@@ -136,16 +150,20 @@ def _sorted_keys(pos: np.ndarray):
     mf = cl.mem_flags
     pos_buf = cl.Buffer(context, mf.READ_ONLY | mf.USE_HOST_PTR, hostbuf=pos)
     keys = np.empty(n, np.uint64)
-    box_lo = np.empty((n, 3), np.float32)
-    box_hi = np.empty((n, 3), np.float32)
-    out = [keys, box_lo, box_hi]
-    bufs = [cl.Buffer(context, mf.WRITE_ONLY | mf.USE_HOST_PTR, hostbuf=a) for a in out]
+    keys_buf = cl.Buffer(context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=keys)
     _cl_kernels()["morton_keys"](queue, (n,), None, pos_buf, np.int32(k), np.array([*lo, 0], np.float32),
-                                   np.array([*scale, 0], np.float32), *bufs)
-    for a, b in zip(out, bufs):
-        cl.enqueue_copy(queue, a, b)
+                                   np.array([*scale, 0], np.float32), keys_buf)
+    cl.enqueue_copy(queue, keys, keys_buf)
     queue.finish()
     keys.sort()
+    cl.enqueue_copy(queue, keys_buf, keys)
+    box_lo = np.empty((n, 3), np.float32)
+    box_hi = np.empty((n, 3), np.float32)
+    boxes = [cl.Buffer(context, mf.WRITE_ONLY | mf.USE_HOST_PTR, hostbuf=a) for a in (box_lo, box_hi)]
+    _cl_kernels()["sorted_boxes"](queue, (n,), None, pos_buf, np.int32(k), keys_buf, *boxes)
+    for a, b in zip((box_lo, box_hi), boxes):
+        cl.enqueue_copy(queue, a, b)
+    queue.finish()
     return keys, box_lo, box_hi
 
 
@@ -334,10 +352,8 @@ def build_lbvh(tri_positions: np.ndarray, *, refine: bool = False, max_leaf: int
         return build_bvh(pos)
     lap("input checks")
     keys, box_lo, box_hi = _sorted_keys(pos)
-    lap("morton codes (OpenCL) and sort (numpy)")
+    lap("morton codes (OpenCL), sort (numpy), boxes in order (OpenCL)")
     order = (keys & np.uint64(0xFFFFFFFF)).astype(np.int64)
-    box_lo, box_hi = box_lo[order], box_hi[order]
-    lap("reorder boxes")
     tree, lo, size = _lbvh_tree(keys, max_leaf)
     del keys
     lap("hierarchy (OpenCL)")
