@@ -252,7 +252,7 @@ void lift_trace_pixel_queue() {{
             uint tile = item / group, lane = item % group;
             pixel = lift_tile_pixel(uvec2(tile % tiles.x, tile / tiles.x), uvec2(lane % tile_w, lane / tile_w),
                                     uvec2(tile_w, tile_h));
-            if (any(greaterThanEqual(pixel, ivec2(u_resolution))) || any(lessThan(pixel, ivec2(0)))) continue;
+            if (!pixel_in_image(pixel)) continue;
             s = 0u;
             sum = vec3(0.0);
             valid = 0.0;
@@ -318,7 +318,7 @@ void main() {{
     return;
 #endif
     ivec2 pixel = lift_tile_pixel(gl_WorkGroupID.xy, gl_LocalInvocationID.xy, gl_WorkGroupSize.xy);  // a group: a tile
-    if (any(greaterThanEqual(pixel, ivec2(u_resolution))) || any(lessThan(pixel, ivec2(0)))) return;
+    if (!pixel_in_image(pixel)) return;
     vec3 sum = vec3(0.0);
     float valid = 0.0;
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS)

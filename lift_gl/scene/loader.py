@@ -91,17 +91,16 @@ def _load_single_mesh(path: Path) -> Scene:
     return scene
 
 
+def geometry_boxes(scene: Scene) -> tuple[list, list]:
+    """The (min, max) corners of each mesh and sphere, as two lists (instances not included)."""
+    boxes = [bounds_of(m.positions) for m in scene.meshes if len(m.positions)]
+    boxes += [(s.center - s.radius, s.center + s.radius) for s in scene.spheres]
+    return [b[0] for b in boxes], [b[1] for b in boxes]
+
+
 def scene_bounds(scene: Scene):
     """(min, max) corners of all geometry, or None for an empty scene."""
-    lo, hi = [], []
-    for m in scene.meshes:
-        if len(m.positions):
-            box = bounds_of(m.positions)
-            lo.append(box[0])
-            hi.append(box[1])
-    for s in scene.spheres:
-        lo.append(s.center - s.radius)
-        hi.append(s.center + s.radius)
+    lo, hi = geometry_boxes(scene)
     if scene.instances:
         from .instances import instance_world_bounds  # late: instances imports the loaders' model
 

@@ -23,13 +23,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..accel.bvh import bounds_of, build_bvh, refit_boxes
+from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached, resolve_builder
 from ..accel.wide import resolve_width, wide_layout
 from .images import pack_images
 from .instances import (InstanceTable, build_blas, instance_table, instance_world_bounds,
                         split_instances)
 from .light_choice import light_uniforms
+from .loader import geometry_boxes
 from .model import Camera, Scene
 from .optics import internal_diffuse_reflectance
 
@@ -140,14 +141,10 @@ def pack_materials(scene: Scene) -> np.ndarray:
 def scene_origin(scene: Scene, extra_bounds: np.ndarray | None = None) -> np.ndarray:
     """The centre of the scene's bounds in float64 (zero for an empty scene); `extra_bounds`
     (2, 3): more that the scene holds (its traced instances)."""
-    boxes = [bounds_of(m.positions) for m in scene.meshes if len(m.positions)]
-    lo = [b[0] for b in boxes]
-    hi = [b[1] for b in boxes]
+    lo, hi = geometry_boxes(scene)
     if extra_bounds is not None:
         lo.append(extra_bounds[0])
         hi.append(extra_bounds[1])
-    lo += [s.center - s.radius for s in scene.spheres]
-    hi += [s.center + s.radius for s in scene.spheres]
     if not lo:
         return np.zeros(3)
     return 0.5 * (np.min(lo, axis=0) + np.max(hi, axis=0))

@@ -15,6 +15,11 @@ uniform vec2 u_resolution;     // width, height in pixels
 uniform float u_lens_radius;   // 0: pinhole
 uniform float u_focus_distance;
 
+// Whether a pixel lies in the image (tiles and splats may reach past its edges).
+bool pixel_in_image(ivec2 pixel) {
+    return all(greaterThanEqual(pixel, ivec2(0))) && all(lessThan(pixel, ivec2(u_resolution)));
+}
+
 // Direction (unnormalized, forward component 1) through a pixel position.
 vec3 camera_direction(vec2 pixel_pos) {
     vec2 ndc = pixel_pos / u_resolution * 2.0 - 1.0;

@@ -74,7 +74,7 @@ void splat(vec2 pixel_pos, vec3 value) {
     }
 #else
     ivec2 pixel = ivec2(floor(pixel_pos));
-    if (any(lessThan(pixel, ivec2(0))) || any(greaterThanEqual(pixel, ivec2(u_resolution)))) return;
+    if (!pixel_in_image(pixel)) return;
     splat_pixel(pixel, value);
 #endif
 }
