@@ -75,17 +75,27 @@ def get_denoiser(name: str):
 
 # ---- rendering the inputs ---------------------------------------------------------------------
 
-def render_set(scenes: dict, out: Path, size_of, ref_spp: int, backend: str, seed: int = 7):
-    """Render every scene's inputs and reference into one npz (float16), keys NAME/KIND."""
+def noisy_key(spp: int, sampling: str = "independent") -> str:
+    """The npz kind of a noisy input: noisySPP, with _SAMPLING unless independent."""
+    return f"noisy{spp}" + ("" if sampling == "independent" else f"_{sampling}")
+
+
+def render_set(scenes: dict, out: Path, size_of, ref_spp: int, backend: str, seed: int = 7,
+               samplings=("independent",)):
+    """Render every scene's inputs (for each of `samplings`) and reference into one npz
+    (float16), keys NAME/KIND."""
     from lift_gl.denoise.train.render_data import render_views
     from lift_gl.gl.context import create_context
     ctx = create_context(backend)
     arrays = {}
     for name, scene in scenes.items():
         t = time.perf_counter()
-        noisy, albedo, normal, ref, dropped = render_views(scene, size_of(scene), SPP, ref_spp, seed, ctx)
-        for spp, img in zip(SPP, noisy):
-            arrays[f"{name}/noisy{spp}"] = img
+        for k, sampling in enumerate(samplings):  # the reference once, with the first
+            noisy, albedo, normal, got, dropped = render_views(scene, size_of(scene), SPP, ref_spp if k == 0 else 0,
+                                                               seed, ctx, sampling=sampling)
+            ref = got if k == 0 else ref
+            for spp, img in zip(SPP, noisy):
+                arrays[f"{name}/{noisy_key(spp, sampling)}"] = img
         arrays.update({f"{name}/albedo": albedo, f"{name}/normal": normal, f"{name}/reference": ref,
                        f"{name}/depth": depth_guide(scene, size_of(scene), ctx)})
         print(f"rendered {name} {size_of(scene)} ({ref_spp} spp reference, {dropped} samples dropped) "
@@ -137,7 +147,8 @@ def render(args) -> None:
     names = list(val)
     for part in range(0, len(names), args.per_file):  # files of a few scenes: each under 16 MiB
         subset = {n: val[n] for n in names[part: part + args.per_file]}
-        render_set(subset, args.out / f"val_{part // args.per_file}.npz", square, args.ref_spp, args.backend)
+        render_set(subset, args.out / f"val_{part // args.per_file}.npz", square, args.ref_spp, args.backend,
+                   samplings=args.samplings)
     for name in args.shared:
         path = args.shared_dir / name / "scene.pbrt"
         if not path.is_file():
@@ -145,7 +156,8 @@ def render(args) -> None:
             continue
         scene = scene_of(name, args.shared_dir)
         scaled = lambda s: tuple(max(16, int(round(v * args.shared_scale))) for v in s.film_size)
-        render_set({name: scene}, args.out / f"{name}.npz", scaled, args.ref_spp, args.backend)
+        render_set({name: scene}, args.out / f"{name}.npz", scaled, args.ref_spp, args.backend,
+                   samplings=args.samplings)
 
 
 # ---- evaluating -------------------------------------------------------------------------------
@@ -160,6 +172,13 @@ def load_sets(paths) -> dict:
     return scenes
 
 
+def samplings_in(kinds) -> list[str]:
+    """The samplings whose noisy inputs a scene's npz kinds hold, independent first."""
+    first = noisy_key(SPP[0])
+    found = {k.partition("_")[2] or "independent" for k in kinds if k == first or k.startswith(first + "_")}
+    return sorted(found, key=lambda x: (x != "independent", x))
+
+
 def evaluate(args) -> None:
     from lift_gl.metrics import rel_mse, ssim
     scenes = load_sets(args.inputs)
@@ -167,18 +186,20 @@ def evaluate(args) -> None:
     rows, seconds = [], {n: [] for n in denoisers}
     for name, s in scenes.items():
         ref = s["reference"]
-        for spp in SPP:
-            noisy = s[f"noisy{spp}"]
-            results = {"noisy": noisy}
-            for dname, d in denoisers.items():
-                t = time.perf_counter()
-                results[dname] = d.denoise(noisy, s["albedo"], s["normal"], depth=s.get("depth"))
-                seconds[dname].append(time.perf_counter() - t)
-            for method, img in results.items():
-                rows.append({"scene": name, "spp": spp, "method": method,
-                             "ssim": ssim(img, ref), "relmse": rel_mse(img, ref)})
-            if args.images:
-                save_strip(args.images / f"{name}_{spp}spp.png", [results[m] for m in results] + [ref])
+        for sampling in samplings_in(s):
+            for spp in SPP:
+                noisy = s[noisy_key(spp, sampling)]
+                results = {"noisy": noisy}
+                for dname, d in denoisers.items():
+                    t = time.perf_counter()
+                    results[dname] = d.denoise(noisy, s["albedo"], s["normal"], depth=s.get("depth"))
+                    seconds[dname].append(time.perf_counter() - t)
+                for method, img in results.items():
+                    rows.append({"scene": name, "sampling": sampling, "spp": spp, "method": method,
+                                 "ssim": ssim(img, ref), "relmse": rel_mse(img, ref)})
+                if args.images:
+                    tag = "" if sampling == "independent" else f"_{sampling}"
+                    save_strip(args.images / f"{name}_{spp}spp{tag}.png", [results[m] for m in results] + [ref])
     text = table(rows, list(denoisers), scenes)
     print(text)
     if args.out:
@@ -189,18 +210,33 @@ def evaluate(args) -> None:
 
 def table(rows, denoisers, scenes) -> str:
     methods = ["noisy"] + denoisers
-    get = {(r["scene"], r["spp"], r["method"]): r for r in rows}
-    head = "| scene | size | spp | " + " | ".join(f"{m} SSIM | {m} relMSE" for m in methods) + " |"
+    get = {(r["scene"], r.get("sampling", "independent"), r["spp"], r["method"]): r for r in rows}
+    head = "| scene | size | sampling | spp | " + " | ".join(f"{m} SSIM | {m} relMSE" for m in methods) + " |"
     lines = ["Denoiser quality against converged references (SSIM on sRGB clipped to [0, 1]; relMSE on linear RGB)",
-             "", head, "|" + " --- |" * (3 + 2 * len(methods))]
+             "", head, "|" + " --- |" * (4 + 2 * len(methods))]
     for name, s in scenes.items():
         h, w = s["reference"].shape[:2]
-        for spp in SPP:
-            cells = [f"{get[(name, spp, m)]['ssim']:.4f} | {get[(name, spp, m)]['relmse']:.4f}" for m in methods]
-            lines.append(f"| {name} | {w}x{h} | {spp} | " + " | ".join(cells) + " |")
+        for sampling in samplings_in(s):
+            for spp in SPP:
+                cells = [f"{get[(name, sampling, spp, m)]['ssim']:.4f} | {get[(name, sampling, spp, m)]['relmse']:.4f}"
+                         for m in methods]
+                lines.append(f"| {name} | {w}x{h} | {sampling} | {spp} | " + " | ".join(cells) + " |")
+    samplings = sorted({r.get("sampling", "independent") for r in rows}, key=lambda x: (x != "independent", x))
+    if len(samplings) > 1 or len(denoisers) > 1:  # means over the validation scenes, per sampling and spp
+        vals = [n for n in scenes if n.startswith("val")]
+        lines += ["", f"Means over the {len(vals)} validation scenes (SSIM / relMSE):", "",
+                  "| sampling | spp | " + " | ".join(methods) + " |", "|" + " --- |" * (2 + len(methods))]
+        for sampling in samplings:
+            for spp in SPP:
+                cells = []
+                for m in methods:
+                    got = [get[(n, sampling, spp, m)] for n in vals if (n, sampling, spp, m) in get]
+                    cells.append(f"{np.mean([g['ssim'] for g in got]):.4f} / {np.mean([g['relmse'] for g in got]):.4f}"
+                                 if got else "-")
+                lines.append(f"| {sampling} | {spp} | " + " | ".join(cells) + " |")
     for onnx in [d for d in denoisers if d.startswith("onnx")] if "oidn" in denoisers else []:
         vals = [n for n in scenes if n.startswith("val")]
-        gaps = {n: get[(n, 4, onnx)]["ssim"] - get[(n, 4, "oidn")]["ssim"] for n in vals}
+        gaps = {n: get[(n, "independent", 4, onnx)]["ssim"] - get[(n, "independent", 4, "oidn")]["ssim"] for n in vals}
         worst = min(gaps.values()) if gaps else float("nan")
         met = all(g >= -0.01 for g in gaps.values())
         lines += ["", f"Goal (4 spp, every validation scene: SSIM({onnx}) >= SSIM(oidn) - 0.01): "
@@ -230,6 +266,8 @@ def main(argv=None) -> None:
     r.add_argument("--shared-scale", type=float, default=0.5, help="of the scene file's film size")
     r.add_argument("--ref-spp", type=int, default=8192)
     r.add_argument("--backend", default="auto")
+    r.add_argument("--samplings", type=lambda v: tuple(v.split(",")), default=("independent",),
+                   help="the noisy inputs' samplings (lift_gl.denoise.train.render_data.SAMPLINGS), each rendered")
     e = sub.add_parser("evaluate")
     e.add_argument("inputs", nargs="+", type=Path)
     e.add_argument("--denoisers", default="onnx,oidn")

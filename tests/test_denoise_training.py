@@ -136,3 +136,36 @@ def test_ssim_weight_scales_only_the_ssim_term():
     for w in (0.2, 2.0):
         got = float(denoise_loss(pred, target, ssim_weight=w) - base)
         assert got == pytest.approx(w * (1 - float(ssim)), rel=1e-4, abs=1e-6)
+
+
+def _lag_correlation(residual: np.ndarray, lag: int) -> float:
+    """Correlation of the errors of pixels `lag` apart in a row, pooled over rows."""
+    return float((residual[..., :-lag] * residual[..., lag:]).mean() / (residual ** 2).mean())
+
+
+def test_training_inputs_take_each_sampling_and_are_named_by_it():
+    """A data set's scenes take the samplings in turn, named by them (independent keeps the
+    shipped model's names), and each input carries its sampling's noise: in the furnace (every
+    pixel converges to the albedo) coherent sampling's 1-spp errors of neighbours nearly agree,
+    interleave2's only two pixels apart, independent sampling's nowhere."""
+    from pathlib import Path
+    from lift_gl.denoise.train.render_data import SAMPLINGS, example_path, render_views, sampling_of
+    from lift_gl.testing import furnace_scene
+
+    order = ("independent", "coherent", "interleave2")
+    assert [sampling_of(i, order) for i in range(4)] == ["independent", "coherent", "interleave2", "independent"]
+    assert example_path(Path("d"), 7, "independent").name == "scene_0000007.npz"
+    assert example_path(Path("d"), 7, "interleave2").name == "scene_0000007_interleave2.npz"
+    size, albedo = (64, 64), 0.8
+    lag = {}
+    for sampling in SAMPLINGS:
+        noisy, *_, reference, _ = render_views(furnace_scene(albedo, size=size), size, (1,), 0, seed=3,
+                                               sampling=sampling)
+        assert reference is None  # ref_spp 0: no target rendered
+        residual = noisy[0].mean(axis=-1) - albedo
+        lag[sampling] = (_lag_correlation(residual, 1), _lag_correlation(residual, 2))
+    # standard error of a correlation over 64 x 63 independent pairs: about 0.016 (one frame of
+    # shared numbers has fewer independent groups: the sampler's own tests pool many frames)
+    assert abs(lag["independent"][0]) < 0.1 and abs(lag["independent"][1]) < 0.1, lag
+    assert lag["coherent"][0] > 0.7, lag
+    assert lag["interleave2"][1] > 0.7 and lag["interleave2"][0] < lag["interleave2"][1] - 0.4, lag

@@ -59,18 +59,22 @@ def main(argv=None) -> int:
     p.add_argument("--full-res-convs", type=int, default=1, help="3x3 convs at full resolution on each side")
     p.add_argument("--transform", default="log", choices=("log", "log1p"),  # model.TRANSFORMS
                    help="the network's colour transform (lift_gl/denoise/train/model.py)")
+    p.add_argument("--samplings", default="independent",
+                   help="how the noisy inputs are sampled, the scenes taking these in turn: independent, "
+                        "coherent, interleave2 (pt's coherent sampling; render_data.SAMPLINGS)")
     p.add_argument("--no-export", action="store_true")
     a = p.parse_args(argv)
     log = lambda msg: print(msg, flush=True)
 
     from .render_data import generate
     size = (a.size, a.size)
+    samplings = tuple(a.samplings.split(","))
     t0 = time.perf_counter()
     val_paths = generate(a.out / "val", VALIDATION_SEEDS[: a.val_scenes], size, a.ref_spp, a.backend, log,
-                         a.workers)
+                         a.workers, samplings=samplings)
     train_seeds = list(TRAIN_SEEDS[a.first_scene: a.first_scene + a.scenes])
     train_paths = generate(a.out / "train", train_seeds, size, a.ref_spp, a.backend, log, a.workers,
-                           a.data_minutes)
+                           a.data_minutes, samplings=samplings)
     log(f"data: {len(train_paths)} training scenes (seeds {train_seeds[0]}..{train_seeds[len(train_paths) - 1]})")
     data_seconds = time.perf_counter() - t0
 
@@ -87,10 +91,11 @@ def main(argv=None) -> int:
                            f"--steps {a.steps}"
                            + (f" --schedule-start {a.schedule_start} --lr {a.lr}" if a.schedule_start else "")
                            + (f" --ssim-weight {a.ssim_weight}" if a.ssim_weight != 0.2 else "")
+                           + (f" --samplings {a.samplings}" if a.samplings != "independent" else "")
                            + (f" --stop-at {result['steps']}" if result["steps"] < a.steps else ""),
               "val_scenes": result["val_scenes"],
               "val_seeds": [VALIDATION_SEEDS[0], VALIDATION_SEEDS[a.val_scenes - 1]] if a.val_scenes else [],
-              "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
+              "samplings": list(samplings), "size": a.size, "ref_spp": a.ref_spp, "spp_levels": [1, 2, 4, 8, 16, 32, 64],
               "steps": result["steps"], "loss_tonemap": a.loss_tonemap, "ssim_weight": a.ssim_weight, "batch": a.batch, "crop": a.crop, "lr": a.lr,
               "schedule_start": a.schedule_start, "resumed_at_step": result["resumed_at"],
               "train_seconds": round(result["seconds"], 1), "data_seconds_this_run": round(data_seconds, 1),

@@ -6,6 +6,12 @@ a frame so that each sample has its own subpixel jitter), the albedo and normal 
 in the network's terms (lift_gl/denoise/model_io.py): demodulated colour without the exposure
 (the exposure of each level is stored beside it), the demodulated target, and the divisor
 that remodulates (so that the loss can compare radiance).
+
+A scene's noisy inputs come from one of SAMPLINGS: `pt`'s independent random numbers (the
+default), or its coherent sampling, whose noise is correlated in blocks (tiles of adjacent
+pixels, or with interleave 2 every other pixel): a denoiser trained on independent noise only
+takes such a block for a feature of the image (docs/denoiser.md, "Coherent noise"). The target
+is the same for all.
 """
 from __future__ import annotations
 
@@ -19,6 +25,10 @@ from ..model_io import autoexposure, clean, network_input
 from .scenes import random_scene
 
 SPP_LEVELS = (1, 2, 4, 8, 16, 32, 64)
+# pt's parameters of each sampling of the noisy inputs (plugins/pt/plugin.toml)
+SAMPLINGS = {"independent": {},
+             "coherent": {"coherent_sampling": True, "coherent_interleave": 1},
+             "interleave2": {"coherent_sampling": True, "coherent_interleave": 2}}
 F16_MAX = 60000.0  # stored as float16: clip the rare brighter pixel (an emitter seen directly)
 
 
@@ -36,10 +46,13 @@ def _checked(r, spp: int, label: str) -> np.ndarray:
     return r.image()
 
 
-def render_views(scene, size, spp_levels, ref_spp: int, seed: int, ctx=None, ref_spp_per_frame: int = 8):
-    """Noisy radiance at each spp level, albedo, normal and the reference radiance (float32 H x W x 3)."""
+def render_views(scene, size, spp_levels, ref_spp: int, seed: int, ctx=None, ref_spp_per_frame: int = 8,
+                 sampling: str = "independent"):
+    """Noisy radiance at each spp level (drawn by `sampling`, one of SAMPLINGS), albedo, normal
+    and the reference radiance (float32 H x W x 3; None where ref_spp is 0)."""
     from ...renderer import Renderer
-    r = Renderer(scene, size=size, integrator="pt", seed=2 * seed, samples_per_frame=1, ctx=ctx)
+    r = Renderer(scene, size=size, integrator="pt", seed=2 * seed, samples_per_frame=1, ctx=ctx,
+                 params=dict(SAMPLINGS[sampling]))
     finish = lambda renderer, done: None  # a progress callback: the renderer then waits for each frame
     try:
         noisy, done = [], 0
@@ -51,6 +64,8 @@ def render_views(scene, size, spp_levels, ref_spp: int, seed: int, ctx=None, ref
         dropped = r.stats.dropped_samples
     finally:
         r.release()
+    if ref_spp <= 0:  # the caller has the target already
+        return noisy, albedo, normal, None, dropped
     # The target: a renderer of its own with an independent seed.
     ref = Renderer(scene, size=size, integrator="pt", seed=2 * seed + 1,
                    samples_per_frame=min(ref_spp_per_frame, ref_spp), ctx=ctx)
@@ -79,13 +94,15 @@ def example_arrays(noisy, albedo, normal, reference) -> dict:
             "divisor": f16(divisor), "exposure": np.asarray(exposures, np.float32)}
 
 
-def render_example(path: Path, seed: int, size, ref_spp: int, backend: str, ctx=None) -> str:
+def render_example(path: Path, seed: int, size, ref_spp: int, backend: str, ctx=None,
+                   sampling: str = "independent") -> str:
     """Render one scene into `path` (kept if it exists); returns a line for the log."""
     if path.exists():
         return f"scene {seed}: kept"
     if ctx is None:
         ctx = _worker_context(backend)
-    noisy, albedo, normal, reference, dropped = render_views(random_scene(seed), size, SPP_LEVELS, ref_spp, seed, ctx)
+    noisy, albedo, normal, reference, dropped = render_views(random_scene(seed), size, SPP_LEVELS, ref_spp, seed, ctx,
+                                                             sampling=sampling)
     arrays = example_arrays(noisy, albedo, normal, reference)
     tmp = path.with_suffix(".tmp.npz")
     np.savez(tmp, **arrays)
@@ -105,19 +122,33 @@ def _worker_context(backend: str):
 
 
 def _task(args):
-    path, seed, size, ref_spp, backend, deadline = args
+    path, seed, size, ref_spp, backend, deadline, sampling = args
     if deadline is not None and time.time() > deadline:
         return None
     try:
-        return render_example(path, seed, size, ref_spp, backend)
+        return render_example(path, seed, size, ref_spp, backend, sampling=sampling)
     except IncompleteRender as e:  # left out of the data set, and said so
         path.with_suffix(".failed").write_text(str(e) + "\n")
         return f"scene {seed}: LEFT OUT, {e}"
 
 
+def sampling_of(index: int, samplings) -> str:
+    """The sampling of the index-th scene of a set: `samplings` in turn."""
+    return samplings[index % len(samplings)]
+
+
+def example_path(out_dir: Path, seed: int, sampling: str) -> Path:
+    """out_dir/scene_SEED.npz, with _SAMPLING before the suffix unless independent (the shipped
+    model's files keep their names)."""
+    tag = "" if sampling == "independent" else f"_{sampling}"
+    return Path(out_dir) / f"scene_{seed:07d}{tag}.npz"
+
+
 def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend: str = "auto",
-             log=print, workers: int = 1, minutes: float | None = None) -> list[Path]:
-    """Render each seed's scene into out_dir/scene_SEED.npz (existing files are kept: resumable).
+             log=print, workers: int = 1, minutes: float | None = None,
+             samplings=("independent",)) -> list[Path]:
+    """Render each seed's scene into out_dir/scene_SEED[_SAMPLING].npz (existing files are kept:
+    resumable), the k-th seed's noisy inputs drawn by samplings[k % len(samplings)].
 
     With `workers` > 1 the scenes render in that many processes (one GL context each); with
     `minutes`, rendering stops after that long and the longest prefix of `seeds` that was
@@ -126,9 +157,13 @@ def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(seeds)
-    paths = [out_dir / f"scene_{seed:07d}.npz" for seed in seeds]
+    unknown = set(samplings) - set(SAMPLINGS)
+    if unknown or not samplings:
+        raise ValueError(f"samplings must be some of {', '.join(SAMPLINGS)}, not {', '.join(sorted(unknown)) or 'none'}")
+    kinds = [sampling_of(i, samplings) for i in range(len(seeds))]
+    paths = [example_path(out_dir, seed, kind) for seed, kind in zip(seeds, kinds)]
     deadline = None if minutes is None else time.time() + 60 * minutes
-    tasks = [(p, seed, tuple(size), ref_spp, backend, deadline) for p, seed in zip(paths, seeds)]
+    tasks = [(p, seed, tuple(size), ref_spp, backend, deadline, kind) for p, seed, kind in zip(paths, seeds, kinds)]
     start = time.perf_counter()
     if workers > 1:
         import multiprocessing as mp
