@@ -83,3 +83,33 @@ def test_bench_command_writes_json_and_table(capsys, tmp_path):
     assert [r["size"] for r in data["results"]] == [[16, 16], [24, 16]]
     assert data["results"][0]["triangles"] > 0 and data["results"][0]["bvh_build_seconds"] > 0
     assert "cores" in data["machine"] and "gl" in data["machine"]
+
+
+def test_timed_runs_go_on_until_one_reads_at_full_clock(monkeypatch):
+    """A GPU whose clock stays down through the warm-up (short runs of a small scene): more
+    runs are timed until one reads within 5% of the maximum, and only such runs give the frame
+    time; without readings (no NVML: llvmpipe) the runs asked for are all."""
+    from lift_gl.report import bench
+
+    class FakeClock:
+        readings = iter([1200, 1300, 1980])
+
+        def __init__(self, name=None):
+            pass
+
+        def max_sm_mhz(self):
+            return 1980
+
+        def sm_mhz(self):
+            return next(self.readings, 1980)
+
+    monkeypatch.setattr(bench, "ClockReader", FakeClock)
+    monkeypatch.setattr(bench, "warm_up", lambda step, clock: {})
+    result = bench_case(sphere_filling_the_view(), (16, 16), frames=2, repeat=1)
+    assert result["sm_clock"]["frames_mhz"] == [1200, 1300, 1980]
+    assert len(result["frame_ms_all"]) == 3 and result["frame_ms"] == result["frame_ms_all"][2]
+    # the rule alone: at most EXTRA_RUNS more; none without readings
+    assert bench.more_runs([1200] * 2, 1980, 2) and not bench.more_runs([1200] * (2 + bench.EXTRA_RUNS), 1980, 2)
+    assert not bench.more_runs([None, None], None, 2) and not bench.more_runs([1900], 1980, 1)
+    assert bench.at_full_clock([1.0, 2.0], [1200, 1980], 1980) == [2.0]
+    assert bench.at_full_clock([1.0, 2.0], [1200, 1300], 1980) == [1.0, 2.0]
