@@ -113,3 +113,25 @@ def test_timed_runs_go_on_until_one_reads_at_full_clock(monkeypatch):
     assert not bench.more_runs([None, None], None, 2) and not bench.more_runs([1900], 1980, 1)
     assert bench.at_full_clock([1.0, 2.0], [1200, 1980], 1980) == [2.0]
     assert bench.at_full_clock([1.0, 2.0], [1200, 1300], 1980) == [1.0, 2.0]
+
+
+def test_warm_up_steps_grow_until_they_keep_the_gpu_busy():
+    """Each warm-up step renders twice the frames of the last while a step takes less than
+    WARM_STEP_S (a fake clock: 1 ms a frame), up to its cap."""
+    from lift_gl.report.bench import growing_step
+
+    t, rendered = [0.0], []
+
+    def render(n):
+        rendered.append(n)
+        t[0] += n * 1e-3
+
+    step = growing_step(render, first=16, most=256, seconds=0.1, now=lambda: t[0])
+    for _ in range(6):
+        step()
+    assert rendered == [16, 32, 64, 128, 128, 128]   # 128 frames take 0.128 s: no longer short
+    capped = growing_step(render, first=16, most=32, seconds=10.0, now=lambda: t[0])
+    rendered.clear()
+    for _ in range(3):
+        capped()
+    assert rendered == [16, 32, 32]

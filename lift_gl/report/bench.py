@@ -101,10 +101,30 @@ def denoise_seconds(renderer, runs: int) -> float:
 # FULL_CLOCK of the GPU's maximum. Short runs of a small scene can leave the GPU idle between
 # calls often enough that its clock stays down through the warm-up and every run (the
 # cornell-box at 1080p on an H100: 1620-1860 MHz of 1980 in both runs of a case, frames 1.14 ms
-# against 1.04 at full clock; docs/gpu.md "Sixteenth session"): up to EXTRA_RUNS more runs are
+# against 1.04 at full clock; at 720p 780-960 MHz through six runs; docs/gpu.md "Sixteenth
+# session"): up to EXTRA_RUNS more runs are
 # made until one reads at full clock, and the frame time is the best of those that do.
 FULL_CLOCK = 0.95
 EXTRA_RUNS = 4
+
+
+WARM_STEP_S = 0.1
+
+
+def growing_step(render_frames, first: int = 16, most: int = 1024, seconds: float = WARM_STEP_S,
+                 now=time.perf_counter):
+    """A warm-up step that renders (and finishes) frames, twice as many each time a step took
+    less than `seconds`, up to `most`: however small the scene, the GPU is kept busy long
+    enough between the host's calls for its clock to rise (on an H100 the cornell-box's
+    720p case kept 960 MHz through 3 s of 16-frame steps and six timed runs)."""
+    frames = [first]
+
+    def step():
+        start = now()
+        render_frames(frames[0])
+        if now() - start < seconds:
+            frames[0] = min(2 * frames[0], most)
+    return step
 
 
 def more_runs(readings: list, peak, repeat: int) -> bool:
@@ -140,9 +160,9 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # An idle GPU runs at a low clock until kept busy (report/gpu_clock.py): frames until it
     # has risen, and the clock recorded after each timed run.
     clock = ClockReader(renderer.ctx.info.get("GL_RENDERER", ""))
-    # 16 frames a step: a step of a few frames of a small scene left the GPU idle between
-    # calls, and its clock then stayed down
-    warm = warm_up(lambda: (renderer.render(spp=16 * spf), renderer.ctx.finish()), clock)
+    # steps of at least 16 frames and WARM_STEP_S: a step of a few frames of a small scene left
+    # the GPU idle between calls, and its clock then stayed down
+    warm = warm_up(growing_step(lambda n: (renderer.render(spp=n * spf), renderer.ctx.finish())), clock)
     # On a GPU the trace pass times its two ways on its first frames, each between two
     # finishes (passes/trace.py, TUNING_*; with and without the carry code, CarryTuning, on
     # frames that may park: renders of several frames): those end before the timed frames start.
