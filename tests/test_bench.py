@@ -103,6 +103,9 @@ def test_timed_runs_go_on_until_one_reads_at_full_clock(monkeypatch):
         def sm_mhz(self):
             return next(self.readings, 1980)
 
+        def reasons(self):
+            return None
+
     monkeypatch.setattr(bench, "ClockReader", FakeClock)
     monkeypatch.setattr(bench, "warm_up", lambda step, clock: {})
     result = bench_case(sphere_filling_the_view(), (16, 16), frames=2, repeat=1)

@@ -171,12 +171,13 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     while (getattr(trace, "tuning", None) is not None or getattr(trace, "carry_tuning", None) is not None) \
             and time.perf_counter() < give_up:
         renderer.render(spp=(CARRY_TUNING_FRAMES + 1) * spf)   # long enough to start the carry choice
-    frame_seconds, frame_mhz = [], []
+    frame_seconds, frame_mhz, frame_reasons = [], [], []
     while len(frame_seconds) < max(repeat, 1) or more_runs(frame_mhz, clock.max_sm_mhz(), repeat):
         renderer.reset()
         renderer.render(spp=frames * spf)
         frame_seconds.append(renderer.stats.render_seconds / renderer.stats.frames)
         frame_mhz.append(clock.sm_mhz())
+        frame_reasons.append(clock.reasons())   # why the clock is held down, if it is (NVML's mask)
     frame_s = min(at_full_clock(frame_seconds, frame_mhz, clock.max_sm_mhz()))
     dropped = renderer.stats.dropped_samples
     # Per pass, synchronised: slower in total than pipelined frames, but each pass alone.
@@ -224,7 +225,8 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             "carry_tuning_blocks_ms": carry_tuning_blocks_ms,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
             # the per-pass run, and the warm-up before them
-            "sm_clock": {"frames_mhz": frame_mhz, "passes_mhz": pass_mhz, "warm_up": warm}}
+            "sm_clock": {"frames_mhz": frame_mhz, "frames_reasons": frame_reasons, "passes_mhz": pass_mhz,
+                         "warm_up": warm}}
 
 
 def clock_note(case: dict) -> str:
