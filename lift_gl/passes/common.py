@@ -54,9 +54,10 @@ def groups(width: int, height: int, local=(LOCAL_SIZE, LOCAL_SIZE)) -> tuple[int
 def set_uniforms(program, values: dict) -> None:
     """Set the uniforms a program kept; the compiler drops unused ones, so skip those."""
     for name, value in values.items():
-        if name not in program:
+        # (get, not `in`: moderngl's programs have no __contains__, so `in` walks every member)
+        member = program.get(name, None)
+        if member is None:
             continue
-        member = program[name]
         if isinstance(value, np.ndarray) and value.dtype in (np.float32, np.uint32, np.int32):
             # Arrays and matrices as raw bytes (column-major for matrices, as GLSL reads
             # them); an array's unused tail may have been optimised away.
