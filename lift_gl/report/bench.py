@@ -98,25 +98,21 @@ def denoise_seconds(renderer, runs: int) -> float:
 
 
 # A timed run of frames counts as run at full clock when the SM clock read after it is within
-# FULL_CLOCK of the GPU's maximum. Short runs of a small scene can leave the GPU idle between
-# calls often enough that its clock stays down through the warm-up and every run (the
-# cornell-box at 1080p on an H100: 1620-1860 MHz of 1980 in both runs of a case, frames 1.14 ms
-# against 1.04 at full clock; at 720p 780-960 MHz through six runs; docs/gpu.md "Sixteenth
-# session"): up to EXTRA_RUNS more runs are
-# made until one reads at full clock, and the frame time is the best of those that do.
+# FULL_CLOCK of the GPU's maximum. A case whose runs all read lower gets up to EXTRA_RUNS more
+# runs until one does, and its frame time is the best of those that do (else of all). On an H100
+# the one case that needed it, the cornell-box, whose frames are short enough that the host's
+# work between them leaves the GPU idle, stayed down anyway (720p: 780-960 MHz through six runs,
+# NVML's reason "idle"; docs/gpu.md "Sixteenth session"): the readings say so in the record.
 FULL_CLOCK = 0.95
 EXTRA_RUNS = 4
-
-
 WARM_STEP_S = 0.1
 
 
 def growing_step(render_frames, first: int = 16, most: int = 1024, seconds: float = WARM_STEP_S,
                  now=time.perf_counter):
     """A warm-up step that renders (and finishes) frames, twice as many each time a step took
-    less than `seconds`, up to `most`: however small the scene, the GPU is kept busy long
-    enough between the host's calls for its clock to rise (on an H100 the cornell-box's
-    720p case kept 960 MHz through 3 s of 16-frame steps and six timed runs)."""
+    less than `seconds`, up to `most`, so that the warm-up's own pauses between steps are short
+    beside its GPU work however small the scene."""
     frames = [first]
 
     def step():
