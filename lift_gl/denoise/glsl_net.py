@@ -278,5 +278,6 @@ def _coordinate_map(params: dict, size_in: int, size_out: int) -> tuple[float, f
 
 
 def set_uniform(program, name: str, value) -> None:
-    if name in program:  # the compiler drops uniforms a variant does not use
-        program[name].value = value
+    member = program.get(name, None)   # the compiler drops uniforms a variant does not use
+    if member is not None:
+        member.value = value

@@ -45,8 +45,9 @@ class ReprojectPass:
         for unit, (name, texture) in enumerate(inputs.items()):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
             texture.use(location=unit)
-            if name in self.program:
-                self.program[name].value = unit
+            member = self.program.get(name, None)   # a dropped sampler: not there
+            if member is not None:
+                member.value = unit
         for unit, texture in enumerate(self.spare + (self.rejection,)):
             texture.bind_to_image(unit, read=False, write=True)
         self.program["u_history_cap"].value = float(history_cap)

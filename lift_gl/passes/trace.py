@@ -669,7 +669,7 @@ class TracePass:
         megakernel = program or self.program
         for prog in self.wavefront.programs if as_wavefront else (megakernel,):
             set_uniforms(prog, uniforms)
-            if visibility is not None and "u_visibility" in prog:
+            if visibility is not None and prog.get("u_visibility", None) is not None:
                 visibility.use(location=0)
                 prog["u_visibility"].value = 0
         if as_wavefront:
