@@ -76,8 +76,9 @@ def get_denoiser(name: str):
 # ---- rendering the inputs ---------------------------------------------------------------------
 
 def noisy_key(spp: int, sampling: str = "independent") -> str:
-    """The npz kind of a noisy input: noisySPP, with _SAMPLING unless independent."""
-    return f"noisy{spp}" + ("" if sampling == "independent" else f"_{sampling}")
+    """The npz kind of a noisy input: noisySPP[_SAMPLING] (render_data.sampling_suffix)."""
+    from lift_gl.denoise.train.render_data import sampling_suffix
+    return f"noisy{spp}{sampling_suffix(sampling)}"
 
 
 def render_set(scenes: dict, out: Path, size_of, ref_spp: int, backend: str, seed: int = 7,
@@ -91,9 +92,10 @@ def render_set(scenes: dict, out: Path, size_of, ref_spp: int, backend: str, see
     for name, scene in scenes.items():
         t = time.perf_counter()
         for k, sampling in enumerate(samplings):  # the reference once, with the first
-            noisy, albedo, normal, got, dropped = render_views(scene, size_of(scene), SPP, ref_spp if k == 0 else 0,
-                                                               seed, ctx, sampling=sampling)
-            ref = got if k == 0 else ref
+            noisy, albedo, normal, reference, dropped = render_views(scene, size_of(scene), SPP,
+                                                                     ref_spp if k == 0 else 0, seed, ctx,
+                                                                     sampling=sampling)
+            ref = reference if k == 0 else ref
             for spp, img in zip(SPP, noisy):
                 arrays[f"{name}/{noisy_key(spp, sampling)}"] = img
         arrays.update({f"{name}/albedo": albedo, f"{name}/normal": normal, f"{name}/reference": ref,
@@ -180,6 +182,7 @@ def samplings_in(kinds) -> list[str]:
 
 
 def evaluate(args) -> None:
+    from lift_gl.denoise.train.render_data import sampling_suffix
     from lift_gl.metrics import rel_mse, ssim
     scenes = load_sets(args.inputs)
     denoisers = {n: get_denoiser(n) for n in args.denoisers.split(",") if n}
@@ -198,8 +201,8 @@ def evaluate(args) -> None:
                     rows.append({"scene": name, "sampling": sampling, "spp": spp, "method": method,
                                  "ssim": ssim(img, ref), "relmse": rel_mse(img, ref)})
                 if args.images:
-                    tag = "" if sampling == "independent" else f"_{sampling}"
-                    save_strip(args.images / f"{name}_{spp}spp{tag}.png", [results[m] for m in results] + [ref])
+                    save_strip(args.images / f"{name}_{spp}spp{sampling_suffix(sampling)}.png",
+                               [results[m] for m in results] + [ref])
     text = table(rows, list(denoisers), scenes)
     print(text)
     if args.out:

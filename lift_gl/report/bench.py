@@ -168,13 +168,14 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             and time.perf_counter() < give_up:
         renderer.render(spp=(CARRY_TUNING_FRAMES + 1) * spf)   # long enough to start the carry choice
     frame_seconds, frame_mhz, frame_reasons = [], [], []
-    while len(frame_seconds) < max(repeat, 1) or more_runs(frame_mhz, clock.max_sm_mhz(), repeat):
+    peak = clock.max_sm_mhz()
+    while len(frame_seconds) < max(repeat, 1) or more_runs(frame_mhz, peak, repeat):
         renderer.reset()
         renderer.render(spp=frames * spf)
         frame_seconds.append(renderer.stats.render_seconds / renderer.stats.frames)
         frame_mhz.append(clock.sm_mhz())
         frame_reasons.append(clock.reasons())   # why the clock is held down, if it is (NVML's mask)
-    frame_s = min(at_full_clock(frame_seconds, frame_mhz, clock.max_sm_mhz()))
+    frame_s = min(at_full_clock(frame_seconds, frame_mhz, peak))
     dropped = renderer.stats.dropped_samples
     # Per pass, synchronised: slower in total than pipelined frames, but each pass alone.
     renderer.reset()

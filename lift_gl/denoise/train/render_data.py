@@ -137,11 +137,15 @@ def sampling_of(index: int, samplings) -> str:
     return samplings[index % len(samplings)]
 
 
+def sampling_suffix(sampling: str) -> str:
+    """What names a file or array of this sampling's inputs: _SAMPLING, nothing for independent
+    (the shipped model's files and the benchmark's older arrays keep their names)."""
+    return "" if sampling == "independent" else f"_{sampling}"
+
+
 def example_path(out_dir: Path, seed: int, sampling: str) -> Path:
-    """out_dir/scene_SEED.npz, with _SAMPLING before the suffix unless independent (the shipped
-    model's files keep their names)."""
-    tag = "" if sampling == "independent" else f"_{sampling}"
-    return Path(out_dir) / f"scene_{seed:07d}{tag}.npz"
+    """out_dir/scene_SEED[_SAMPLING].npz (sampling_suffix)."""
+    return Path(out_dir) / f"scene_{seed:07d}{sampling_suffix(sampling)}.npz"
 
 
 def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend: str = "auto",
