@@ -120,17 +120,30 @@ class SceneBuffers:
                 if (name != "instances" or self.instances) and 0 < _array(packed, name).shape[0] and
                 glsl_length(name, _array(packed, name)) * 16 * UNIFORM_ARRAYS[name][1] <= self.uniform_block_bytes}
 
+    def _uniform_length(self, name: str, array: np.ndarray) -> int:
+        """The GLSL length a uniform block declares for `array`: its length rounded up to a
+        power of two, at least 64 (at most what uniform_block_bytes holds), so that an edit
+        that adds or drops a few nodes, triangles or lights keeps the shaders' defines and
+        recompiles nothing; the buffer is padded with zeros to it."""
+        length = glsl_length(name, array)
+        most = self.uniform_block_bytes // (16 * UNIFORM_ARRAYS[name][1])
+        return max(length, min(max(64, 1 << (length - 1).bit_length()), most))
+
     def _bytes(self, name: str, array: np.ndarray) -> bytes:
         array = np.ascontiguousarray(array)
-        if name == "tri_info" and name in self.in_uniform_block:  # std140: uvec2 elements 16 bytes apart
+        if name not in self.in_uniform_block:
+            return array.tobytes()
+        size = self._uniform_length(name, array) * 16 * UNIFORM_ARRAYS[name][1]
+        if name == "tri_info":  # std140: uvec2 elements 16 bytes apart
             padded = np.zeros((array.shape[0], 4), np.uint32)
             padded[:, :2] = array
             array = padded
-        return array.tobytes()
+        data = array.tobytes()
+        return data + bytes(size - len(data))
 
     def defines(self) -> dict:
-        """The shader defines of the arrays in uniform blocks (their GLSL lengths)."""
-        return {UNIFORM_ARRAYS[name][0]: glsl_length(name, _array(self.packed, name))
+        """The shader defines of the arrays in uniform blocks (their GLSL lengths, _uniform_length)."""
+        return {UNIFORM_ARRAYS[name][0]: self._uniform_length(name, _array(self.packed, name))
                 for name in sorted(self.in_uniform_block)}
 
     def _own_buffers(self, plan: BufferPlan) -> list[str]:
