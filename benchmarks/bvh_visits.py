@@ -86,7 +86,8 @@ class WideTree:
 class CollapsedTree(WideTree):
     """A tree of `width` children a node, collapsed from the binary tree of a scene packed with
     bvh_width=2 (each node's interior child of largest area opened until it has `width`, as
-    accel/wide.py collapses to 4), with WideTree's arrays, so that traverse() and the lockstep
+    accel/wide.py's greedy collapse does to 4; the renderer's default collapse chooses by cost,
+    accel/wide_sah.py), with WideTree's arrays, so that traverse() and the lockstep
     measures run on it: what wider nodes would save in visits and warp steps before any shader
     is written for them (`--widths`)."""
 

@@ -4,11 +4,14 @@ Why: the binary traversal (shaders/lift/bvh.glsl) fetches one node and tests two
 step; a wide node gives the GPU four boxes per 128-byte fetch and half the steps, and leaves
 become child entries of their parent, so a leaf is never fetched as a node of its own.
 
-Collapse: top down, level by level (vectorised: Python work per level, not per node). Each
-binary interior node that becomes a wide node starts with its two children and repeatedly
-replaces its largest-area interior child by that child's two children, until it has 4
-(Wald et al. 2008 / Ylitie et al. 2017's "largest area first"). The leaves keep their
-triangle ranges, so the triangle arrays (and the BVH cache) stay those of the binary tree.
+Collapse: by default chosen by cost (accel/wide_sah.py: which binary nodes become wide nodes
+and which subtrees one leaf, by dynamic programming). collapse() here is the simple rule
+($LIFT_GL_BVH_COLLAPSE=greedy, and where the other cannot hold a tree): top down, level by
+level (vectorised: Python work per level, not per node), each binary interior node that
+becomes a wide node starts with its two children and repeatedly replaces its largest-area
+interior child by that child's two children, until it has 4 (Wald et al. 2008 / Ylitie et
+al. 2017's "largest area first"). Either way the leaves are runs of the binary tree's
+triangles, so the triangle arrays (and the BVH cache) stay those of the binary tree.
 
 Node layout, 8 vec4 rows (128 bytes) per wide node, children in columns (SoA):
     row 0 min.x[4]  row 1 max.x[4]  row 2 min.y[4]  row 3 max.y[4]  row 4 min.z[4]
@@ -166,10 +169,45 @@ def resolve_width(value: str | int | None, software: bool | None = None) -> str:
     return text
 
 
-def wide_layout(nodes: np.ndarray, layout: str) -> WideBVH | None:
+COLLAPSE_ENV_VAR = "LIFT_GL_BVH_COLLAPSE"
+
+
+def resolve_collapse(value: str | None = None) -> tuple[str, tuple[float, ...]]:
+    """How the binary tree becomes a wide one: `value`, else $LIFT_GL_BVH_COLLAPSE, else auto:
+    greedy (collapse: the largest child opened first), or sah (accel/wide_sah.py: chosen by
+    cost) with optional costs sah:NODE,LEAF,TRIANGLE (or NODE/LEAF/TRIANGLE). Returns (method, costs)."""
+    import os
+    from ..errors import LiftError
+    text = (os.environ.get(COLLAPSE_ENV_VAR, "auto") if value is None else str(value)).strip().lower() or "auto"
+    method, _, costs = text.partition(":")
+    if method == "auto":
+        method = DEFAULT_COLLAPSE
+    try:
+        numbers = tuple(float(c) for c in costs.replace("/", ",").split(",")) if costs else ()
+    except ValueError:
+        numbers = None
+    if method not in ("greedy", "sah") or numbers is None or (numbers and (method != "sah" or len(numbers) != 3)):
+        raise LiftError(f"${COLLAPSE_ENV_VAR} must be greedy, sah, sah:NODE,LEAF,TRIANGLE or auto, not {text!r}")
+    return method, numbers
+
+
+# On an H100 at 1920x1080 (docs/gpu.md "Seventeenth session"), the collapse by cost made pt's
+# trace 0.98x (dining room), 0.99x (classroom) and 0.965x (Covered Dragon) of the greedy
+# one's, its G-buffer 0.94x on the dining room, with 31-43% fewer wide nodes; on llvmpipe pt
+# 1.00-1.025x faster in CPU time (cornell-box, classroom, dining room).
+DEFAULT_COLLAPSE = "sah"
+
+
+def wide_layout(nodes: np.ndarray, layout: str, collapse_method: str | None = None) -> WideBVH | None:
     """The binary node array in `layout` ("4" or "4q"), or None where that layout cannot hold
-    the tree (collapse, quantize)."""
-    wide = collapse(nodes)
+    the tree (collapse, quantize). `collapse_method`: see resolve_collapse."""
+    method, costs = resolve_collapse(collapse_method)
+    wide = None
+    if method == "sah":
+        from .wide_sah import collapse_sah
+        wide = collapse_sah(nodes, *costs)
+    if wide is None:
+        wide = collapse(nodes)
     if wide is not None and layout == "4q":
         wide = quantize(wide)
     return wide
@@ -328,14 +366,23 @@ def collapse(nodes: np.ndarray, width: int = 4) -> WideBVH | None:
         return None
 
     slots = np.concatenate(out_slots)
-    ids = np.concatenate(out_ids)
+    safe = np.where(slots >= 0, slots, 0)
+    rows = wide_rows(slots, (slots >= 0) & leaf[safe], np.concatenate(out_ids), first, count, bmin, bmax)
+    return WideBVH(rows=rows, width=width, stack_bound=stack_bound, levels=len(out_slots))
+
+
+def wide_rows(slots: np.ndarray, is_leaf: np.ndarray, ids: np.ndarray, leaf_first: np.ndarray,
+              leaf_count: np.ndarray, bmin: np.ndarray, bmax: np.ndarray) -> np.ndarray:
+    """The float layout's rows (W, 4 * ROWS) of a wide tree given per slot (W, 4) the binary
+    node it stands for (-1: empty), whether it is a leaf entry and the wide id of an interior
+    one; a leaf entry of binary node x holds triangles leaf_first[x] .. + leaf_count[x] - 1 and
+    every slot the box (bmin[x], bmax[x])."""
     valid = slots >= 0
     safe = np.where(valid, slots, 0)
-    is_leaf = valid & leaf[safe]
     entries = np.full(slots.shape, EMPTY, np.int64)
-    entries[is_leaf] = LEAF_BIT | ((count[safe[is_leaf]] - 1) << COUNT_SHIFT) | first[safe[is_leaf]]
+    lf = valid & is_leaf
+    entries[lf] = LEAF_BIT | ((leaf_count[safe[lf]] - 1) << COUNT_SHIFT) | leaf_first[safe[lf]]
     entries[valid & ~is_leaf] = ids[valid & ~is_leaf]
-
     w = slots.shape[0]
     out = np.zeros((w, ROWS, 4), np.float32)
     lo = np.where(valid[..., None], bmin[safe], np.float32(np.inf))    # (w, 4, 3)
@@ -344,7 +391,7 @@ def collapse(nodes: np.ndarray, width: int = 4) -> WideBVH | None:
         out[:, 2 * axis, :] = lo[:, :, axis]
         out[:, 2 * axis + 1, :] = hi[:, :, axis]
     out[:, 6, :] = entries.astype(np.uint32).view(np.float32)
-    return WideBVH(rows=out.reshape(w, ROWS * 4), width=width, stack_bound=stack_bound, levels=len(out_slots))
+    return out.reshape(w, ROWS * 4)
 
 
 def intersect_wide_numpy(wide: WideBVH, tri_positions_reordered: np.ndarray, origins: np.ndarray,

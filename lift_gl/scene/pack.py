@@ -224,7 +224,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     `bvh_width`: 2, 4 or 4q (None: $LIFT_GL_BVH_WIDTH, else 2; the renderer passes its
     device's choice, accel/wide.py resolve_width). Scenes with motion blur or traced instances keep
     the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
-    and so does a tree the wide layout cannot hold (wide.collapse returns None).
+    and so does a tree the wide layout cannot hold (wide.wide_layout returns None).
     Instances: those that must be are flattened into world meshes (scene/instances.py), the
     others traced through their prototypes' BLAS and a TLAS (the BLAS are not split)."""
     instanced, traced = scene, []
