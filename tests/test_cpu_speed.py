@@ -61,20 +61,24 @@ def test_arrays_too_big_for_a_uniform_block_stay_storage_buffers():
 
 
 def test_an_edit_that_changes_array_lengths_recompiles_with_the_new_lengths():
-    """Lengths are compiled into the shaders; an edit that changes them (a second light)
-    must rebuild the passes, and then renders what a fresh renderer renders."""
+    """Uniform blocks' lengths are compiled into the shaders, rounded up to a power of two (at
+    least 64): an edit within them (a second light) keeps the shaders, one past them (every
+    mesh twice) rebuilds the passes; either way the renderer then renders what a fresh
+    renderer renders."""
     scene = load_scene(CORNELL)
     r = Renderer(scene, size=(24, 24), uniform_blocks=True)
     before = dict(r.defines)
     light = next(m for m in scene.meshes if scene.materials[m.material].is_emissive)
     twin = dataclasses.replace(light, name="twin", positions=light.positions + [0.3, -0.01, 0.0])
-    edited = dataclasses.replace(scene, meshes=[*scene.meshes, twin])
-    r.update_scene(edited)
-    assert r.defines != before
-    edited_image = r.render(spp=2)
+    doubled = [dataclasses.replace(m, name=f"{m.name}_twin", positions=m.positions * 0.5) for m in scene.meshes]
+    for edited, recompiles in ((dataclasses.replace(scene, meshes=[*scene.meshes, twin]), False),
+                               (dataclasses.replace(scene, meshes=[*scene.meshes, *doubled]), True)):
+        r.update_scene(edited)
+        assert (r.defines != before) == recompiles
+        edited_image = r.render(spp=2)
+        fresh, _, _ = _render(edited, True, spp=2, size=(24, 24))
+        np.testing.assert_array_equal(edited_image, fresh)
     r.release()
-    fresh, _, _ = _render(edited, True, spp=2, size=(24, 24))
-    np.testing.assert_array_equal(edited_image, fresh)
 
 
 def test_vertex_at_a_time_loop_gives_the_samples_of_the_per_sample_loop(tmp_path):

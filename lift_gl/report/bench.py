@@ -217,7 +217,11 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             # every storage buffer of the scene: name, binding, bytes (split scenes: heap[k])
             "gpu_buffers": [{"name": n, "binding": b, "bytes": int(size)} for n, b, size in buffers],
             "gpu_buffer_bytes": int(sum(size for _, _, size in buffers)),
-            "bvh_builder": renderer.packed.bvh_builder, "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
+            "bvh_builder": renderer.packed.bvh_builder,
+            # the tree traversed: children a node (2 or 4), its nodes and levels (4-wide: wide nodes)
+            "bvh": {"width": int(renderer.packed.bvh_width), "quantized": bool(renderer.packed.bvh_quantized),
+                    "nodes": int(renderer.packed.bvh_nodes.shape[0]), "levels": int(renderer.packed.bvh_levels)},
+            "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
             "wavefront_tuning_frames_ms": tuning_frames_ms, "carry": carry, "carry_tuned_ms": carry_tuned_ms,
             "carry_tuning_blocks_ms": carry_tuning_blocks_ms,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
