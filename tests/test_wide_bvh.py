@@ -11,7 +11,8 @@ import pytest
 from conftest import REPO, skip_without_shared
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
 from lift_gl.accel.wide import (COLLAPSE_ENV_VAR, COUNT_SHIFT, EMPTY, GROUP_MAX_NODES, GROUP_SHARED_DEPTH,
-                                GROUP_STACK_FROM, LEAF_BIT, MAX_FIRST, ROWS, STACK, STACK_ENV_VAR, WIDTH_ENV_VAR, collapse,
+                                GROUP_STACK_FROM, LEAF_BIT, MAX_FIRST, ROWS, SLOT_ORDER_ENV_VAR, STACK, STACK_ENV_VAR,
+                                WIDTH_ENV_VAR, collapse,
                                 decoded_boxes, intersect_wide_numpy, quantize, resolve_collapse, resolve_width,
                                 stack_defines, stack_size, wide_layout)
 from lift_gl.accel.wide_sah import COST_LEAF, COST_NODE, COST_TRIANGLE, collapse_sah
@@ -155,6 +156,26 @@ def test_sah_collapse_is_least_cost(seed):
         wide = collapse_sah(b.nodes, *costs)
         _check_structure(wide, tris[b.order])
         assert _wide_cost(wide, costs) == pytest.approx(_least_cost(b.nodes, costs), rel=1e-9)
+
+
+@pytest.mark.parametrize("method", ["greedy", "sah"])
+def test_slots_largest_box_first(method, monkeypatch):
+    """By default a node's children go largest box first, empty slots last (the order the
+    traversal keeps among children it enters at the same distance); `build` keeps the
+    collapse's own order, the same children."""
+    b = build_bvh(soup(3000, seed=8))
+    wide = wide_layout(b.nodes, "4", method)
+    e, r = _entries(wide)
+    ext = np.maximum(np.stack([r[:, 1] - r[:, 0], r[:, 3] - r[:, 2], r[:, 5] - r[:, 4]], -1).astype(np.float64), 0)
+    area = np.where(e != EMPTY, ext[..., 0] * ext[..., 1] + ext[..., 1] * ext[..., 2] + ext[..., 2] * ext[..., 0], -1.0)
+    assert (np.diff(area, axis=1) <= 0).all()
+    monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "build")
+    e_build, _ = _entries(wide_layout(b.nodes, "4", method))
+    assert not np.array_equal(e_build, e)
+    np.testing.assert_array_equal(np.sort(e_build, axis=1), np.sort(e, axis=1))
+    monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "biggest")
+    with pytest.raises(LiftError, match=SLOT_ORDER_ENV_VAR):
+        wide_layout(b.nodes, "4", method)
 
 
 def test_collapse_setting():
