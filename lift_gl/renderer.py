@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .accel.cache import bins_for_one_build
-from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, paired_defines as bvh_paired_defines, resolve_width, \
-    stack_defines as bvh_stack_defines
+from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, paired_defines as bvh_paired_defines, \
+    resolve_slot_order, resolve_width, stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
@@ -158,7 +158,7 @@ class Renderer:
         self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
         self.count_rays = count_rays
-        self.packed = pack_scene(scene, bvh_width=self._bvh_width(self.features))
+        self.packed = pack_scene(scene, bvh_width=self._bvh_width(self.features), bvh_slot_order=self._slot_order())
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
         # On a CPU rasterizer the small scene arrays go in uniform blocks, which llvmpipe reads
         # faster than storage buffers (docs/cpu-speed.md); uniform_blocks=False keeps them all SSBOs.
@@ -190,6 +190,10 @@ class Renderer:
         if self.plugin.language == "opencl" or features.motion or features.instances:
             return "2"
         return layout
+
+    def _slot_order(self) -> str:
+        """The 4-wide nodes' order of children for this device (accel/wide.py resolve_slot_order)."""
+        return resolve_slot_order(None, software=is_software(self.ctx))
 
     def _shader_defines(self) -> dict:
         # features, arrays in uniform blocks (CPU rasterizers), a big scene's split (scene/split.py)
@@ -370,7 +374,7 @@ class Renderer:
             # a live edit waits for this build: one SAH build, without the second one with
             # finer bins at the top (which can double it for 1.5% of trace time)
             packed = pack_scene(scene, bvh_width=self._bvh_width(self._fixed_features or SceneFeatures.of(scene)),
-                                bvh_bins=bins_for_one_build())
+                                bvh_bins=bins_for_one_build(), bvh_slot_order=self._slot_order())
         else:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)

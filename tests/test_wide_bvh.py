@@ -13,7 +13,8 @@ from lift_gl.accel.bvh import build_bvh, intersect_numpy
 from lift_gl.accel.wide import (COLLAPSE_ENV_VAR, COUNT_SHIFT, EMPTY, GROUP_MAX_NODES, GROUP_SHARED_DEPTH,
                                 GROUP_STACK_FROM, LEAF_BIT, MAX_FIRST, ROWS, SLOT_ORDER_ENV_VAR, STACK, STACK_ENV_VAR,
                                 WIDTH_ENV_VAR, collapse,
-                                decoded_boxes, intersect_wide_numpy, quantize, resolve_collapse, resolve_width,
+                                decoded_boxes, intersect_wide_numpy, quantize, resolve_collapse, resolve_slot_order,
+                                resolve_width,
                                 stack_defines, stack_size, wide_layout)
 from lift_gl.accel.wide_sah import COST_LEAF, COST_NODE, COST_TRIANGLE, collapse_sah
 from lift_gl.errors import LiftError
@@ -176,6 +177,16 @@ def test_slots_largest_box_first(method, monkeypatch):
     monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "biggest")
     with pytest.raises(LiftError, match=SLOT_ORDER_ENV_VAR):
         wide_layout(b.nodes, "4", method)
+
+
+def test_slot_order_by_device(monkeypatch):
+    """auto: largest box first on GPUs (and where the device is not known), the collapse's
+    order on CPU rasterizers, whose shadow rays take every child in slot order; the setting
+    overrides both."""
+    monkeypatch.delenv(SLOT_ORDER_ENV_VAR, raising=False)
+    assert [resolve_slot_order(None, software=s) for s in (False, None, True)] == ["area", "area", "build"]
+    monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "area")
+    assert resolve_slot_order(None, software=True) == "area"
 
 
 def test_collapse_setting():

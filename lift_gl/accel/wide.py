@@ -198,16 +198,19 @@ def resolve_collapse(value: str | None = None) -> tuple[str, tuple[float, ...]]:
 DEFAULT_COLLAPSE = "sah"
 
 
-def wide_layout(nodes: np.ndarray, layout: str, collapse_method: str | None = None) -> WideBVH | None:
+def wide_layout(nodes: np.ndarray, layout: str, collapse_method: str | None = None,
+                slot_order: str | None = None) -> WideBVH | None:
     """The binary node array in `layout` ("4" or "4q"), or None where that layout cannot hold
-    the tree (collapse, quantize). `collapse_method`: see resolve_collapse."""
+    the tree (collapse, quantize). `collapse_method`: see resolve_collapse; `slot_order`: see
+    resolve_slot_order."""
     method, costs = resolve_collapse(collapse_method)
+    order = resolve_slot_order(slot_order)
     wide = None
     if method == "sah":
         from .wide_sah import collapse_sah
-        wide = collapse_sah(nodes, *costs)
+        wide = collapse_sah(nodes, *costs, slot_order=order)
     if wide is None:
-        wide = collapse(nodes)
+        wide = collapse(nodes, slot_order=order)
     if wide is not None and layout == "4q":
         wide = quantize(wide)
     return wide
@@ -303,10 +306,11 @@ def decoded_boxes(wide: WideBVH) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lo, hi, entry
 
 
-def collapse(nodes: np.ndarray, width: int = 4) -> WideBVH | None:
+def collapse(nodes: np.ndarray, width: int = 4, slot_order: str = "area") -> WideBVH | None:
     """The 4-wide tree of a binary node array (accel/bvh.py layout, (N, 8) float32), or None
     where the layout cannot hold it: a leaf of more than MAX_LEAF_COUNT triangles, a triangle
-    index past MAX_FIRST, or a tree that needs a traversal stack deeper than STACK."""
+    index past MAX_FIRST, or a tree that needs a traversal stack deeper than STACK. Each
+    node's children in `slot_order` (SLOT_ORDERS)."""
     if width != 4:
         raise ValueError(f"only 4-wide nodes are implemented, not {width}")
     nodes = np.asarray(nodes, np.float32)
@@ -367,37 +371,45 @@ def collapse(nodes: np.ndarray, width: int = 4) -> WideBVH | None:
 
     slots = np.concatenate(out_slots)
     safe = np.where(slots >= 0, slots, 0)
-    rows = wide_rows(slots, (slots >= 0) & leaf[safe], np.concatenate(out_ids), first, count, bmin, bmax)
+    rows = wide_rows(slots, (slots >= 0) & leaf[safe], np.concatenate(out_ids), first, count, bmin, bmax, slot_order)
     return WideBVH(rows=rows, width=width, stack_bound=stack_bound, levels=len(out_slots))
 
 
 # The order of a wide node's four children. The traversal sorts the children it enters by entry
 # distance, but every child box that holds the ray's origin has the same one (the ray's tmin),
 # and so do the boxes around a path vertex, where shadow and bounce rays start: those ties go
-# in slot order (shaders/lift/bvh.glsl; shadow rays outside the paired loop take all children
-# in slot order). `area` puts the largest box first: for a shadow ray the child most likely to
-# hold an occluder. On an H100 (docs/gpu.md "Seventeenth session") that made pt's trace 0.968x
-# on the dining room, 0.855x on the Covered Dragon, 1.001x on the classroom against `build`
-# (the collapse's own order: a node's slots from its left subtree first).
+# in slot order (shaders/lift/bvh.glsl). Shadow rays outside the paired loop (CPU rasterizers,
+# the ray-casting shader) take all their children in slot order. `area` puts the largest box
+# first: for a shadow ray the child most likely to hold an occluder. On an H100 (docs/gpu.md
+# "Seventeenth session") that made pt's trace 0.968x on the dining room, 0.855x on the Covered
+# Dragon, 1.001x on the classroom against `build` (the collapse's own order: a node's slots
+# from its left subtree first). On llvmpipe, where all shadow rays go in slot order, it made pt
+# 0.956x as fast on the classroom (whose largest boxes hold its far outdoor geometry), 1.016x
+# on the dining room: auto is `area` on GPUs, `build` on CPU rasterizers.
 SLOT_ORDER_ENV_VAR = "LIFT_GL_BVH_SLOT_ORDER"
 SLOT_ORDERS = ("area", "build")
 
 
-def resolve_slot_order(value: str | None = None) -> str:
-    """`value`, else $LIFT_GL_BVH_SLOT_ORDER, else auto (area): one of SLOT_ORDERS."""
+def resolve_slot_order(value: str | None = None, software: bool | None = None) -> str:
+    """`value`, else $LIFT_GL_BVH_SLOT_ORDER, else auto: one of SLOT_ORDERS. auto: area, but
+    build on CPU rasterizers (software True; None: the device is not known)."""
     text = env_choice(SLOT_ORDER_ENV_VAR, SLOT_ORDERS, value)
-    return "area" if text == "auto" else text
+    if text == "auto":
+        return "build" if software else "area"
+    return text
 
 
 def wide_rows(slots: np.ndarray, is_leaf: np.ndarray, ids: np.ndarray, leaf_first: np.ndarray,
-              leaf_count: np.ndarray, bmin: np.ndarray, bmax: np.ndarray) -> np.ndarray:
+              leaf_count: np.ndarray, bmin: np.ndarray, bmax: np.ndarray, slot_order: str = "area") -> np.ndarray:
     """The float layout's rows (W, 4 * ROWS) of a wide tree given per slot (W, 4) the binary
     node it stands for (-1: empty), whether it is a leaf entry and the wide id of an interior
     one; a leaf entry of binary node x holds triangles leaf_first[x] .. + leaf_count[x] - 1 and
-    every slot the box (bmin[x], bmax[x]). Each node's slots in resolve_slot_order's order."""
+    every slot the box (bmin[x], bmax[x]). Each node's slots in `slot_order` (SLOT_ORDERS)."""
     valid = slots >= 0
     safe = np.where(valid, slots, 0)
-    if resolve_slot_order() == "area":
+    if slot_order not in SLOT_ORDERS:
+        raise ValueError(f"slot order must be one of {SLOT_ORDERS}, not {slot_order!r}")
+    if slot_order == "area":
         # largest box first, empty slots last: see SLOT_ORDER_ENV_VAR
         order = np.argsort(-np.where(valid, _area(bmin[safe], bmax[safe]), -1.0), axis=1, kind="stable")
         slots, is_leaf, ids = (np.take_along_axis(a, order, 1) for a in (slots, is_leaf, ids))

@@ -42,10 +42,10 @@ _LEAF, _NODE, _FEWER = -1, -2, -3      # >= 1: split, the left child's share of 
 
 
 def collapse_sah(nodes: np.ndarray, cost_node: float = COST_NODE, cost_leaf: float = COST_LEAF,
-                 cost_triangle: float = COST_TRIANGLE) -> WideBVH | None:
+                 cost_triangle: float = COST_TRIANGLE, slot_order: str = "area") -> WideBVH | None:
     """The cost-optimal 4-wide tree of a binary node array (accel/bvh.py layout, (N, 8)
     float32), or None where the layout cannot hold it (as wide.collapse) or the root is a leaf
-    (wide.collapse handles that tree)."""
+    (wide.collapse handles that tree). Each node's children in `slot_order` (wide.SLOT_ORDERS)."""
     nodes = np.asarray(nodes, np.float32)
     u = nodes.view(np.uint32)
     first = u[:, 3].astype(np.int64)
@@ -168,5 +168,5 @@ def collapse_sah(nodes: np.ndarray, cost_node: float = COST_NODE, cost_leaf: flo
         return None
 
     rows = wide_rows(np.concatenate(out_slots), np.concatenate(out_kind), np.concatenate(out_ids), start, size,
-                     bmin, bmax)
+                     bmin, bmax, slot_order)
     return WideBVH(rows=rows, width=SLOTS, stack_bound=stack_bound, levels=len(out_slots))

@@ -216,14 +216,16 @@ def still_motion(packed: PackedScene) -> np.ndarray:
 
 
 def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
-               bvh_splits=None, bvh_width=None, bvh_bins=None) -> PackedScene:
+               bvh_splits=None, bvh_width=None, bvh_bins=None, bvh_slot_order=None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
     `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
     `bvh_splits`: see accel/presplit.py resolve_splits (None: $LIFT_GL_BVH_SPLITS, else auto).
     `bvh_bins`: see accel/cache.py resolve_bins (None: $LIFT_GL_BVH_BINS, else auto).
     `bvh_width`: 2, 4 or 4q (None: $LIFT_GL_BVH_WIDTH, else 2; the renderer passes its
-    device's choice, accel/wide.py resolve_width). Scenes with motion blur or traced instances keep
-    the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
+    device's choice, accel/wide.py resolve_width). `bvh_slot_order`: the 4-wide nodes' order of
+    children, area or build (None: $LIFT_GL_BVH_SLOT_ORDER, else area; the renderer passes its
+    device's choice, accel/wide.py resolve_slot_order). Scenes with motion blur or traced
+    instances keep the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
     and so does a tree the wide layout cannot hold (wide.wide_layout returns None).
     Instances: those that must be are flattened into world meshes (scene/instances.py), the
     others traced through their prototypes' BLAS and a TLAS (the BLAS are not split)."""
@@ -291,7 +293,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     layout = resolve_width(bvh_width)
     wide = None
     if layout != "2" and not has_motion and not blas_nodes and T_world:
-        wide = wide_layout(bvh_nodes, layout)
+        wide = wide_layout(bvh_nodes, layout, slot_order=bvh_slot_order)
     if wide is not None:
         bvh_nodes = wide.rows
 
