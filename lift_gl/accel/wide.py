@@ -383,9 +383,10 @@ def collapse(nodes: np.ndarray, width: int = 4, slot_order: str = "area") -> Wid
 # first: for a shadow ray the child most likely to hold an occluder. On an H100 (docs/gpu.md
 # "Seventeenth session") that made pt's trace 0.968x on the dining room, 0.855x on the Covered
 # Dragon, 1.001x on the classroom against `build` (the collapse's own order: a node's slots
-# from its left subtree first). On llvmpipe, where all shadow rays go in slot order, it made pt
-# 0.956x as fast on the classroom (whose largest boxes hold its far outdoor geometry), 1.016x
-# on the dining room: auto is `area` on GPUs, `build` on CPU rasterizers.
+# from its left subtree first). On llvmpipe it made pt 0.956x as fast on the classroom, 1.016x
+# on the dining room (why the classroom loses there is not known: the H100's ray-casting
+# shader, whose shadow rays also take their children in slot order, ran the classroom's 1.9x
+# as fast): auto is `area` on GPUs, `build` on CPU rasterizers.
 SLOT_ORDER_ENV_VAR = "LIFT_GL_BVH_SLOT_ORDER"
 SLOT_ORDERS = ("area", "build")
 
