@@ -659,3 +659,34 @@ def test_paired_setting(monkeypatch):
     monkeypatch.setenv(PAIRED_ENV_VAR, "sometimes")
     with pytest.raises(LiftError, match=PAIRED_ENV_VAR):
         paired_defines(software=False, levels=deep)
+
+
+def test_large_trees_wide_layout_is_cached(tmp_path, monkeypatch):
+    """A large tree's wide layout is written beside its BVH once and read back the same, keyed
+    on every setting that shapes it; a damaged file is collapsed again; small trees are not
+    cached."""
+    from lift_gl.accel import cache
+
+    b = build_bvh(soup(2000, seed=9))
+    calls = []
+    real = cache.wide_layout
+    monkeypatch.setattr(cache, "wide_layout", lambda *a, **k: calls.append(a[1:]) or real(*a, **k))
+    cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path)
+    assert len(calls) == 1 and not list(tmp_path.iterdir())            # small: not cached
+    monkeypatch.setattr(cache, "WIDE_CACHE_MIN_NODES", 1)
+    first = cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path)
+    [path] = tmp_path.iterdir()
+    again = cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path)
+    assert len(calls) == 2                                               # the second read from disk
+    np.testing.assert_array_equal(again.rows, first.rows)
+    assert (again.width, again.stack_bound, again.levels, again.quantized) == \
+           (first.width, first.stack_bound, first.levels, first.quantized)
+    for setting in ({"slot_order": "build"}, {"collapse_method": "greedy"}):
+        other = cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path, **setting)
+        assert not np.array_equal(other.rows, first.rows)
+    q = cache.wide_layout_cached(b.nodes, "4q", cache_dir=tmp_path)
+    assert q.quantized and cache.wide_layout_cached(b.nodes, "4q", cache_dir=tmp_path).quantized
+    assert len(list(tmp_path.iterdir())) == 4 and len(calls) == 5
+    path.write_bytes(b"not a zip")
+    np.testing.assert_array_equal(cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path).rows, first.rows)
+    assert len(calls) == 6

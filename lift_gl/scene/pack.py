@@ -24,8 +24,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..accel.bvh import build_bvh, refit_boxes
-from ..accel.cache import build_bvh_cached, resolve_builder
-from ..accel.wide import resolve_width, wide_layout
+from ..accel.cache import build_bvh_cached, resolve_builder, wide_layout_cached
+from ..accel.wide import resolve_width
 from .images import pack_images
 from .instances import (InstanceTable, build_blas, instance_table, instance_world_bounds,
                         split_instances)
@@ -226,7 +226,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     children, area or build (None: $LIFT_GL_BVH_SLOT_ORDER, else area; the renderer passes its
     device's choice, accel/wide.py resolve_slot_order). Scenes with motion blur or traced
     instances keep the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
-    and so does a tree the wide layout cannot hold (wide.wide_layout returns None).
+    and so does a tree the wide layout cannot hold (wide.wide_layout returns None; the layout of a
+    large tree is cached beside its BVH, accel/cache.py wide_layout_cached).
     Instances: those that must be are flattened into world meshes (scene/instances.py), the
     others traced through their prototypes' BLAS and a TLAS (the BLAS are not split)."""
     instanced, traced = scene, []
@@ -293,7 +294,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     layout = resolve_width(bvh_width)
     wide = None
     if layout != "2" and not has_motion and not blas_nodes and T_world:
-        wide = wide_layout(bvh_nodes, layout, slot_order=bvh_slot_order)
+        wide = wide_layout_cached(bvh_nodes, layout, cache_dir=cache_dir, slot_order=bvh_slot_order)
     if wide is not None:
         bvh_nodes = wide.rows
 
