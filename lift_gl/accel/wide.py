@@ -29,11 +29,13 @@ and instances (BLAS roots index the node array); see scene/pack.py.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..env_settings import env_choice
+from ..errors import LiftError
 
 WIDTH_ENV_VAR = "LIFT_GL_BVH_WIDTH"
 ROWS = 8                    # vec4 rows per 4-wide node
@@ -176,8 +178,6 @@ def resolve_collapse(value: str | None = None) -> tuple[str, tuple[float, ...]]:
     """How the binary tree becomes a wide one: `value`, else $LIFT_GL_BVH_COLLAPSE, else auto:
     greedy (collapse: the largest child opened first), or sah (accel/wide_sah.py: chosen by
     cost) with optional costs sah:NODE,LEAF,TRIANGLE (or NODE/LEAF/TRIANGLE). Returns (method, costs)."""
-    import os
-    from ..errors import LiftError
     text = (os.environ.get(COLLAPSE_ENV_VAR, "auto") if value is None else str(value)).strip().lower() or "auto"
     method, _, costs = text.partition(":")
     if method == "auto":
@@ -193,7 +193,7 @@ def resolve_collapse(value: str | None = None) -> tuple[str, tuple[float, ...]]:
 
 # On an H100 at 1920x1080 (docs/gpu.md "Seventeenth session"), the collapse by cost made pt's
 # trace 0.98x (dining room), 0.99x (classroom) and 0.965x (Covered Dragon) of the greedy
-# one's, its G-buffer 0.94x on the dining room, with 31-43% fewer wide nodes; on llvmpipe pt
+# one's, its G-buffer 0.94x on the dining room, with 30-32% fewer wide nodes; on llvmpipe pt
 # 1.00-1.025x faster in CPU time (cornell-box, classroom, dining room).
 DEFAULT_COLLAPSE = "sah"
 

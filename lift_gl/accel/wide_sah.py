@@ -31,7 +31,8 @@ from .wide import MAX_FIRST, MAX_LEAF_COUNT, STACK, WideBVH, _area, wide_rows
 # Relative costs (see the module's docstring). On an H100, pt's trace at 1920x1080 with these
 # against (leaf, triangle) of (0.3, 0.4), (0.2, 0.25), (0.3, 0.8), (0.3, 1.0) and (0.5, 0.6):
 # the fastest or within 0.3% of it on each of the dining room, the classroom and the Covered
-# Dragon (the settings lie within 1.3% of each other; docs/gpu.md "Seventeenth session").
+# Dragon ((0.2, 0.25) made the classroom's 1.02x slower than the greedy tree's, the others lie
+# within 1.3% of each other; docs/gpu.md "Seventeenth session").
 COST_NODE = 1.0
 COST_LEAF = 0.3
 COST_TRIANGLE = 0.6
