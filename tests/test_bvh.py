@@ -581,3 +581,29 @@ def test_cache_default_dir_env(tmp_path, monkeypatch):
     assert len(list((tmp_path / "bvh").glob("*.npz"))) == 1
     empty = cache_mod.build_bvh_cached(np.zeros((0, 3, 3), np.float32))
     assert empty.nodes.shape == (1, 8) and b.nodes.shape[0] > 1
+
+
+def test_cache_keeps_to_its_size_by_dropping_the_least_recently_used(tmp_path, monkeypatch):
+    """Past $LIFT_GL_CACHE_MAX_BYTES the oldest-used files go after a write, never the one
+    just written; a file read from the cache counts as used; a bad setting is one clear error."""
+    import os
+
+    trees = [soup(300, seed=30 + k) for k in range(3)]
+    cache_mod.build_bvh_cached(trees[0], cache_dir=tmp_path)
+    [one] = tmp_path.glob("*.npz")
+    monkeypatch.setenv("LIFT_GL_CACHE_MAX_BYTES", str(int(2.5 * one.stat().st_size)))
+    cache_mod.build_bvh_cached(trees[1], cache_dir=tmp_path)
+    files = {f.name: f for f in tmp_path.glob("*.npz")}
+    assert len(files) == 2
+    for k, f in enumerate(sorted(files.values(), key=lambda f: f.name != one.name)):   # trees[0]'s oldest
+        os.utime(f, (1000.0 + k, 1000.0 + k))
+    cache_mod.build_bvh_cached(trees[0], cache_dir=tmp_path)      # read: now the most recently used
+    cache_mod.build_bvh_cached(trees[2], cache_dir=tmp_path)      # a third file: over the limit
+    left = {f.name for f in tmp_path.glob("*.npz")}
+    assert len(left) == 2 and one.name in left and not (set(files) - {one.name}) & left
+    monkeypatch.setenv("LIFT_GL_CACHE_MAX_BYTES", "0")
+    cache_mod.build_bvh_cached(trees[1], cache_dir=tmp_path)      # nothing but the file just written
+    assert len(list(tmp_path.glob("*.npz"))) == 1
+    monkeypatch.setenv("LIFT_GL_CACHE_MAX_BYTES", "lots")
+    with pytest.raises(ValueError, match="LIFT_GL_CACHE_MAX_BYTES"):
+        cache_mod.max_cache_bytes()

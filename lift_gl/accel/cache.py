@@ -2,8 +2,10 @@
 
 The key is a hash of the exact triangle bytes, their shape, the builder and
 bvh.LAYOUT_VERSION: any change to the geometry, the builder or the node layout gives a
-different file, so stale entries are never read (they are simply left behind). A file that cannot be read or fails the sanity
-checks is rebuilt and overwritten; the cache is an optimisation and never a reason to fail.
+different file, so stale entries are never read; they are left behind until the folder passes
+$LIFT_GL_CACHE_MAX_BYTES (4 GiB), when the least recently used go. A file that cannot be read
+or fails the sanity checks is rebuilt and overwritten; the cache is an optimisation and never
+a reason to fail.
 """
 from __future__ import annotations
 
@@ -222,7 +224,65 @@ def _load(path: Path, n_tris: int) -> BVH | None:
           and nodes.shape[1] == 8 and nodes.shape[0] >= 1 and order.dtype == np.uint32
           and order.ndim == 1 and order.shape[0] >= max(n_tris, 0) and 1 <= depth
           and (n_tris <= 0 or (int(order.max()) < n_tris and np.unique(order).size == n_tris)))
-    return BVH(nodes=nodes, order=order, depth=depth) if ok else None
+    if not ok:
+        return None
+    _touch(path)
+    return BVH(nodes=nodes, order=order, depth=depth)
+
+
+# The cache's size: after each write, the least recently used files go until the folder holds
+# at most this many bytes ($LIFT_GL_CACHE_MAX_BYTES). Each edit of a scene's geometry keys a new
+# tree, so a session of live edits to a big scene would otherwise fill the disk (a 6.4M-triangle
+# tree and its wide layout take about 300 MB).
+MAX_BYTES_ENV_VAR = "LIFT_GL_CACHE_MAX_BYTES"
+DEFAULT_MAX_BYTES = 4 << 30
+
+
+def max_cache_bytes() -> int:
+    """$LIFT_GL_CACHE_MAX_BYTES (a byte count), else DEFAULT_MAX_BYTES."""
+    text = os.environ.get(MAX_BYTES_ENV_VAR, "").strip()
+    try:
+        value = int(text) if text else DEFAULT_MAX_BYTES
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise ValueError(f"${MAX_BYTES_ENV_VAR} must be a byte count (0 or more), not {text!r}")
+    return value
+
+
+def _touch(path: Path) -> None:
+    """Mark a file read from the cache as recently used (its mtime), for _prune."""
+    try:
+        os.utime(path)
+    except OSError:
+        pass
+
+
+def _prune(root: Path, keep: Path) -> None:
+    """Delete the least recently used cache files (oldest mtime first) until the folder holds
+    at most max_cache_bytes(); never `keep`, the file just written. Files another process
+    removes first, or cannot be removed, are skipped: the cache is never a reason to fail."""
+    try:
+        files = []
+        for f in root.glob("*.npz"):
+            try:
+                st = f.stat()
+            except OSError:
+                continue
+            files.append((st.st_mtime, st.st_size, f))
+        total, limit = sum(size for _, size, _ in files), max_cache_bytes()
+        for _, size, f in sorted(files, key=lambda x: x[0]):
+            if total <= limit:
+                break
+            if f == keep:
+                continue
+            try:
+                f.unlink()
+                total -= size
+            except OSError:
+                pass
+    except OSError:
+        pass
 
 
 def _store(path: Path, bvh: BVH) -> None:
@@ -243,7 +303,8 @@ def _store_arrays(path: Path, **arrays) -> None:
             os.unlink(tmp)
             raise
     except OSError:
-        pass
+        return
+    _prune(path.parent, keep=path)
 
 
 def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah",
@@ -305,6 +366,7 @@ def wide_layout_cached(nodes: np.ndarray, layout: str, cache_dir=None, collapse_
         with np.load(path, allow_pickle=False) as z:
             rows, meta = z["rows"], z["meta"]
         if rows.dtype == np.float32 and rows.ndim == 2 and meta.shape == (4,):
+            _touch(path)
             return WideBVH(rows=rows, width=int(meta[0]), stack_bound=int(meta[1]), quantized=bool(meta[2]),
                            levels=int(meta[3]))
     except Exception:  # missing, truncated, not a zip, wrong keys...
