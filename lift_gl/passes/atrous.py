@@ -58,9 +58,7 @@ class AtrousFilter:
         s = self.settings
         normal_depth.use(location=0)
         for program in (self.prepare, self.iterate):
-            member = program.get("u_normal_depth", None)
-            if member is not None:
-                member.value = 0
+            set_uniforms(program, {"u_normal_depth": 0})
         irradiance.bind_to_image(0, read=True, write=False)
         self.ping.bind_to_image(1, read=False, write=True)
         self.prepare.run(*groups(*self.size))

@@ -16,7 +16,7 @@ import moderngl
 import numpy as np
 
 from .. import shaders
-from .common import groups
+from .common import groups, set_uniforms
 
 SOURCE = shaders.SHADER_DIR / "passes" / "reproject.comp"
 DEPTH_SLACK = 0.01  # relative view depth difference always allowed (float rounding, jitter)
@@ -42,12 +42,10 @@ class ReprojectPass:
                   "u_prev_half_difference": accumulate.half_difference, "u_prev_moments": accumulate.moments,
                   "u_prev_normal_depth": gbuffer.prev_normal_depth, "u_normal_depth": gbuffer.normal_depth,
                   "u_motion": gbuffer.motion, "u_frame": frame}
-        for unit, (name, texture) in enumerate(inputs.items()):
+        for unit, texture in enumerate(inputs.values()):
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
             texture.use(location=unit)
-            member = self.program.get(name, None)   # a dropped sampler: not there
-            if member is not None:
-                member.value = unit
+        set_uniforms(self.program, {name: unit for unit, name in enumerate(inputs)})   # skips dropped samplers
         for unit, texture in enumerate(self.spare + (self.rejection,)):
             texture.bind_to_image(unit, read=False, write=True)
         self.program["u_history_cap"].value = float(history_cap)

@@ -669,9 +669,10 @@ class TracePass:
         megakernel = program or self.program
         for prog in self.wavefront.programs if as_wavefront else (megakernel,):
             set_uniforms(prog, uniforms)
-            if visibility is not None and prog.get("u_visibility", None) is not None:
+            sampler = prog.get("u_visibility", None) if visibility is not None else None
+            if sampler is not None:
                 visibility.use(location=0)
-                prog["u_visibility"].value = 0
+                sampler.value = 0
         if as_wavefront:
             self.wavefront.run(self.frame, int(uniforms["u_samples"]))
             return
