@@ -81,6 +81,7 @@ def _add_render(sub):
 
 
 def cmd_render(args) -> int:
+    from .image_checks import check_render
     from .image_io import write_image, write_srgb8
     from .render_record import write_render_record
     from .renderer import Renderer
@@ -145,8 +146,11 @@ def cmd_render(args) -> int:
             write_srgb8(args.noisy_out, renderer.display(args.exposure, args.tonemap, source="noisy"))
         else:
             write_image(args.noisy_out, renderer.noisy_image())
-    write_render_record(renderer, args.scene, args.out)
+    warnings = check_render(renderer, image)
+    write_render_record(renderer, args.scene, args.out, warnings)
     print(f"{args.out}: {renderer.size[0]}x{renderer.size[1]}, {args.integrator}, {renderer.stats.summary()}")
+    for warning in warnings:
+        print(f"lift-gl: warning: {args.out}: {warning}", file=sys.stderr)
     return 0
 
 

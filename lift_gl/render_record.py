@@ -1,18 +1,25 @@
 """What `lift-gl render` writes beside an image, as FILE.json: how it was made, how long it
 took and how large its error is estimated to be (no reference needed), so that a folder of
-renders can be plotted as error against time."""
+renders can be plotted as error against time; and what lift_gl.image_checks found wrong with
+it (`warnings`, empty when nothing; `dropped_fraction`, the share of samples dropped as
+NaN/Inf)."""
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
 
-def render_record(renderer, scene_path, out_path) -> dict:
+def render_record(renderer, scene_path, out_path, warnings=()) -> dict:
+    """`warnings`: image_checks.RenderWarning of the render (check_render)."""
+    from .image_checks import dropped_fraction
+
     stats = renderer.stats
     record = {"image": str(out_path), "scene": str(scene_path), "integrator": renderer.plugin.name,
               "params": renderer.params, "size": list(renderer.size), "seed": renderer.seed,
               "spp": stats.spp, "frames": stats.frames, "render_seconds": stats.render_seconds,
-              "dropped_samples": stats.dropped_samples, "denoise": renderer.denoise_mode}
+              "dropped_samples": stats.dropped_samples,
+              "dropped_fraction": dropped_fraction(stats, renderer.size[0] * renderer.size[1]),
+              "warnings": [w.as_dict() for w in warnings], "denoise": renderer.denoise_mode}
     if renderer.denoise_mode != "off":
         from .denoise import BIASED
 
@@ -27,8 +34,9 @@ def render_record(renderer, scene_path, out_path) -> dict:
     return record
 
 
-def write_render_record(renderer, scene_path, out_path) -> Path:
+def write_render_record(renderer, scene_path, out_path, warnings=()) -> Path:
     """Writes OUT.json beside OUT (e.g. cornell.png.json) and returns its path."""
     path = Path(f"{out_path}.json")
-    path.write_text(json.dumps(render_record(renderer, scene_path, out_path), indent=1, default=str) + "\n")
+    record = render_record(renderer, scene_path, out_path, warnings)
+    path.write_text(json.dumps(record, indent=1, default=str) + "\n")
     return path

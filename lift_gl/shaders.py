@@ -119,6 +119,29 @@ def parse_log(log: str, source: ShaderSource) -> list[tuple[Path | None, int | N
     return found
 
 
+# A division by a literal zero: `x / 0.0`, `x /= 0`, `x / (0.0)`, `x / vec3(0.0)`. GLSL leaves
+# its value unspecified, and llvmpipe's code generator makes it an LLVM undef, which the
+# compiler may then read as any value at each use: the NaN/Inf guard cannot see it in every
+# shape (a sum over a loop, a conditional return), so the plugin's source is searched for it.
+_ZERO = r"(?:0+(?:\.0*)?|\.0+)(?:[eE][+-]?\d+)?[fF]?"
+_ZERO_DIVISION = re.compile(rf"/=?\s*(?:{_ZERO}(?![\w.])|\(\s*{_ZERO}\s*\)|"
+                            rf"(?:float|double|d?vec[234])\s*\(\s*{_ZERO}\s*\))")
+_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
+
+
+def constant_zero_divisions(source: ShaderSource) -> list[tuple[Path, int]]:
+    """(file, line) of each division by a literal zero in the source's own files: those a
+    person wrote (a plugin's), not the library under shaders/ nor the generated host code."""
+    found = []
+    for path in source.files:
+        if not path.is_file() or SHADER_DIR in path.parents:
+            continue
+        text = _COMMENT.sub(lambda m: "\n" * m.group().count("\n"), path.read_text(errors="replace"))
+        for m in _ZERO_DIVISION.finditer(text):
+            found.append((path, text.count("\n", 0, m.start()) + 1))
+    return found
+
+
 def compile_compute(ctx: moderngl.Context, source: ShaderSource) -> moderngl.ComputeShader:
     try:
         return ctx.compute_shader(source.text)
@@ -136,9 +159,24 @@ def compile_program(ctx: moderngl.Context, vertex: ShaderSource, fragment: Shade
 
 
 def _shader_error(log: str, source: ShaderSource) -> ShaderError:
-    errors = [e for e in parse_log(log, source) if "error" in e[2].lower()] or parse_log(log, source)
+    """The driver's whole log, each line at the file and line it names. The first error's
+    place is the error's; Mesa writes one error over several lines at one place (an overload
+    that did not match, then each candidate), which stay together under it; the other errors
+    follow, each with its own place."""
+    entries = parse_log(log, source)
+    errors = [e for e in entries if "error" in e[2].lower()] or entries
     if not errors:
         return ShaderError("shader failed to compile:\n" + log)
-    path, line, message = errors[0]
-    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-    return ShaderError(message + more, path, line)
+    places: list[tuple[tuple, list[str]]] = []  # (file, line) and its messages, in the log's order
+    for path, line, message in errors:
+        if places and places[-1][0] == (path, line):
+            # a continuation keeps its indentation (Mesa indents an overload's candidates)
+            places[-1][1].append(re.sub(r"^error:(\s)", r"\1", message) if message[6:7].isspace() else message)
+        else:
+            places.append(((path, line), [message]))
+    (path, line), first = places[0]
+    text = "\n".join(first)
+    for (other_path, other_line), messages in places[1:]:
+        where = f"{other_path}:{other_line}: " if other_path is not None else f"line {other_line}: "
+        text += "\n" + where + "\n".join(messages)
+    return ShaderError(text, path, line)
