@@ -40,6 +40,7 @@ from pathlib import Path
 
 from .accel.wide import STACKS
 from .errors import PluginError, read_utf8
+from .glsl_names import name_conflict
 
 BUILTIN_DIR = Path(__file__).resolve().parent.parent / "plugins"
 PARAM_TYPES = {"int": int, "float": float, "bool": bool, "color": list}
@@ -224,6 +225,9 @@ def load_manifest(folder: Path) -> Plugin:
         header = rf"^\s*\[params\.{re.escape(pname)}\]"
         if not _IDENT.match(pname):
             fail(f"parameter name {pname!r} must be an identifier", header)
+        conflict = name_conflict(pname)   # it becomes a uniform of this name
+        if conflict:
+            fail(f"parameter {pname!r} {conflict}; name it otherwise", header)
         if not isinstance(spec, dict):
             fail(f"parameter {pname!r} must be a table", header)
         unknown = set(spec) - _PARAM_KEYS
@@ -249,6 +253,9 @@ def load_manifest(folder: Path) -> Plugin:
             if define.startswith(_HOST_DEFINE_PREFIXES):
                 fail(f"parameter {pname!r}: define {define!r} starts like the host's own defines "
                      f"({', '.join(_HOST_DEFINE_PREFIXES)})", header)
+            conflict = name_conflict(define)
+            if conflict:
+                fail(f"parameter {pname!r}: define {define!r} {conflict}; name it otherwise", header)
             if define in data["params"] or any(p.define == define for p in params.values()):
                 fail(f"parameter {pname!r}: define {define!r} is already a parameter or another's define",
                      header)
