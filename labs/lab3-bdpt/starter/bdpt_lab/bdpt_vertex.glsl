@@ -1,0 +1,159 @@
+// bdpt_vertex.glsl (given): the vertices of the two subpaths, and what a vertex can tell about a
+// direction through it: the BSDF (as radiance or as importance sees it), its density, and the
+// conversion of a direction's density into an area density at the next vertex. Multiple
+// importance sampling compares strategies by these area densities (Veach 1997, sec. 10.2).
+
+// Only the light subpath is stored: the camera subpath is joined to it vertex by vertex as it
+// is traced (bdpt_subpaths.glsl), keeping just its last two vertices in registers. The light
+// subpath lives in a fixed array, so the longest path is a compile-time bound. The host defines
+// BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml) and recompiles when it changes: an array
+// no longer than the paths keeps an invocation's private memory small (local memory on a GPU,
+// the stack on llvmpipe). Longer paths are cut at 64 bounces.
+#ifndef BDPT_MAX_DEPTH
+#define BDPT_MAX_DEPTH 64
+#elif BDPT_MAX_DEPTH > 64
+#undef BDPT_MAX_DEPTH
+#define BDPT_MAX_DEPTH 64
+#endif
+#define BDPT_LIGHT_VERTICES (BDPT_MAX_DEPTH + 1)    // y0 (on a light) .. y_d
+
+const uint VERTEX_CAMERA = 0u;   // the pinhole
+const uint VERTEX_SURFACE = 1u;  // a scattering point on either subpath
+const uint VERTEX_EMITTER = 2u;  // y0 on an emitter's surface
+const uint VERTEX_ENV = 3u;      // at infinity: the environment
+const uint VERTEX_DISTANT = 4u;  // at infinity: a distant light (y0 only; a delta in direction)
+
+struct PathVertex {
+    vec3 p;             // world position; at infinity: the unit direction towards the light
+    vec3 ng;            // geometric normal (triangle winding, sphere outward); emitter: front normal
+    vec3 ns;            // shading normal: shading_normal (lift/surface.glsl), as pt shades
+    vec3 wo;            // unit direction towards the previous vertex of the same subpath
+    vec3 beta;          // throughput of the subpath up to this vertex, this vertex's BSDF excluded
+    float pdf_fwd;      // area density of this vertex, sampled from the previous one
+    float mis_sum;      // the MIS ratios of the vertices before the previous one (bdpt_mis.glsl)
+    uint tag;           // material << 4 | kind (VERTEX_*) << 1 | delta: one word, not three
+#ifdef HAS_TEXTURES
+    vec3 tint;          // what the texture multiplies the base colour by (texture_tint), looked up
+                        // once when the vertex is made rather than at every join
+#endif
+};
+
+// A vertex's tag; `delta` (scattered by a delta lobe: mirror, smooth glass; cannot be joined)
+// is set when the vertex's BSDF is sampled.
+uint vertex_tag(uint material, uint kind) { return material << 4u | kind << 1u; }
+
+PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_fwd, uint tag) {
+    PathVertex v;
+    v.p = p;
+    v.ng = ng;
+    v.ns = ns;
+    v.wo = wo;
+    v.beta = beta;
+    v.pdf_fwd = pdf_fwd;
+    v.mis_sum = 0.0;
+    v.tag = tag;
+#ifdef HAS_TEXTURES
+    v.tint = vec3(1.0);
+#endif
+    return v;
+}
+
+// Private to each invocation: the light subpath, y0 first.
+PathVertex bdpt_light[BDPT_LIGHT_VERTICES];
+void store_light_vertex(int i, PathVertex v) { bdpt_light[i] = v; }
+PathVertex light_vertex(int i) { return bdpt_light[i]; }
+
+uint vertex_kind(PathVertex v) { return v.tag >> 1u & 7u; }
+uint vertex_material(PathVertex v) { return v.tag >> 4u; }
+bool vertex_delta(PathVertex v) { return (v.tag & 1u) != 0u; }
+
+// The material that scatters at surface vertex v: its texture applied, as pt shades it.
+Material vertex_bsdf_material(PathVertex v) {
+#ifdef HAS_TEXTURES
+    return material_tinted(vertex_material(v), v.tint);
+#else
+    return materials[vertex_material(v)];
+#endif
+}
+
+bool vertex_on_surface(PathVertex v) {
+    return vertex_kind(v) == VERTEX_SURFACE || vertex_kind(v) == VERTEX_EMITTER;
+}
+
+// Whether another vertex can be joined to vertex v with a shadow ray.
+bool vertex_connectible(PathVertex v) {
+    return vertex_kind(v) == VERTEX_SURFACE && !vertex_delta(v);
+}
+
+bool vertex_at_infinity(PathVertex v) {
+    return vertex_kind(v) == VERTEX_ENV || vertex_kind(v) == VERTEX_DISTANT;
+}
+
+// A solid-angle density at point `from`, towards vertex v, as an area density at v.
+// Directions to lights at infinity keep their solid-angle density (pbrt does the same).
+float area_density(float pdf_dir, vec3 from, PathVertex v) {
+    if (vertex_at_infinity(v)) return pdf_dir;
+    vec3 d = v.p - from;
+    float dist2 = dot(d, d);
+    if (!(dist2 > 0.0)) return 0.0;
+    float cos_v = vertex_on_surface(v) ? abs(dot(v.ng, d)) * inversesqrt(dist2) : 1.0;
+    return pdf_dir * cos_v / dist2;
+}
+
+// Opaque surfaces (m: vertex v's material) pass no light from one side of their geometry to
+// the other, whatever the shading normal says.
+bool vertex_blocks(Material m, PathVertex v, vec3 wo, vec3 wi) {
+    return is_opaque(m) && dot(wi, v.ng) * dot(wo, v.ng) <= 0.0;
+}
+
+// Light subpaths carry importance, whose BSDF is the adjoint of radiance's. Two differences:
+// refraction compresses radiance by eta^2 but not importance (bsdf.glsl divides transmission
+// by etap^2 = (n_wi / n_wo)^2: undo it), ...
+float adjoint_refraction(Material m, vec3 wo_local, vec3 wi_local) {
+    if (bsdf_type(m) != MAT_DIELECTRIC || wo_local.z * wi_local.z >= 0.0) return 1.0;
+    float etap = wo_local.z > 0.0 ? m.eta_ior.w : 1.0 / m.eta_ior.w;
+    return etap * etap;
+}
+
+// ... and shading normals make the BSDF non-symmetric: importance is carried with the factor
+// |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) (Veach 1997, sec. 5.3). 1 where ns = ng.
+float adjoint_shading_normal(PathVertex v, vec3 wo, vec3 wi) {
+    float denominator = abs(dot(wo, v.ng)) * abs(dot(wi, v.ns));
+    return denominator > 0.0 ? abs(dot(wo, v.ns)) * abs(dot(wi, v.ng)) / denominator : 0.0;
+}
+
+// What a join needs of surface vertex v for world directions wo (towards the previous vertex
+// of its own subpath) and wi (towards the vertex it is joined to): the BSDF, and the two
+// densities MIS compares. One frame and one material fetch serve all three.
+struct VertexScatter {
+    vec3 f;         // f(wo, wi) |cos(wi, ns)|; `importance`: the adjoint, for light subpaths
+    float pdf_out;  // solid-angle density of bsdf_sample at v picking wi, coming from wo
+    float pdf_back; // ... picking wo, coming from wi (the subpath walked the other way)
+};
+
+VertexScatter vertex_scatter(PathVertex v, vec3 wi, bool importance) {
+    VertexScatter vs = VertexScatter(vec3(0.0), 0.0, 0.0);
+    Material m = vertex_bsdf_material(v);
+    if (vertex_blocks(m, v, v.wo, wi)) return vs;
+    Frame frame = frame_from_normal(v.ns);
+    vec3 wo_local = to_local(frame, v.wo), wi_local = to_local(frame, wi);
+    vs.f = bsdf_eval_pdf(m, wo_local, wi_local, vs.pdf_out);
+    if (importance) vs.f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(v, v.wo, wi);
+    vs.pdf_back = bsdf_pdf(m, wi_local, wo_local);
+    return vs;
+}
+
+// Whether nothing lies between vertex v and the point at distance dist along dir (1e30: the
+// environment). The ray starts offset off the surface on dir's side, aims from there at the
+// end point and stops just short of it (see spawn_shadow_ray in lift/surface.glsl).
+bool vertex_sees(PathVertex v, vec3 dir, float dist) {
+    vec3 n = dot(dir, v.ng) >= 0.0 ? v.ng : -v.ng;
+    Ray r = Ray(offset_ray_origin(v.p, n), dir, 0.0, 1e30);
+    if (dist < 1e30) {
+        vec3 to_end = v.p + dir * dist - r.origin;
+        float len = length(to_end);
+        if (len > 0.0) r.dir = to_end / len;
+        r.tmax = len * (1.0 - 1e-4);
+    }
+    return !trace_occluded(r);
+}
