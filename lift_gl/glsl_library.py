@@ -48,6 +48,7 @@ class Declaration:
     section: str = ""    # the banner it follows in its file
     fields: list[Field] = field(default_factory=list)   # structs
     members: list[str] = field(default_factory=list)    # blocks without an instance name: global names
+    shares: str = ""     # no comment of its own, on the line after this declaration, whose comment covers both
 
     @property
     def where(self) -> str:
@@ -139,7 +140,13 @@ def parse_file(path: Path) -> LibraryFile:
     section = ""
     in_block = False
 
-    def declare(decl):
+    last = {"decl": None, "end": -1}   # the previous declaration and its last line
+
+    def declare(decl, end):
+        previous = last["decl"]
+        if not decl.comment and previous is not None and decl.line == last["end"] + 1:
+            decl.shares = previous.shares or previous.name   # rng_next2 and rng_next3 under one comment
+        last["decl"], last["end"] = decl, end
         items.append(decl)
 
     while i < len(lines):
@@ -196,8 +203,8 @@ def parse_file(path: Path) -> LibraryFile:
                 if d and not _GUARD.match(d.group(1)):
                     signature = f"#define {d.group(1)}{d.group(2) or ''} {d.group(3).strip()}".strip()
                     declare(Declaration("define", d.group(1), signature,
-                                        "\n".join(pending + ([trailing] if trailing else [])).strip(),
-                                        Path(path), number, _condition(conditions), section))
+                                        "\n\n".join(filter(None, ("\n".join(pending).strip(), trailing))),
+                                        Path(path), number, _condition(conditions), section), i)
             pending = pending if directive in ("if", "ifdef", "ifndef", "elif", "else", "endif") else []
             continue
         # A statement at file level: read on to its body's opening brace or its semicolon.
@@ -228,7 +235,7 @@ def parse_file(path: Path) -> LibraryFile:
         decl = _declaration(head, opens, body_lines, trailing, Path(path), start, _condition(conditions), section,
                             comment)
         if decl is not None:
-            declare(decl)
+            declare(decl, i)
     return LibraryFile(Path(path), "\n".join(header).strip(), items)
 
 

@@ -10,7 +10,8 @@
 // along `ray`: linear RGB, world units. Parameters from plugin.toml are uniforms of the same
 // name (max_depth, min_bounce, only_bounce below).
 //
-// THE LIBRARY (shaders/lift/*.glsl, already included):
+// THE LIBRARY (shaders/lift/*.glsl, already included; docs/glsl-library.md is the
+// reference: every function, its arguments and what it returns, every struct's fields):
 //   surface_at(ray, hit)              -> Surface s: s.p position, s.ng / s.ns geometric and
 //                                        shading normals, s.material (world space)
 //   material_at(s.material, s.uv)     -> Material m (its image texture applied, if any)

@@ -52,8 +52,11 @@
 #include "lift/fresnel.glsl"
 #include "lift/microfacet.glsl"
 
+// The least alpha a rough lobe is evaluated with (max(alpha, BSDF_MIN_ALPHA)): it keeps the
+// peak of D, 1 / (pi alpha^2), finite.
 #define BSDF_MIN_ALPHA 1e-4
 
+// A direction bsdf_sample chose, with what a path needs to follow it.
 struct BsdfSample {
     vec3 wi;        // sampled direction (shading frame, away from the surface)
     vec3 weight;    // f(wo, wi) |wi.z| / pdf, delta lobes included
@@ -61,9 +64,12 @@ struct BsdfSample {
     bool is_delta;  // true for specular samples: no MIS, no light sampling
 };
 
+// The material's type: MAT_DIFFUSE, MAT_CONDUCTOR, MAT_DIELECTRIC or MAT_PLASTIC.
 int bsdf_type(Material m) { return int(m.color_type.w + 0.5); }
-// A negative alpha marks a Beckmann conductor (HAS_BECKMANN); every other lobe is GGX.
+// The roughness alpha of the material's microfacet lobe (0: smooth). A negative stored alpha
+// marks a Beckmann conductor (HAS_BECKMANN, bsdf_beckmann); every other lobe is GGX.
 float bsdf_alpha(Material m) { return abs(m.emission_alpha.w); }
+// Whether a conductor's rough lobe is Beckmann's (a negative stored alpha) rather than GGX.
 bool bsdf_beckmann(Material m) { return m.emission_alpha.w < 0.0; }
 
 // An interface between equal indices (IOR within 1e-3 of 1) bends nothing and reflects
@@ -76,6 +82,9 @@ bool bsdf_is_rough(Material m) {
     return bsdf_alpha(m) > 0.0 && !(bsdf_type(m) == MAT_DIELECTRIC && dielectric_index_matched(m));
 }
 
+// Whether every direction the material scatters into is a delta (a mirror, smooth glass):
+// then bsdf_eval and bsdf_pdf are 0 everywhere, light sampling cannot help and a path
+// continues only by bsdf_sample.
 bool bsdf_is_delta(Material m) {
     int type = bsdf_type(m);
     return (type == MAT_CONDUCTOR || type == MAT_DIELECTRIC) && !bsdf_is_rough(m);
@@ -85,16 +94,19 @@ bool bsdf_is_delta(Material m) {
 vec3 bsdf_reflect_z(vec3 wo) { return vec3(-wo.x, -wo.y, wo.z); }
 
 // ================================ Diffuse (Lambert) ==================================
+// Lambert: f cos_i = albedo / pi * wi.z, zero unless wo and wi are both above the surface.
 vec3 diffuse_eval(Material m, vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
     return m.color_type.rgb * (LIFT_INV_PI * wi.z);
 }
 
+// The density of diffuse_sample's direction: cosine-weighted, wi.z / pi.
 float diffuse_pdf(vec3 wo, vec3 wi) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return 0.0;
     return pdf_cosine_hemisphere(wi);
 }
 
+// A cosine-weighted direction; its weight f cos / pdf is the albedo.
 bool diffuse_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     if (wo.z <= 0.0) return false;
@@ -108,12 +120,15 @@ bool diffuse_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
 
 // ================================ Conductor ==========================================
 #ifdef HAS_CONDUCTOR
+// The conductor's reflectance at cos_theta: exact from eta and k (tinted by color_type.rgb),
+// or Schlick's with F0 = color_type.rgb where eta.r < 0.
 vec3 conductor_fresnel(Material m, float cos_theta) {
     if (m.eta_ior.r < 0.0) return fresnel_schlick(cos_theta, m.color_type.rgb);
     return m.color_type.rgb * fresnel_conductor(cos_theta, m.eta_ior.rgb, m.k_pad.rgb);
 }
 
 // ---- Smooth conductor: a mirror ----
+// The mirror direction, weighted by the Fresnel reflectance (a delta: pdf 1).
 bool conductor_smooth_sample(Material m, vec3 wo, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, true);
     if (wo.z <= 0.0) return false;
@@ -127,12 +142,14 @@ bool conductor_smooth_sample(Material m, vec3 wo, out BsdfSample s) {
 #ifdef HAS_BECKMANN
 // ---- Rough conductor, Beckmann: the same BRDF with Beckmann's D and G; normals sampled
 // by D(m) cos(m), so pdf(wi) = D(h) h.z / (4 wo.h) ----
+// f cos_i of the Beckmann conductor.
 vec3 conductor_beckmann_eval(Material m, vec3 wo, vec3 wi) {
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
     vec3 h = normalize(wo + wi);
     return conductor_fresnel(m, dot(wo, h)) * (beckmann_D(h, alpha) * beckmann_G2(wo, wi, alpha) / (4.0 * wo.z));
 }
 
+// The density of conductor_beckmann_sample's direction.
 float conductor_beckmann_pdf(Material m, vec3 wo, vec3 wi) {
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
     vec3 h = normalize(wo + wi);
@@ -140,6 +157,7 @@ float conductor_beckmann_pdf(Material m, vec3 wo, vec3 wi) {
     return wo_h > 0.0 ? beckmann_D(h, alpha) * h.z / (4.0 * wo_h) : 0.0;
 }
 
+// A direction reflected about a Beckmann-distributed microfacet normal.
 bool conductor_beckmann_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     float alpha = max(bsdf_alpha(m), BSDF_MIN_ALPHA);
@@ -177,17 +195,20 @@ vec3 conductor_rough_eval_pdf(Material m, vec3 wo, vec3 wi, out float pdf) {
     return conductor_fresnel(m, dot(wo, h)) * (D * ggx_G2(wo, wi, alpha) / (4.0 * wo.z));
 }
 
+// f cos_i of the rough conductor (GGX, or Beckmann where bsdf_beckmann).
 vec3 conductor_rough_eval(Material m, vec3 wo, vec3 wi) {
     float pdf;
     return conductor_rough_eval_pdf(m, wo, wi, pdf);
 }
 
+// The density of conductor_rough_sample's direction.
 float conductor_rough_pdf(Material m, vec3 wo, vec3 wi) {
     float pdf;
     conductor_rough_eval_pdf(m, wo, wi, pdf);
     return pdf;
 }
 
+// A direction reflected about a visible GGX normal (Heitz 2018); weight F G2 / G1(wo).
 bool conductor_rough_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     if (wo.z <= 0.0) return false;
@@ -219,6 +240,9 @@ bool conductor_rough_sample(Material m, vec3 wo, vec2 u, out BsdfSample s) {
 float dielectric_etap(Material m, vec3 wo) { return wo.z > 0.0 ? m.eta_ior.w : 1.0 / m.eta_ior.w; }
 
 // ---- Smooth dielectric: Fresnel-weighted choice between mirror and refraction ----
+// Reflection with probability F (the Fresnel reflectance), else refraction; both deltas,
+// with s.pdf the probability of the choice. A refracted weight carries the tint and the
+// radiance scaling 1 / etap^2.
 bool dielectric_smooth_sample(Material m, vec3 wo, float u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, true);
     if (wo.z == 0.0) return false;
@@ -262,6 +286,8 @@ bool dielectric_rough_half(Material m, vec3 wo, vec3 wi, out vec3 h, out bool is
     return true;
 }
 
+// f cos_i of the rough dielectric: reflection where wo and wi are on one side, transmission
+// (tinted, radiance scaled by 1 / etap^2) where they are on opposite sides.
 vec3 dielectric_rough_eval(Material m, vec3 wo, vec3 wi) {
     vec3 h;
     bool is_reflection;
@@ -285,6 +311,7 @@ vec3 dielectric_rough_eval(Material m, vec3 wo, vec3 wi) {
     return m.color_type.rgb * ft;
 }
 
+// The density of dielectric_rough_sample's direction.
 float dielectric_rough_pdf(Material m, vec3 wo, vec3 wi) {
     vec3 h;
     bool is_reflection;
@@ -305,6 +332,8 @@ float dielectric_rough_pdf(Material m, vec3 wo, vec3 wi) {
     return pdf_h * (1.0 - F) * abs(wi_h) / denom;  // times the refraction Jacobian dh/dwi
 }
 
+// A visible GGX normal from wo's side (u.xy), then reflection or refraction about it chosen
+// by its Fresnel reflectance (u.z).
 bool dielectric_rough_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     if (wo.z == 0.0) return false;
@@ -374,12 +403,14 @@ bool dielectric_rough_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
 // direction. For the smooth coat bsdf_eval and bsdf_pdf cover the diffuse part only, and a
 // mirror sample is a delta with BsdfSample.pdf = P.
 
+// The base's albedo under the coat: Rd' (see above).
 vec3 plastic_base_albedo(Material m) {
     vec3 rd = m.color_type.rgb;
     float fdr = m.eta_ior.x;
     return m.eta_ior.y > 0.5 ? rd / max(vec3(1.0) - rd * fdr, vec3(1e-6)) : rd / max(1.0 - fdr, 1e-6);
 }
 
+// The probability P of sampling the coat's specular lobe, given F(cos_o) = F_o.
 float plastic_specular_probability(Material m, float F_o) {
     float s = F_o * dot(m.k_pad.rgb, vec3(1.0 / 3.0));
     float d = (1.0 - F_o) * dot(m.color_type.rgb, vec3(1.0 / 3.0));
@@ -418,17 +449,20 @@ vec3 plastic_eval_pdf(Material m, vec3 wo, vec3 wi, out float pdf) {
     return f;
 }
 
+// f cos_i of the plastic (the smooth coat's mirror, a delta, left out).
 vec3 plastic_eval(Material m, vec3 wo, vec3 wi) {
     float pdf;
     return plastic_eval_pdf(m, wo, wi, pdf);
 }
 
+// The density of plastic_sample's direction (the smooth coat's mirror left out).
 float plastic_pdf(Material m, vec3 wo, vec3 wi) {
     float pdf;
     plastic_eval_pdf(m, wo, wi, pdf);
     return pdf;
 }
 
+// The specular lobe with probability P (u.z), else a cosine-weighted direction (u.xy).
 bool plastic_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     if (wo.z <= 0.0) return false;
@@ -493,6 +527,9 @@ vec3 bsdf_eval_pdf(Material m, vec3 wo, vec3 wi, out float pdf) {
     return vec3(0.0);  // delta lobes, or a material not compiled in
 }
 
+// The BSDF times the cosine at wi: f(wo, wi) |wi.z| (shading frame; wo, wi unit and away
+// from the surface). Zero for delta lobes (mirrors, smooth glass), which only bsdf_sample
+// can produce.
 vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
     int type = bsdf_type(m);
     if (type == MAT_DIFFUSE) return diffuse_eval(m, wo, wi);
@@ -508,6 +545,8 @@ vec3 bsdf_eval(Material m, vec3 wo, vec3 wi) {
     return vec3(0.0);  // delta lobes, or a material not compiled in
 }
 
+// The solid-angle density with which bsdf_sample(m, wo, ...) returns wi (delta lobes: 0).
+// MIS weighs a light sample's direction with it.
 float bsdf_pdf(Material m, vec3 wo, vec3 wi) {
     int type = bsdf_type(m);
     if (type == MAT_DIFFUSE) return diffuse_pdf(wo, wi);
@@ -523,6 +562,10 @@ float bsdf_pdf(Material m, vec3 wo, vec3 wi) {
     return 0.0;
 }
 
+// Samples a direction s.wi for wo (shading frame) from three uniform numbers u (one picks a
+// lobe where there are several). s.weight = f cos / pdf, the factor a path's throughput
+// takes; s.pdf and s.is_delta are for MIS. False (and s zeroed) when there is no sample:
+// wo below an opaque surface, a direction below the horizon, a material not compiled in.
 bool bsdf_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
     s = BsdfSample(vec3(0.0, 0.0, 1.0), vec3(0.0), 0.0, false);
     int type = bsdf_type(m);

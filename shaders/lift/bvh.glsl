@@ -4,9 +4,12 @@
 #ifndef LIFT_BVH_GLSL
 #define LIFT_BVH_GLSL
 
+// A ray: origin and unit direction dir (world space); it finds hits with t in (tmin, tmax).
+// spawn_ray and camera_ray make them; trace_closest and trace_occluded query the scene.
 struct Ray { vec3 origin; vec3 dir; float tmin; float tmax; };   // dir normalized
-// prim: triangle id (index into the reordered triangle arrays), or u_num_triangles + sphere
-// index; NO_HIT when nothing was hit. bary = (b1, b2): p = (1-b1-b2)*p0 + b1*p1 + b2*p2.
+// What a ray hit: t, the distance along it (ray.dir is unit); prim, the triangle id (index
+// into the reordered triangle arrays), or u_num_triangles + sphere index; NO_HIT when nothing
+// was hit. bary = (b1, b2): p = (1-b1-b2)*p0 + b1*p1 + b2*p2.
 // With HAS_INSTANCES, instance: the instance record whose BLAS holds triangle `prim`
 // (NO_INSTANCE: world geometry); prim then indexes the BLAS's object-space triangles.
 #ifdef HAS_INSTANCES
@@ -14,6 +17,7 @@ struct Hit { float t; uint prim; vec2 bary; uint instance; };
 #else
 struct Hit { float t; uint prim; vec2 bary; };
 #endif
+// Hit.prim of a ray that hit nothing (it left the scene: env_radiance(ray.dir)).
 const uint NO_HIT = 0xffffffffu;
 
 #ifdef HAS_MOTION
@@ -762,6 +766,7 @@ bool lift_tlas_box(uint n, vec3 org, vec3 inv, float tmin, float tmax, out float
     return tn <= tf;
 }
 
+// A world ray in instance k's object space (its direction not renormalised, so t is the same).
 Ray instance_ray(uint k, Ray ray) {
     return Ray(instance_point_to_object(k, ray.origin), instance_dir_to_object(k, ray.dir), ray.tmin, ray.tmax);
 }
@@ -818,8 +823,9 @@ bool lift_trace_instances(Ray ray, inout float t, inout Hit hit, bool shadow) {
 }
 #endif
 
-// Closest hit among triangles (world BVH, then with HAS_INSTANCES the instances) and, with
-// HAS_SPHERES, spheres.
+// The closest hit of `ray` in (ray.tmin, ray.tmax) among triangles (world BVH, then with
+// HAS_INSTANCES the instances) and, with HAS_SPHERES, spheres. True when it hit something;
+// else hit.prim = NO_HIT and hit.t = ray.tmax.
 bool trace_closest(Ray ray, out Hit hit) {
     LIFT_COUNT_RAY();
     hit.t = ray.tmax;
@@ -845,7 +851,8 @@ bool trace_closest(Ray ray, out Hit hit) {
     return hit.prim != NO_HIT;
 }
 
-// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order.
+// Whether anything lies in (ray.tmin, ray.tmax): stops at the first hit, in any order. For
+// shadow rays (spawn_shadow_ray): true means the light is blocked.
 bool trace_occluded(Ray ray) {
     LIFT_COUNT_RAY();
     float t = ray.tmax;

@@ -20,6 +20,7 @@
 uniform vec3 u_scene_center;  // bounding sphere of the scene (the host sets both)
 uniform float u_scene_radius;
 
+// A point on a light, or a direction towards a light at infinity (sample_light_point).
 struct LightPoint {
     vec3 p;         // a point on an emitter; at infinity, the unit direction towards the light
     vec3 n;         // the emitter's front normal there (unused at infinity)
@@ -33,6 +34,8 @@ struct LightPoint {
 };
 
 // ---- A point on a light (or a direction to a light at infinity) ----
+// A point on a light chosen as next event estimation chooses them (u.x picks the kind and
+// the light, u.yz the point or direction); false when there is none.
 bool sample_light_point(vec3 u, out LightPoint lp) {
     lp = LightPoint(vec3(0.0), vec3(0.0), vec3(0.0), 0.0, false, false);
     vec3 kind = light_kind_probabilities();
@@ -97,6 +100,7 @@ float pdf_light_point(Surface s) {
 }
 
 // ---- A ray leaving a light ----
+// A ray leaving a light (sample_emission), with the densities of its origin and direction.
 struct EmissionSample {
     Ray ray;        // leaves the light (from an emitter: offset off its surface)
     LightPoint light;
@@ -115,6 +119,8 @@ float pdf_env_emission_pos() {
     return LIFT_INV_PI / (u_scene_radius * u_scene_radius);
 }
 
+// A ray leaving a light: its point from u_point (sample_light_point), its direction from
+// u_dir (see the file's header). False when there is none.
 bool sample_emission(vec3 u_point, vec2 u_dir, out EmissionSample es) {
     es.ray = Ray(vec3(0.0), vec3(0.0, 0.0, 1.0), 0.0, 1e30);
     es.pdf_pos = 0.0;

@@ -11,6 +11,7 @@
 #include "lift/surface.glsl"
 #include "lift/sampling.glsl"
 
+// A direction towards a light, chosen by sample_light from a shaded point.
 struct LightSample {
     vec3 wi;        // world direction towards the light
     float dist;     // distance to the light point (1e30 for the environment)
@@ -48,6 +49,7 @@ vec3 light_kind_probabilities() {
 // Probability of choosing the environment rather than another kind of light.
 float env_choice_probability() { return light_kind_probabilities().x; }
 
+// The emissive primitive (an index into `lights`) whose slice of the power CDF holds u.
 uint pick_light(float u) {
     // Binary search of the first entry whose cumulative probability exceeds u.
     uint lo = 0u, hi = u_num_lights - 1u;
@@ -66,6 +68,7 @@ uniform uvec4 u_env_map_offsets;  // words of: texels (RGBA float), marginal pdf
 uniform mat3 u_env_to_world;      // the map's frame to world (orthonormal)
 uniform mat3 u_env_from_world;
 
+// Word i of the images buffer as a float (the map's tables).
 float env_word(uint i) { return uintBitsToFloat(images[i]); }
 
 // The last i in [0, n - 1] with cdf[i] <= u, for u in [0, 1) and cdf[n] = 1: then
@@ -82,17 +85,21 @@ uint env_search_cdf(uint cdf, uint guide, uint n, float u) {
     return lo;
 }
 
+// The direction (the map's frame) of lat-long coordinates uv: u around the y axis from -z,
+// v from +y (0) down to -y (1).
 vec3 env_map_direction(vec2 uv) {
     float phi = 2.0 * LIFT_PI * uv.x, theta = LIFT_PI * uv.y;
     float s = sin(theta);
     return vec3(s * sin(phi), cos(theta), -s * cos(phi));
 }
 
+// The lat-long coordinates of unit direction d (the map's frame): env_map_direction inverted.
 vec2 env_map_uv(vec3 d) {
     float u = atan(d.x, -d.z) * (0.5 * LIFT_INV_PI);
     return vec2(u < 0.0 ? u + 1.0 : u, acos(clamp(d.y, -1.0, 1.0)) * LIFT_INV_PI);
 }
 
+// Texel (x, y) of the map, linear RGB, row 0 at the top.
 vec3 env_texel(int x, int y) {
     return uintBitsToFloat(images4[(u_env_map_offsets.x >> 2u) + uint(y * int(u_env_map_size.x) + x)].xyz);
 }
@@ -151,6 +158,7 @@ float env_map_pdf(vec3 wi) {
 }
 #endif
 
+// (declared here for the samplers above; defined at the end of this file)
 vec3 env_radiance(vec3 wi);
 
 #ifdef HAS_ENVIRONMENT
@@ -218,6 +226,13 @@ bool sample_sphere_cone(vec3 p, vec4 cr, float one_minus_cos_max, vec2 u, out ve
 }
 #endif
 
+// Next event estimation from world point p: chooses a kind of light and a light (u.x), then a
+// direction towards it (u.yz), as the file's header says. ls.wi points from p towards the
+// light, ls.dist is how far (1e30 at infinity: trace spawn_shadow_ray(s, ls.wi, ls.dist)),
+// ls.radiance what arrives along -ls.wi if nothing blocks it, and ls.pdf the solid-angle
+// density (light choice included; for a distant light, ls.is_delta, the discrete
+// probability). False when there is no sample (no light, the back of an emitter).
+// light_pdf and env_light_pdf give the density of a direction found otherwise.
 bool sample_light(vec3 p, vec3 u, out LightSample ls) {
     ls.pdf = 0.0;
     ls.is_delta = false;

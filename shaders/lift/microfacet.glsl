@@ -95,6 +95,7 @@ float beckmann_lambda(vec3 w, float alpha) {
     return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a);
 }
 
+// Smith masking of one direction.
 float beckmann_G1(vec3 w, float alpha) { return 1.0 / (1.0 + beckmann_lambda(w, alpha)); }
 
 // Height-correlated masking-shadowing.

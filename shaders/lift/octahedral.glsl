@@ -6,9 +6,11 @@
 #ifndef LIFT_OCTAHEDRAL_GLSL
 #define LIFT_OCTAHEDRAL_GLSL
 
+// The signs of v's components, with 0 counted as positive.
 vec2 octahedral_sign(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 
-// A zero vector packs to +z (callers that store one never read it back as a direction).
+// A unit vector packed into one word. A zero vector packs to +z (callers that store one never
+// read it back as a direction).
 uint pack_unit_vector(vec3 n) {
     float l1 = abs(n.x) + abs(n.y) + abs(n.z);
     vec2 e = l1 > 0.0 ? n.xy / l1 : vec2(0.0);
@@ -16,6 +18,7 @@ uint pack_unit_vector(vec3 n) {
     return packSnorm2x16(e);
 }
 
+// The unit vector pack_unit_vector stored (within about 5e-5 rad).
 vec3 unpack_unit_vector(uint word) {
     vec2 e = unpackSnorm2x16(word);
     vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));

@@ -10,10 +10,13 @@ uniform float u_filter_cdf_x[PIXEL_FILTER_KNOTS];
 uniform float u_filter_cdf_y[PIXEL_FILTER_KNOTS];
 uniform vec4 u_filter_span;         // first offset and spacing of the knots: x axis, y axis
 
+// Knot i of an axis's tabulated CDF (axis 0: x, 1: y).
 float filter_cdf(int axis, int i) {
     return axis == 0 ? u_filter_cdf_x[i] : u_filter_cdf_y[i];
 }
 
+// The offset along one axis (rendered pixels from the pixel's corner) whose CDF is u: a
+// binary search of the knots, then linear between two.
 float pixel_filter_axis(int axis, float u) {
     int lo = 0, hi = PIXEL_FILTER_KNOTS - 1;  // cdf[lo] <= u < cdf[hi]
     for (int step = 0; step < 7; ++step) {
@@ -36,6 +39,7 @@ float pixel_filter_density(int axis, float offset) {
     return (filter_cdf(axis, i + 1) - filter_cdf(axis, i)) / span.y;
 }
 
+// A subpixel offset drawn from the pixel filter's kernel, from two uniform numbers.
 vec2 pixel_filter_offset(vec2 u) {
     return vec2(pixel_filter_axis(0, u.x), pixel_filter_axis(1, u.y));
 }

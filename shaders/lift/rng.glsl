@@ -4,6 +4,9 @@
 #ifndef LIFT_RNG_GLSL
 #define LIFT_RNG_GLSL
 
+// A sample's random number state. The host makes one per sample (rng_init_pixel_sample) and
+// passes it to radiance() as `inout Rng rng`; draw from it with rng_next, rng_next2,
+// rng_next3 and rng_ld2.
 struct Rng {
     uint state;         // PCG stream: rng_next
     uint sample_index;  // this pixel's sample number over all frames: rng_ld2's sequence index
@@ -11,12 +14,14 @@ struct Rng {
     uint ld_pair;       // how many rng_ld2 pairs this sample used
 };
 
+// PCG's output permutation as a hash of one word (Jarzynski and Olano 2020).
 uint pcg_hash(uint v) {
     uint state = v * 747796405u + 2891336453u;
     uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
     return (word >> 22u) ^ word;
 }
 
+// A state decorrelated from every other (pixel, frame, sample, seed).
 Rng rng_init(uvec2 pixel, uint frame, uint sample_index, uint seed) {
     uint h = pcg_hash(pixel.x + pcg_hash(pixel.y + pcg_hash(frame + pcg_hash(sample_index + pcg_hash(seed)))));
     return Rng(h, frame, pcg_hash(pixel.x ^ pcg_hash(pixel.y ^ pcg_hash(seed + 0x9e3779b9u))), 0u);
@@ -41,6 +46,7 @@ float rng_next(inout Rng r) {
     return float(word >> 8u) * (1.0 / 16777216.0);
 }
 
+// Two and three uniform numbers in [0, 1), drawn by rng_next one after the other.
 vec2 rng_next2(inout Rng r) { return vec2(rng_next(r), rng_next(r)); }
 vec3 rng_next3(inout Rng r) { return vec3(rng_next(r), rng_next(r), rng_next(r)); }
 
@@ -65,6 +71,7 @@ uint lk_permute(uint x, uint key) {
     return x;
 }
 
+// Owen scrambling of a 32-bit fixed-point value in [0, 1), keyed.
 uint owen_scramble(uint x, uint key) { return bitfieldReverse(lk_permute(bitfieldReverse(x), key)); }
 
 // Sobol's second dimension, bit-reversed. Its generator matrix (rows v_k = v_(k-1) ^
@@ -83,6 +90,8 @@ uint sobol_dimension_1_reversed(uint index) {
     return index;
 }
 
+// The sample's next low-discrepancy pair in [0, 1)^2 (see above); for the two numbers of a
+// light or BSDF sample at each bounce, in the same order in every sample.
 vec2 rng_ld2(inout Rng r) {
     uint key = pcg_hash(r.ld_seed + r.ld_pair++ * 0x9e3779b9u);
     uint index = owen_scramble(r.sample_index, key);

@@ -10,6 +10,7 @@
 #endif
 
 // ---- Unit disk (Shirley & Chiu concentric map: low distortion, keeps strata) ----
+// A point uniform on the unit disk.
 vec2 sample_concentric_disk(vec2 u) {
     vec2 p = 2.0 * u - 1.0;
     if (p.x == 0.0 && p.y == 0.0) return vec2(0.0);
@@ -27,6 +28,7 @@ vec2 sample_concentric_disk(vec2 u) {
 float pdf_concentric_disk() { return LIFT_INV_PI; }
 
 // ---- Cosine-weighted hemisphere around +z (Malley: project the disk up) ----
+// A unit direction about +z with density cos(theta) / pi.
 vec3 sample_cosine_hemisphere(vec2 u) {
     vec2 d = sample_concentric_disk(u);
     float z = sqrt(max(0.0, 1.0 - dot(d, d)));
@@ -36,12 +38,14 @@ vec3 sample_cosine_hemisphere(vec2 u) {
 float pdf_cosine_hemisphere(vec3 w) { return max(w.z, 0.0) * LIFT_INV_PI; }
 
 // ---- Uniform sphere ----
+// A unit direction uniform over the sphere.
 vec3 sample_uniform_sphere(vec2 u) {
     float z = 1.0 - 2.0 * u.x;
     float r = sqrt(max(0.0, 1.0 - z * z));
     float phi = 2.0 * LIFT_PI * u.y;
     return vec3(r * cos(phi), r * sin(phi), z);
 }
+// Solid-angle density: 1 / (4 pi).
 float pdf_uniform_sphere(vec3 w) { return LIFT_INV_4PI; }
 
 // ---- Uniform triangle ----

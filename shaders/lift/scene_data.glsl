@@ -9,10 +9,11 @@
 #ifndef LIFT_SCENE_DATA_GLSL
 #define LIFT_SCENE_DATA_GLSL
 
-#define MAT_DIFFUSE 0
-#define MAT_CONDUCTOR 1
-#define MAT_DIELECTRIC 2
-#define MAT_PLASTIC 3
+// Material types (Material.color_type.w, bsdf_type).
+#define MAT_DIFFUSE 0     // Lambert
+#define MAT_CONDUCTOR 1   // metal: a mirror, or rough (GGX or Beckmann)
+#define MAT_DIELECTRIC 2  // glass: smooth or rough (GGX)
+#define MAT_PLASTIC 3     // a diffuse base under a dielectric coat
 
 // Two vec4 per node: (bmin.xyz, first), (bmax.xyz, count); first and count are uint bits.
 // count == 0: interior node, children are nodes `first` and `first + 1`.
@@ -55,6 +56,7 @@ layout(std140, binding = 4) uniform TriInfo { uvec2 tri_info[LIFT_UBO_TRI_INFO];
 #else
 layout(std430, binding = 4) readonly buffer TriInfo { uvec2 tri_info[]; };
 #endif
+// Row r of each array (see above), wherever the host put it.
 vec4 bvh_node_row(uint r) { return bvh_nodes[r]; }
 vec4 tri_pos_row(uint r) { return tri_pos[r]; }
 vec4 tri_normal_row(uint r) { return tri_normal[r]; }
@@ -151,6 +153,9 @@ uvec2 tri_info_at(uint t) {
 }
 #endif
 
+// A material as the BSDFs read it (lift/bsdf.glsl's header says which field means what for
+// each type): four vec4, packed by lift_gl/scene/pack.py. Read it with material_at(id, uv),
+// which applies the material's texture; materials[id] is the untextured one.
 struct Material {
     vec4 color_type;      // rgb: albedo / F0 / transmission tint / conductor tint; w: MAT_* as float
     vec4 emission_alpha;  // rgb: emitted radiance; w: GGX alpha (0 = smooth)
@@ -196,19 +201,21 @@ layout(std140, binding = 10) uniform Instances { vec4 instances[LIFT_UBO_INSTANC
 #else
 layout(std430, binding = 10) readonly buffer Instances { vec4 instances[]; };
 #endif
-#define INSTANCE_ROWS 7u
-#define NO_INSTANCE 0xffffffffu
-#define NO_MATERIAL 0xffffffffu
+#define INSTANCE_ROWS 7u            // rows of one instance record
+#define NO_INSTANCE 0xffffffffu     // Hit.instance, Surface.instance of world geometry
+#define NO_MATERIAL 0xffffffffu     // an instance that keeps its mesh's materials
 uniform uint u_world_triangles;
 uniform uint u_num_instances;
 uniform uint u_instance_records;   // row of the first instance record
 
+// Row r of instance record k.
 vec4 instance_row(uint k, uint r) { return instances[u_instance_records + INSTANCE_ROWS * k + r]; }
 // Object -> world of a point, and of a direction.
 vec3 instance_point_to_world(uint k, vec3 p) {
     vec4 p1 = vec4(p, 1.0);
     return vec3(dot(instance_row(k, 0u), p1), dot(instance_row(k, 1u), p1), dot(instance_row(k, 2u), p1));
 }
+// World -> object of a point, and of a direction (not renormalised).
 vec3 instance_point_to_object(uint k, vec3 p) {
     vec4 p1 = vec4(p, 1.0);
     return vec3(dot(instance_row(k, 3u), p1), dot(instance_row(k, 4u), p1), dot(instance_row(k, 5u), p1));
@@ -221,6 +228,7 @@ vec3 instance_dir_to_object(uint k, vec3 d) {
 vec3 instance_normal_to_world(uint k, vec3 n) {
     return n.x * instance_row(k, 3u).xyz + n.y * instance_row(k, 4u).xyz + n.z * instance_row(k, 5u).xyz;
 }
+// Row 6 of instance record k: (BLAS root, material or NO_MATERIAL, prototype, mirrors).
 uvec4 instance_info(uint k) { return floatBitsToUint(instance_row(k, 6u)); }
 // The material of instanced triangle `tri` in instance k: the instance's, else the mesh's.
 uint instance_material(uint k, uint tri) {

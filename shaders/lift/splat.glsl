@@ -41,11 +41,7 @@ void lift_splat_add(uint index, float value) {
 #endif
 }
 
-// Adds `value` — one sample's whole contribution; the host divides by the sample count — to
-// the pixel that contains the pixel position (pixels, y up, as camera_ray takes it), or, with
-// the scene's pixel filter, to every pixel whose kernel covers it, weighted by the kernel
-// there (the density that pixel's own camera samples are drawn from). Positions no pixel
-// covers are ignored; a NaN or infinite value is dropped and counted in stats[1].
+// Adds `value` to one pixel's sums, unweighted and unchecked (splat does both).
 void splat_pixel(ivec2 pixel, vec3 value) {
     uint index = 3u * (uint(pixel.y) * uint(u_resolution.x) + uint(pixel.x));
     lift_splat_add(index, value.r);
@@ -53,6 +49,11 @@ void splat_pixel(ivec2 pixel, vec3 value) {
     lift_splat_add(index + 2u, value.b);
 }
 
+// Adds `value` — one sample's whole contribution; the host divides by the sample count — to
+// the pixel that contains the pixel position (pixels, y up, as camera_ray takes it), or, with
+// the scene's pixel filter, to every pixel whose kernel covers it, weighted by the kernel
+// there (the density that pixel's own camera samples are drawn from). Positions no pixel
+// covers are ignored; a NaN or infinite value is dropped and counted in stats[1].
 void splat(vec2 pixel_pos, vec3 value) {
     if (!lift_is_finite(value)) {
         atomicAdd(stats[1], 1u);

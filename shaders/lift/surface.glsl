@@ -6,13 +6,14 @@
 #include "lift/frame.glsl"
 #include "lift/textures.glsl"
 
+// A surface point a ray hit, in world space (surface_at).
 struct Surface {
     vec3 p;                  // world position
     vec3 ng;                 // geometric normal, unit; for triangles from the winding, for spheres outward
     vec3 ns;                 // shading normal, unit, in the same hemisphere as ng
-    vec2 uv;
-    uint material;
-    uint prim;
+    vec2 uv;                 // texture coordinates (OpenGL's: (0, 0) is the image's bottom-left)
+    uint material;           // index into `materials`: material_at(s.material, s.uv) applies its texture
+    uint prim;               // the hit's primitive (triangle id, or u_num_triangles + sphere index)
 #ifdef HAS_INSTANCES
     uint instance;           // the hit's instance (NO_INSTANCE: world geometry)
 #endif
@@ -20,6 +21,10 @@ struct Surface {
     float area;              // primitive area, for light pdfs
 };
 
+// The surface that `hit` (a hit of `ray`, not NO_HIT) found: position, normals, texture
+// coordinates and material, interpolated over the triangle (or exact on a sphere). The
+// position comes from the barycentrics, not from ray.origin + hit.t * ray.dir, which is less
+// accurate far from the camera.
 Surface surface_at(Ray ray, Hit hit) {
     Surface s;
     s.prim = hit.prim;
@@ -157,15 +162,19 @@ vec3 facing_shading_normal(Surface s, vec3 wo) {
 // normal says (light sampling and BSDF sampling must agree on this, or MIS is biased).
 bool same_side_of_surface(Surface s, vec3 a, vec3 b) { return dot(a, s.ng) * dot(b, s.ng) > 0.0; }
 
-// Opaque surfaces shade from the side the ray came from (facing_shading_normal, which also
-// rescues normals tilted away from the viewer); glass keeps its orientation so that wo.z < 0
-// tells the BSDF the ray is inside.
+// Whether m is opaque: every material but glass (MAT_DIELECTRIC).
 bool is_opaque(Material m) { return int(m.color_type.w) != MAT_DIELECTRIC; }
 
+// The normal to shade s with, seen from wo_world (world, away from the surface). Opaque
+// surfaces shade from the side the ray came from (facing_shading_normal, which also rescues
+// normals tilted away from the viewer); glass keeps its orientation (s.ns, outward) so that
+// wo.z < 0 tells the BSDF the ray is inside.
 vec3 shading_normal(Surface s, Material m, vec3 wo_world) {
     return is_opaque(m) ? facing_shading_normal(s, wo_world) : s.ns;
 }
 
+// The local frame to shade s in (z: shading_normal): to_local(frame, w) gives the BSDF's
+// directions, to_world(frame, bs.wi) a sampled one back in world space.
 Frame shading_frame(Surface s, Material m, vec3 wo_world) {
     return frame_from_normal(shading_normal(s, m, wo_world));
 }

@@ -13,6 +13,8 @@ vec3 srgb_to_linear(vec3 c) {
     return mix(pow((c + 0.055) / 1.055, vec3(2.4)), c / 12.92, lessThanEqual(c, vec3(0.04045)));
 }
 
+// Texel (x, y) of the texture whose texels start at word `first`, RGBA in [0, 1], decoded to
+// linear where `srgb`.
 vec4 texture_texel(uint first, uint width, int x, int y, bool srgb) {
     vec4 c = unpackUnorm4x8(images[first + uint(y) * width + uint(x)]);
     if (srgb) c.rgb = srgb_to_linear(c.rgb);
