@@ -1,6 +1,6 @@
 """Rough conductors with a Beckmann distribution (HAS_BECKMANN, a negative alpha in the
 material): the distribution's normalisation, and bsdf_sample against bsdf_pdf by the
-chi-square test of tests/test_bsdf_chi2.py."""
+chi-square test of tests/test_bsdf_chi2.py (lift_gl.chi2)."""
 from __future__ import annotations
 
 import itertools
@@ -8,8 +8,10 @@ import itertools
 import numpy as np
 import pytest
 
-from glsl_harness import ALL_MATERIALS, MAT_CONDUCTOR, Kernel, material
-from test_bsdf_chi2 import GOLD_ETA, GOLD_K, REL_TOL, histogram, pdf_cell_integrals, pearson_chi2, sample, wo_from_cos
+from lift_gl.chi2 import pearson_chi2, sphere_histogram
+from lift_gl.glsl_kernel import ALL_MATERIALS, MAT_CONDUCTOR, Kernel, material
+from lift_gl.warp_kernels import BSDF_GRID, bsdf_cell_integrals
+from test_bsdf_chi2 import GOLD_ETA, GOLD_K, REL_TOL, sample, wo_from_cos
 
 DEFINES = {**ALL_MATERIALS, "HAS_BECKMANN": True}
 SAMPLES = 1 << 19
@@ -51,10 +53,10 @@ def test_beckmann_conductor_samples_match_pdf(alpha, cos_o):
     wo = wo_from_cos(cos_o)
     dirs, weights, evals = sample(mat, wo, SAMPLES, defines=DEFINES)
     ok = dirs[:, 3] > 0.0
-    integrals = pdf_cell_integrals(mat, wo, SAMPLES, DEFINES)
+    integrals = bsdf_cell_integrals(mat, wo, SAMPLES, DEFINES)
     total = integrals.sum()
     assert 0.5 < total <= 1.0 + 1e-3
-    observed = np.append(histogram(dirs[ok, :3]).ravel(), SAMPLES - ok.sum())
+    observed = np.append(sphere_histogram(dirs[ok, :3], BSDF_GRID).ravel(), SAMPLES - ok.sum())
     expected = np.append(integrals.ravel() * SAMPLES, max(0.0, SAMPLES * (1.0 - total)))
     statistic, dof, p = pearson_chi2(observed, expected)
     assert p > CASE_SIGNIFICANCE, f"chi2 = {statistic:.1f}, {dof} dof, p = {p:.3g}"

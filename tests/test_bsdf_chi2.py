@@ -3,8 +3,8 @@ density bsdf_pdf claims?
 
 Chi-square goodness of fit, as Mitsuba 3's `chi2` test does it: N directions are sampled in a
 shader and histogrammed on a (cos theta, phi) grid over the whole sphere; the expected count
-of each cell is N times the integral of bsdf_pdf over the cell (Gauss-Legendre on each cell,
-evaluated in a shader); cells expecting fewer than 5 samples are pooled; samples that
+of each cell is N times the integral of bsdf_pdf over the cell (adaptive Gauss-Legendre in a
+shader: lift_gl.chi2 and lift_gl.warp_kernels, which `lift-gl warptest` runs too); cells expecting fewer than 5 samples are pooled; samples that
 bsdf_sample rejects form one more cell (expected: N (1 - integral of the pdf)). The p-value of
 Pearson's statistic is compared with a significance level corrected for the number of cases
 (Sidak), so the whole file fails by chance with probability SIGNIFICANCE.
@@ -21,14 +21,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from glsl_harness import (ALL_MATERIALS, MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, Kernel, material,
-                          source)
+from lift_gl.chi2 import pearson_chi2, sphere_histogram
 from lift_gl.errors import ShaderError
+from lift_gl.glsl_kernel import ALL_MATERIALS, MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, Kernel, material
+from lift_gl.warp_kernels import BSDF_GRID, bsdf_cell_integrals
 
 SAMPLES = 1 << 20
-N_COS, N_PHI = 48, 96          # histogram cells: cos theta in [-1, 1], phi in [0, 2 pi)
-GAUSS_ORDER = 8                # Gauss-Legendre nodes per cell and dimension
-MIN_EXPECTED = 5.0
 SIGNIFICANCE = 0.01
 # Float32 evaluation of the same expressions along two paths (sample vs eval/pdf).
 REL_TOL = 2e-3
@@ -75,39 +73,6 @@ void main() {
 }
 """
 
-# One invocation per rectangle of (cos theta, phi): the Gauss-Legendre integral of bsdf_pdf
-# over it, where the solid angle is d(cos theta) d(phi).
-PDF_KERNEL = """
-layout(std430, binding = 10) readonly buffer Rects { vec4 rects[]; };  // cos0, cos1, phi0, phi1
-layout(std430, binding = 11) writeonly buffer RectIntegral { float rect_integral[]; };
-uniform vec3 u_wo;
-uniform int u_order;
-uniform float u_nodes[16];    // on [-1, 1]
-uniform float u_weights[16];
-void main() {
-    uint r = invocation_index();
-    if (r >= u_count) return;
-    Material m = test_material();
-    vec4 rect = rects[r];
-    float cos_mid = 0.5 * (rect.x + rect.y), cos_half = 0.5 * (rect.y - rect.x);
-    float phi_mid = 0.5 * (rect.z + rect.w), phi_half = 0.5 * (rect.w - rect.z);
-    float total = 0.0;
-    for (int a = 0; a < u_order; ++a) {
-        float c = clamp(cos_mid + cos_half * u_nodes[a], -1.0, 1.0);
-        float s = sqrt(max(0.0, 1.0 - c * c));
-        float row = 0.0;
-        for (int b = 0; b < u_order; ++b) {
-            float phi = phi_mid + phi_half * u_nodes[b];
-            row += u_weights[b] * bsdf_pdf(m, u_wo, vec3(s * cos(phi), s * sin(phi), c));
-        }
-        total += u_weights[a] * row;
-    }
-    rect_integral[r] = total * cos_half * phi_half;
-}
-"""
-MAX_DEPTH = 10
-
-
 def sample(mat, wo, count=SAMPLES, seed=7, defines=ALL_MATERIALS):
     out = Kernel(SAMPLE_KERNEL, defines).run(
         count, outputs={10: (count, 4), 11: (count, 4), 12: (count, 4)},
@@ -115,91 +80,15 @@ def sample(mat, wo, count=SAMPLES, seed=7, defines=ALL_MATERIALS):
     return out[10], out[11], out[12]
 
 
-def integrate_rects(mat, wo, rects: np.ndarray, defines) -> np.ndarray:
-    nodes, weights = np.polynomial.legendre.leggauss(GAUSS_ORDER)
-    pad = np.zeros(16 - GAUSS_ORDER)
-    out = Kernel(PDF_KERNEL, defines).run(
-        len(rects), inputs={10: rects.astype(np.float32)}, outputs={11: (len(rects),)},
-        uniforms={"u_material": mat, "u_wo": wo, "u_order": GAUSS_ORDER,
-                  "u_nodes": np.concatenate([nodes, pad]).astype(np.float32),
-                  "u_weights": np.concatenate([weights, pad]).astype(np.float32)})
-    return out[11].astype(np.float64)
-
-
-def split4(rects: np.ndarray) -> np.ndarray:
-    """Each rectangle (cos0, cos1, phi0, phi1) -> its four quarters, consecutive."""
-    c0, c1, p0, p1 = rects.T
-    cm, pm = 0.5 * (c0 + c1), 0.5 * (p0 + p1)
-    quarters = [(c0, cm, p0, pm), (c0, cm, pm, p1), (cm, c1, p0, pm), (cm, c1, pm, p1)]
-    return np.stack([np.stack(q, axis=1) for q in quarters], axis=1).reshape(-1, 4)
-
-
-def pdf_cell_integrals(mat, wo, count=SAMPLES, defines=ALL_MATERIALS) -> np.ndarray:
-    """Integral of bsdf_pdf over each histogram cell, by adaptive cubature: a rectangle is
-    split in four until the quarters' sum agrees with the whole to well within the Poisson
-    noise of the cell's count (a tenth of a standard deviation), like Mitsuba's adaptive
-    Simpson. The pdf of a glossy lobe can be far narrower than a cell near the poles."""
-    i, j = np.meshgrid(np.arange(N_COS), np.arange(N_PHI), indexing="ij")
-    cell = (i * N_PHI + j).ravel()
-    dcos, dphi = 2.0 / N_COS, 2.0 * np.pi / N_PHI
-    rects = np.stack([-1.0 + i.ravel() * dcos, -1.0 + (i.ravel() + 1) * dcos,
-                      j.ravel() * dphi, (j.ravel() + 1) * dphi], axis=1)
-    whole = integrate_rects(mat, wo, rects, defines)
-    total = np.zeros(N_COS * N_PHI)
-    for depth in range(MAX_DEPTH):
-        quarters = split4(rects)
-        parts = integrate_rects(mat, wo, quarters, defines).reshape(-1, 4)
-        refined = parts.sum(axis=1)
-        tolerance = 0.1 * np.sqrt(np.maximum(refined * count, 1.0)) / count / 4.0 ** depth
-        done = (np.abs(refined - whole) <= tolerance) | (depth == MAX_DEPTH - 1)
-        np.add.at(total, cell[done], refined[done])
-        rects = quarters.reshape(-1, 4, 4)[~done].reshape(-1, 4)
-        whole = parts[~done].ravel()
-        cell = np.repeat(cell[~done], 4)
-        if len(rects) == 0:
-            break
-    return total.reshape(N_COS, N_PHI)
-
-
-def histogram(wi: np.ndarray) -> np.ndarray:
-    cos_t = np.clip(wi[:, 2], -1.0, 1.0)
-    phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), 2.0 * np.pi)
-    i = np.clip(((cos_t + 1.0) * 0.5 * N_COS).astype(np.int64), 0, N_COS - 1)
-    j = np.clip((phi / (2.0 * np.pi) * N_PHI).astype(np.int64), 0, N_PHI - 1)
-    return np.bincount(i * N_PHI + j, minlength=N_COS * N_PHI).reshape(N_COS, N_PHI).astype(np.float64)
-
-
-def pearson_chi2(observed: np.ndarray, expected: np.ndarray) -> tuple[float, int, float]:
-    """(statistic, degrees of freedom, p-value) after pooling cells expecting < MIN_EXPECTED."""
-    observed, expected = observed.ravel(), expected.ravel()
-    low = expected < MIN_EXPECTED
-    obs = list(observed[~low])
-    exp = list(expected[~low])
-    pooled_obs, pooled_exp = observed[low].sum(), expected[low].sum()
-    if pooled_exp >= MIN_EXPECTED:
-        obs.append(pooled_obs)
-        exp.append(pooled_exp)
-    elif exp:  # too little to stand alone: merge into the smallest cell
-        k = int(np.argmin(exp))
-        obs[k] += pooled_obs
-        exp[k] += pooled_exp
-    obs, exp = np.array(obs), np.array(exp)
-    statistic = float(np.sum((obs - exp) ** 2 / exp))
-    dof = len(obs) - 1
-    if dof < 1:
-        return statistic, dof, 1.0
-    return statistic, dof, float(stats.chi2.sf(statistic, dof))
-
-
 @pytest.mark.parametrize("name,mat,wo", CASES, ids=[c[0] for c in CASES])
 def test_sample_matches_pdf(name, mat, wo):
     dirs, weights, evals = sample(mat, wo)
     ok = dirs[:, 3] > 0.0
     assert ok.any(), "bsdf_sample produced no samples"
-    integrals = pdf_cell_integrals(mat, wo)
+    integrals = bsdf_cell_integrals(mat, wo, SAMPLES)
     total = integrals.sum()
     assert total <= 1.0 + 1e-3, f"bsdf_pdf integrates to {total} > 1"
-    observed = histogram(dirs[ok, :3])
+    observed = sphere_histogram(dirs[ok, :3], BSDF_GRID)
     expected = integrals * SAMPLES
     # Samples in cells where the pdf is zero everywhere are an error in their own right.
     impossible = observed[integrals == 0.0].sum()
@@ -434,7 +323,7 @@ def test_uniform_sphere_matches_its_pdf():
     out = run_helper(1, uniform_square(n, 1))
     np.testing.assert_allclose(np.linalg.norm(out[:, :3], axis=1), 1.0, atol=1e-5)
     np.testing.assert_allclose(out[:, 3], 1.0 / (4.0 * np.pi), rtol=1e-6)
-    observed = histogram(out[:, :3])
+    observed = sphere_histogram(out[:, :3], BSDF_GRID)
     expected = np.full_like(observed, n / observed.size)  # equal-area cells in (cos theta, phi)
     assert pearson_chi2(observed, expected)[2] > HELPER_SIGNIFICANCE
 

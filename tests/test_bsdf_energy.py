@@ -14,7 +14,7 @@ import pytest
 from scipy import stats
 
 from furnace_reference import ggx_directional_albedo, ggx_directional_albedo_direct
-from glsl_harness import MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, material
+from lift_gl.glsl_kernel import MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, material
 from test_bsdf_chi2 import sample, wo_from_cos
 
 SAMPLES = 1 << 20

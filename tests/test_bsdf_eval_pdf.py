@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from glsl_harness import ALL_MATERIALS, MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, Kernel, material
+from lift_gl.glsl_kernel import ALL_MATERIALS, MAT_CONDUCTOR, MAT_DIELECTRIC, MAT_DIFFUSE, Kernel, material
 from test_plastic_bsdf import MAT_PLASTIC, PLASTIC, plastic
 
 KERNEL = """

@@ -3,7 +3,7 @@ light subpath keeps its normals and directions so). Checked against the vectors 
 every direction of the sphere, the axes, both folds of the octahedron and its seams."""
 import numpy as np
 
-from glsl_harness import Kernel
+from lift_gl.glsl_kernel import Kernel
 
 KERNEL = """
 layout(std430, binding = 10) readonly buffer Inputs { vec4 inputs[]; };

@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from glsl_harness import Kernel
+from lift_gl.chi2 import pearson_chi2, sphere_histogram
+from lift_gl.glsl_kernel import MAT_PLASTIC, Kernel
 from lift_gl.scene.optics import fresnel_dielectric, internal_diffuse_reflectance
-from test_bsdf_chi2 import (REL_TOL, histogram, pdf_cell_integrals, pearson_chi2, sample,
-                            wo_from_cos)
+from lift_gl.warp_kernels import BSDF_GRID, bsdf_cell_integrals
+from test_bsdf_chi2 import REL_TOL, sample, wo_from_cos
 
-MAT_PLASTIC = 3
 PLASTIC = {"HAS_PLASTIC": True, "HAS_ROUGH_PLASTIC": True}
 SAMPLES = 1 << 19
 SIGNIFICANCE = 0.01
@@ -43,10 +43,10 @@ def test_rough_plastic_samples_match_pdf(alpha, cos_o):
     mat, wo = plastic(alpha=alpha), wo_from_cos(cos_o)
     dirs, weights, evals = sample(mat, wo, SAMPLES, defines=PLASTIC)
     ok = dirs[:, 3] > 0.0
-    integrals = pdf_cell_integrals(mat, wo, SAMPLES, PLASTIC)
+    integrals = bsdf_cell_integrals(mat, wo, SAMPLES, PLASTIC)
     total = integrals.sum()
     assert total <= 1.0 + 1e-3
-    observed = np.append(histogram(dirs[ok, :3]).ravel(), SAMPLES - ok.sum())
+    observed = np.append(sphere_histogram(dirs[ok, :3], BSDF_GRID).ravel(), SAMPLES - ok.sum())
     expected = np.append(integrals.ravel() * SAMPLES, max(0.0, SAMPLES * (1.0 - total)))
     statistic, dof, p = pearson_chi2(observed, expected)
     assert p > ROUGH_SIGNIFICANCE, f"chi2 = {statistic:.1f}, {dof} dof, p = {p:.3g}"
@@ -77,9 +77,9 @@ def test_smooth_plastic_diffuse_samples_match_pdf_and_mirror_is_fresnel(cos_o):
     np.testing.assert_allclose(weights[delta, :3], np.tile(tint * F / P, (delta.sum(), 1)), rtol=1e-4)
     np.testing.assert_allclose(dirs[delta, 3], P, rtol=1e-5)
     # ---- the diffuse part: histogram against the integral of bsdf_pdf (which is 1 - P) ----
-    integrals = pdf_cell_integrals(mat, wo, SAMPLES, PLASTIC)
+    integrals = bsdf_cell_integrals(mat, wo, SAMPLES, PLASTIC)
     assert abs(integrals.sum() - (1 - P)) < 1e-3
-    observed = np.append(histogram(dirs[~delta, :3]).ravel(), delta.sum())
+    observed = np.append(sphere_histogram(dirs[~delta, :3], BSDF_GRID).ravel(), delta.sum())
     expected = np.append(integrals.ravel() * SAMPLES, SAMPLES * P)
     statistic, dof, p = pearson_chi2(observed, expected)
     assert p > SIGNIFICANCE / len(SMOOTH_CASES), f"chi2 = {statistic:.1f}, {dof} dof, p = {p:.3g}"

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from glsl_harness import Kernel
+from lift_gl.glsl_kernel import Kernel
 from lift_gl.passes.camera import frame_jitter
 from lift_gl.renderer import Renderer
 from lift_gl.scene import Camera, DistantLight, Material, Scene, Texture
