@@ -13,6 +13,8 @@ from pathlib import Path
 from .errors import LiftError
 from .plugins import _IDENT, discover, find_plugin, search_path
 
+HINT_SIZE = "128x128"  # the render new-plugin suggests (--size)
+
 TEST_TEMPLATE = '''"""Tests of the {name} plugin, written by `lift-gl new-plugin` (started from {source}).
 
     python -m pytest {folder}
@@ -104,7 +106,9 @@ def cmd_new_plugin(args) -> int:
     print("next:")
     from .testing import CORNELL  # numpy: only for this command, not at every CLI start
 
-    print(f"  lift-gl render {_shown(CORNELL)} --integrator {found_as} --spp 64 --out {args.name}.png")
+    # a small size: the scene's film (512x512) takes minutes on a CPU rasterizer, this about 10 s
+    print(f"  lift-gl render {_shown(CORNELL)} --integrator {found_as} --spp 64 --size {HINT_SIZE} "
+          f"--out {args.name}.png")
     print(f"  python -m pytest {_shown(folder)}")
     if not on_path:
         print(f"  (to use it by name: --plugins {folder.parent}, or add that folder to LIFT_GL_PLUGIN_PATH)")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO
+from lift_gl import load_scene
 from lift_gl.cli import main
 from lift_gl.plugins import discover, load_manifest
 from lift_gl.renderer import Renderer
@@ -42,6 +43,11 @@ def test_scaffold_from_template_renders_and_its_test_passes(capsys, tmp_path):
     assert plugin.params.keys() == load_manifest(REPO / "plugins" / "template").params.keys()
     assert "YOUR TURN" in (folder / "mine.glsl").read_text()
     assert f"--plugins {tmp_path}" in out  # the folder is not on the search path: say how to add it
+    # the suggested render names a small size: the scene's own film size takes minutes on a CPU
+    hint = next(line for line in out.splitlines() if "lift-gl render" in line)
+    width, height = (int(v) for v in hint.split("--size ")[1].split()[0].split("x"))
+    film = load_scene(CORNELL).film_size
+    assert width * height <= 128 * 128 < film[0] * film[1], hint
 
     # Found by name through --plugins and LIFT_GL_PLUGIN_PATH; listed with its parameters.
     code, out, _ = cli(capsys, "plugins", "--plugins", str(tmp_path))
