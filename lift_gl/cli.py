@@ -183,6 +183,7 @@ def _frame_file(out: str, index: int) -> Path:
 def _render_sequence(renderer, scene, path, args) -> int:
     """Follow the camera path: one image per frame, the accumulation reprojected (or reset)
     between frames; --spp samples per pixel are added at each frame."""
+    from .image_checks import check_image
     from .image_io import write_image, write_srgb8
 
     frames = 24 if args.frames is None else args.frames
@@ -206,6 +207,8 @@ def _render_sequence(renderer, scene, path, args) -> int:
             write_image(out, image)
         print(f"{out}: t={time:g}, {renderer.stats.summary()}"
               + (f", {renderer.stats.reprojected} reprojected frames" if renderer.reproject is not None else ""))
+        for warning in check_image(image, renderer.stats):
+            print(f"lift-gl: warning: {out}: {warning}", file=sys.stderr)
     return 0
 
 

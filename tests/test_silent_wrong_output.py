@@ -190,3 +190,16 @@ def test_constant_zero_divisions_lint(tmp_path):
     library = REPO / "shaders" / "lift" / "sampling.glsl"
     source = ShaderSource(text="", files=[Path("<host main>"), library, shader])
     assert [line for _, line in constant_zero_divisions(source)] == [1, 2, 3, 4, 10, 11]
+
+
+def test_a_sequence_warns_about_each_black_frame(tmp_path, capsys):
+    from lift_gl.cli import main
+
+    make_plugin(tmp_path / "plugins", "black", "    return vec3(0.0);\n")
+    out = tmp_path / "seq"
+    assert main(["render", str(CORNELL), "--camera-path", str(REPO / "scenes" / "paths" / "cornell_pan.toml"),
+                 "--frames", "2", "--spp", "1", "--size", "16x16", "--integrator", "black",
+                 "--plugins", str(tmp_path / "plugins"), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    for frame in ("frame_0000.png", "frame_0001.png"):
+        assert f"lift-gl: warning: {out / frame}: the image is all zero" in err, err
