@@ -10,6 +10,7 @@ from .app.command import add_parser as add_view_parser
 from .denoise import DENOISERS
 from .errors import LiftError
 from .report import bench, compare
+from .grade import command as grade_command
 
 GBUFFER_AOVS = ("albedo", "normal", "depth")  # as lift_gl.renderer (not imported here: it loads GL)
 
@@ -256,6 +257,7 @@ def main(argv=None) -> int:
     scaffold.add_parser(sub)
     compare.add_parser(sub)
     bench.add_parser(sub)
+    grade_command.add_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)
