@@ -9,6 +9,7 @@ from . import scaffold
 from .app.command import add_parser as add_view_parser
 from .denoise import DENOISERS
 from .errors import LiftError
+from .lab import add_parser as add_lab_parser
 from .report import bench, compare
 from .grade import command as grade_command
 
@@ -258,6 +259,7 @@ def main(argv=None) -> int:
     compare.add_parser(sub)
     bench.add_parser(sub)
     grade_command.add_parser(sub)
+    add_lab_parser(sub)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

@@ -16,6 +16,7 @@
 // surface ends the branch: light it gets from other surfaces (diffuse interreflection,
 // caustics) is left out, as in Whitted's and Cook's tracers; lab 2's path tracer adds it.
 // Parameters (plugin.toml): max_depth, light_samples.
+#include "lens.glsl"
 
 // ---- Step 4: depth of field ----
 // The host's ray is a pinhole's, through this sample's point of the pixel. A thin lens of
@@ -24,7 +25,7 @@
 Ray thin_lens_ray(Ray pinhole_ray, vec2 u) {
     if (u_lens_radius <= 0.0) return pinhole_ray;
     vec3 focus_point = pinhole_ray.origin + pinhole_ray.dir * (u_focus_distance / dot(pinhole_ray.dir, u_cam_forward));
-    vec2 lens = sample_concentric_disk(u) * u_lens_radius;  // uniform on the lens's disk
+    vec2 lens = sample_lens(u) * u_lens_radius;  // uniform on the lens's disk (lens.glsl)
     vec3 origin = pinhole_ray.origin + lens.x * u_cam_right + lens.y * u_cam_up;
     return Ray(origin, normalize(focus_point - origin), 0.0, 1e30);
 }

@@ -21,7 +21,6 @@
 //   env_radiance(dir), surface_emission(s, wo)
 //   spawn_ray(s, dir), spawn_shadow_ray(s, dir, dist), trace_closest, trace_occluded
 //   power_heuristic(pdf_a, pdf_b)     the MIS weight of strategy a against strategy b
-//   sample_concentric_disk(u)         a point of the unit disk, uniform
 //   u_cam_pos, u_cam_right, u_cam_up, u_cam_forward (unit vectors), u_lens_radius,
 //   u_focus_distance                  the scene's camera (lift/camera.glsl)
 //   rng_next(rng), rng_next2, rng_next3: uniform random numbers in [0, 1)
@@ -30,11 +29,13 @@
 // AS HANDED OUT this is a Whitted-style ray caster: the camera ray's first hit is lit by one
 // shadow ray to a fixed point of a light (hard shadows), and nothing is reflected or
 // refracted. Steps 1-5 make it Cook's distribution ray tracer.
+#include "lens.glsl"
 
 // ---- YOUR TURN (step 4): depth of field ----
 // Return the ray of a thin lens of radius u_lens_radius focused at u_focus_distance (along
 // u_cam_forward) that passes through the point of the pinhole ray in focus, starting from the
-// lens point that u picks. A radius of 0 is a pinhole: the same ray.
+// lens point that u picks (sample_lens in lens.glsl: write it first). A radius of 0 is a
+// pinhole: the same ray.
 Ray thin_lens_ray(Ray pinhole_ray, vec2 u) {
     return pinhole_ray;
 }

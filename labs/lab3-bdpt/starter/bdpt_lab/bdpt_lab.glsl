@@ -1,5 +1,6 @@
 // bdpt_lab: lab 3's bidirectional path tracer (Veach 1997, ch. 10; the structure of
-// pbrt-v3, ch. 16), the instructor's solution.
+// pbrt-v3, ch. 16). This file is given; your steps are in bdpt_strategies.glsl and
+// bdpt_mis.glsl (handout.md).
 //
 // Each sample traces a light subpath y0 y1 ... (y0 on an emitter picked by power, or a
 // direction of the environment or of a distant light, whose ray starts on a disk across the
