@@ -87,18 +87,24 @@ def split4(rects: np.ndarray) -> np.ndarray:
     return np.stack([np.stack(q, axis=1) for q in quarters], axis=1).reshape(-1, 4)
 
 
-def adaptive_cell_integrals(integrate, rects: np.ndarray, count: int,
-                            max_depth: int = CUBATURE_MAX_DEPTH) -> tuple[np.ndarray, float]:
+def adaptive_cell_integrals(integrate, rects: np.ndarray, count: int, max_depth: int = CUBATURE_MAX_DEPTH,
+                            relative: float | None = None) -> tuple[np.ndarray, float]:
     """Integral of a density over each cell, by adaptive cubature: a rectangle is split in four
     until the quarters' sum agrees with the whole to within NOISE_FRACTION of the Poisson
     noise of the cell's count at `count` samples, like Mitsuba's adaptive Simpson (a glossy
-    lobe can be far narrower than a cell). `integrate(rects)` returns one integral a
-    rectangle (a fixed-order rule, e.g. Gauss-Legendre in a shader).
+    lobe can be far narrower than a cell). With `relative`, the estimated errors must also
+    add up to at most that fraction of the total, whatever the sample count: each level
+    shares what is left of that budget equally among the rectangles still open, so that a
+    pdf's jump along a curve (where the open rectangles double, not quadruple, a level)
+    converges.
+    `integrate(rects)` returns one integral a rectangle (a fixed-order rule, e.g.
+    Gauss-Legendre in a shader).
 
     Returns the integrals (one a cell, float64) and the sum over cells of |quarters - whole|
     at acceptance, an estimate of the total's quadrature error."""
     cell = np.arange(len(rects))
     whole = np.asarray(integrate(rects), dtype=np.float64)
+    budget = None if relative is None else relative * float(np.abs(whole).sum())
     total = np.zeros(len(rects))
     error = 0.0
     for depth in range(max_depth):
@@ -106,6 +112,8 @@ def adaptive_cell_integrals(integrate, rects: np.ndarray, count: int,
         parts = np.asarray(integrate(quarters), dtype=np.float64).reshape(-1, 4)
         refined = parts.sum(axis=1)
         tolerance = NOISE_FRACTION * np.sqrt(np.maximum(refined * count, 1.0)) / count / 4.0 ** depth
+        if budget is not None:
+            tolerance = np.minimum(tolerance, max(budget - error, 0.0) / len(rects))
         difference = np.abs(refined - whole)
         done = (difference <= tolerance) | (depth == max_depth - 1)
         np.add.at(total, cell[done], refined[done])

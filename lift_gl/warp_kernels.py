@@ -159,9 +159,11 @@ class CellIntegrals:
         return float(self.values.sum())
 
 
-def cell_integrals(kernel: Kernel, uniforms: dict, bounds, shape, count: int) -> CellIntegrals:
+def cell_integrals(kernel: Kernel, uniforms: dict, bounds, shape, count: int,
+                   relative: float | None = None) -> CellIntegrals:
     """The pdf of `kernel` (PDF_KERNEL with a domain's density) integrated over each cell of a
-    grid, accurate to well within the noise of `count` samples (chi2.adaptive_cell_integrals)."""
+    grid, accurate to well within the noise of `count` samples and, with `relative`, to that
+    fraction of each cell's integral (chi2.adaptive_cell_integrals)."""
     nodes, weights = np.polynomial.legendre.leggauss(GAUSS_ORDER)
     pad = np.zeros(MAX_ORDER - GAUSS_ORDER)
     uniforms = {**uniforms, "u_order": GAUSS_ORDER,
@@ -179,7 +181,7 @@ def cell_integrals(kernel: Kernel, uniforms: dict, bounds, shape, count: int) ->
         seen["nonfinite"] += int(out[:, 2].sum())
         return out[:, 0]
 
-    values, error = adaptive_cell_integrals(integrate, grid_rects(bounds, shape), count)
+    values, error = adaptive_cell_integrals(integrate, grid_rects(bounds, shape), count, relative=relative)
     return CellIntegrals(values.reshape(shape), error, **seen)
 
 
