@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from . import scaffold
+from . import scaffold, warptest
 from .app.command import add_parser as add_view_parser
 from .denoise import DENOISERS
 from .errors import LiftError
@@ -258,6 +258,7 @@ def main(argv=None) -> int:
     scaffold.add_parser(sub)
     compare.add_parser(sub)
     bench.add_parser(sub)
+    warptest.add_parser(sub)
     grade_command.add_parser(sub)
     add_lab_parser(sub)
     args = parser.parse_args(argv)
