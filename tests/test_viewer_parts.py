@@ -110,3 +110,14 @@ def test_log_ticks_label_short_and_long_ranges():
     ticks = log_ticks(0.0022, 0.0061)  # less than a decade: 1..9 per decade
     assert ticks == pytest.approx([0.003, 0.004, 0.005, 0.006])
     assert log_ticks(0.0, 1.0) == [] and log_ticks(1e-3, 1e3)[:3] == pytest.approx([1e-3, 2e-3, 5e-3])
+
+
+def test_fit_rect_places_the_image_in_the_area_beside_the_panels_at_a_whole_enlargement():
+    # The area right of a 385-pixel column: same centring, offset by the area's corner.
+    assert fit_rect((512, 512), (895, 720), (385, 0)) == (385 + 87, 0, 720, 720)
+    # 223 x 180 render pixels in 895 x 720: 4.013x across, 4x down -> 4x both ways, a 3-pixel bar.
+    assert fit_rect((223, 180), (895, 720), (385, 0)) == (385 + 1, 0, 892, 720)
+    # 2.2x is not taken down to 2x: that would give up 20 render pixels' blocks of room.
+    assert fit_rect((100, 100), (220, 220)) == (0, 0, 220, 220)
+    # Below 1x (a large fixed render size) the image is only shrunk to fit.
+    assert fit_rect((2000, 1000), (1000, 800)) == (0, 150, 1000, 500)

@@ -2,9 +2,12 @@
 
 No read-back: one textured quad, nearest-neighbour so that a render pixel stays a visible
 block when the render resolution is lower than the window's. The split view draws two
-textures with a divider between them. The image keeps its aspect ratio (letterboxed).
+textures with a divider between them. The image keeps its aspect ratio (letterboxed in
+the area the docked panels leave).
 """
 from __future__ import annotations
+
+import math
 
 import moderngl
 import numpy as np
@@ -40,14 +43,20 @@ void main() {
 """
 
 
-def fit_rect(image_size, window_size) -> tuple[int, int, int, int]:
+def fit_rect(image_size, area_size, origin=(0, 0)) -> tuple[int, int, int, int]:
     """(x, y, w, h) in window pixels, y from the top: the largest rectangle of the image's
-    aspect ratio centred in the window. Equal aspect ratios fill the window exactly."""
+    aspect ratio centred in the area (of area_size, its top left corner at origin). Equal
+    aspect ratios fill the area exactly. An enlargement a little above a whole number k is
+    taken down to k when that gives up less than one render pixel's block: every render pixel
+    is then k x k window pixels, not a mix of k and k + 1."""
     iw, ih = image_size
-    ww, wh = window_size
+    ww, wh = area_size
     scale = min(ww / iw, wh / ih)
+    whole = math.floor(scale)
+    if whole >= 1 and (scale - whole) * max(iw, ih) < whole:
+        scale = whole
     w, h = min(ww, round(iw * scale)), min(wh, round(ih * scale))
-    return (ww - w) // 2, (wh - h) // 2, w, h
+    return origin[0] + (ww - w) // 2, origin[1] + (wh - h) // 2, w, h
 
 
 def window_to_pixel(point, rect, image_size) -> tuple[int, int] | None:

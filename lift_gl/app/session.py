@@ -66,8 +66,8 @@ NOISY_SPLIT = "noisy | denoised"  # a display view: the noisy mean left, the den
 
 @dataclass
 class Resolution:
-    window: tuple[int, int] = (1280, 720)
-    scale: float = 1.0  # render resolution / window resolution
+    window: tuple[int, int] = (1280, 720)  # the image's area: the window less its docked panels, pixels
+    scale: float = 1.0  # render resolution / the area's resolution
     moving_scale: float = 1.0  # extra factor while the camera moves (1: off)
     fixed: tuple[int, int] | None = None  # a fixed render resolution (--render-size, a reference)
 
@@ -78,7 +78,9 @@ class Resolution:
             base, factor = self.window, self.scale
         if moving:
             factor *= self.moving_scale
-        return max(1, round(base[0] * factor)), max(1, round(base[1] * factor))
+        # Rounded down (never more render pixels than the area holds at this scale), so that at a
+        # scale of 1/k the image can be drawn at exactly k x k window pixels a render pixel (fit_rect).
+        return (max(1, math.floor(base[0] * factor + 1e-6)), max(1, math.floor(base[1] * factor + 1e-6)))
 
 
 @dataclass
@@ -331,6 +333,7 @@ class ViewSession:
 
     # ---- resolution ---------------------------------------------------------------------
     def set_window_size(self, size) -> None:
+        """The size of the image's area (the viewer's window less its docked panels), pixels."""
         self.resolution.window = (max(1, int(size[0])), max(1, int(size[1])))
         self.apply_resolution()
 
@@ -534,7 +537,7 @@ class ViewSession:
             "scene": str(self.scene_path), "integrator": r.plugin.name,
             "compare_integrator": self.compare.plugin.name if self.compare else None,
             "device": f"{self.ctx.info['GL_RENDERER']} | {self.ctx.info['GL_VERSION']}",
-            "render_size": list(r.size), "window_size": list(self.resolution.window),
+            "render_size": list(r.size), "image_area_size": list(self.resolution.window),
             "spp": stats.spp, "frames": stats.frames, "render_seconds": stats.render_seconds,
             "frame_ms": frame.wall_ms, "pass_ms": dict(frame.pass_ms),
             "paths_per_second": pixels * stats.spp / stats.render_seconds if stats.render_seconds > 0 else 0.0,

@@ -1,6 +1,8 @@
 """The viewer's main window: moderngl-window for the GL 4.3 context and input, imgui-bundle for
-the panels. Each frame: input -> camera -> ViewSession.step() (the Renderer adds samples) ->
-tone-map on the GPU -> draw the display texture -> panels -> swap.
+the panels. Each frame: input -> camera -> the panels, docked beside the image (layout.py), which
+give the image its area -> ViewSession.step() at a resolution that follows that area (the
+Renderer adds samples) -> tone-map on the GPU -> draw the display texture in its area -> draw
+the panels -> swap.
 
 Scripted runs (`frames`, `screenshot`) render that many frames, save the window with its
 GUI as a PNG (plus the statistics and panel rectangles as JSON beside it) and return.
@@ -24,6 +26,7 @@ from ..image_io import write_srgb8
 from .aov_view import AOV_VIEWS
 from .image_view import ImageView, fit_rect, window_to_pixel
 from .imgui_renderer import ImguiRenderer
+from .layout import DockLayout, gui_window_at
 from .panels import UiState, make_panels
 from .session import Resolution, ViewSession
 
@@ -95,9 +98,12 @@ class ViewerWindow:
         implot.create_context()
         io = imgui.get_io()
         io.set_ini_filename("")  # a scripted run must not depend on a previous session's layout
+        io.config_flags |= imgui.ConfigFlags_.docking_enable
         self.gui = ImguiRenderer(self.wnd)
         self.ui = UiState(window_size=tuple(self.wnd.buffer_size), inspector=options.inspector)
         self.panels = make_panels()
+        self.layout = DockLayout(self.panels)
+        self._image_area = (0, 0, *self.wnd.buffer_size)  # window pixels: the central dock node
         for panel in self.panels:
             if panel.key in ("F1", "F2", "F3", "F4", "H"):
                 panel.visible = {"F1": "settings", "F2": "statistics", "F3": "denoiser", "F4": "edit",
@@ -195,9 +201,18 @@ class ViewerWindow:
     def _render_pixel(self, x, y):
         return window_to_pixel(self._mouse_in_pixels(x, y), self.ui.image_rect, self.session.renderer.size)
 
+    def _over_image(self, point) -> bool:
+        """Whether a window pixel is on the image, with no ImGui window (a panel, a popup) over it.
+        The letterbox bars and the splitters between panels are not the image."""
+        x, y = point
+        rx, ry, rw, rh = self.ui.image_rect
+        ratio = self.wnd.pixel_ratio
+        return rx <= x < rx + rw and ry <= y < ry + rh and not gui_window_at(x / ratio, y / ratio)
+
     def on_mouse_press(self, x, y, button):
         self.gui.mouse_press_event(x, y, button)
-        self._drag = not imgui.get_io().want_capture_mouse
+        self.ui.mouse = self._mouse_in_pixels(x, y)
+        self._drag = self._over_image(self.ui.mouse)  # a drag that starts on a panel never moves the camera
         # With the Edit panel open a click selects what is under it, and dragging a light moves it.
         if self._drag and button == 1 and self._edit_panel_open():
             pixel = self._render_pixel(x, y)
@@ -221,14 +236,15 @@ class ViewerWindow:
 
     def on_mouse_scroll(self, x_offset, y_offset):
         self.gui.mouse_scroll_event(x_offset, y_offset)
-        if not imgui.get_io().want_capture_mouse and self.session.controller.scroll(y_offset):
+        over_image = self.ui.mouse is not None and self._over_image(self.ui.mouse)
+        if over_image and self.session.controller.scroll(y_offset):
             self._camera_moved()
 
     def on_resize(self, width, height):
+        """The next frame's dock space is split anew for this size (layout.py), and the render
+        resolution follows the image's new area."""
         self.gui.resize(width, height)
         self.ui.window_size = tuple(self.wnd.buffer_size)
-        self.ui.resized = True
-        self.session.set_window_size(self.wnd.buffer_size)
 
     def on_files_dropped(self, x, y, paths):
         for path in map(Path, paths):
@@ -264,6 +280,7 @@ class ViewerWindow:
         elif self.session.moving and now - self._last_motion > MOVING_HOLD_S:
             self.session.set_moving(False)
         self.session.editor.apply_pending()  # a light dragged with the mouse: once a frame
+        self._build_gui()
         self.session.step()
         self.session.update_display()
 
@@ -271,14 +288,15 @@ class ViewerWindow:
         self.wnd.use()
         self.ctx.clear(0.08, 0.08, 0.09, 1.0)
         self._draw_image(fb_size)
-        self._draw_gui()
+        imgui.render()
+        self.gui.render(imgui.get_draw_data())
         if self.ui.screenshot_request:
             self.ui.screenshot_request = False
             self._interactive_screenshot()
 
     def _draw_image(self, fb_size) -> None:
         s = self.session
-        self.ui.image_rect = fit_rect(s.renderer.size, fb_size)
+        self._fit_image()  # again: a panel may have changed the render's size since (scale, reference)
         if s.display.view in AOV_VIEWS:
             shown = s.aov_display(s.display.view)
             if shown is not self._uploaded:  # upload once per view change, not every frame
@@ -292,16 +310,39 @@ class ViewerWindow:
             left, right = textures[0], (textures[1] if len(textures) > 1 else None)
         self.view.draw(fb_size, self.ui.image_rect, left, right, s.display.split_position)
 
-    def _draw_gui(self) -> None:
-        imgui.new_frame()
-        self.ui.panel_rects = {}
-        for panel in self.panels:
-            if panel.visible:
-                panel.draw(self.session, self.ui)
+    def _build_gui(self) -> None:
+        """The panels of this frame (drawn after the image), and the image's place beside them.
+
+        ImGui updates its dock nodes a frame after a panel opens or closes; so when this frame's
+        panels are not last frame's, the frame's GUI is built again, and the image is never
+        drawn where a panel has just opened."""
+        for attempt in range(2):
+            imgui.new_frame()
+            self._set_image_area(self.layout.image_area())
+            shown_before = set(self.ui.panel_rects)
+            self.ui.panel_rects, self.ui.panel_fit = {}, {}
+            for panel in self.panels:
+                if panel.visible:
+                    panel.draw(self.session, self.ui)
+            if set(self.ui.panel_rects) == shown_before or attempt == 1:
+                break
+            imgui.end_frame()
         self._draw_labels()
-        self.ui.resized = False
-        imgui.render()
-        self.gui.render(imgui.get_draw_data())
+
+    def _set_image_area(self, area_points) -> None:
+        """The central dock node (window points) -> the image's area and rectangle (window pixels);
+        the render resolution follows the area (ViewSession.set_window_size)."""
+        ratio = self.wnd.pixel_ratio
+        x, y, w, h = (round(v * ratio) for v in area_points)
+        area = (x, y, max(1, w), max(1, h))
+        if area != self._image_area:
+            self._image_area = area
+            self.session.set_window_size(area[2:])
+        self._fit_image()
+
+    def _fit_image(self) -> None:
+        x, y, w, h = self._image_area
+        self.ui.image_rect = fit_rect(self.session.renderer.size, (w, h), (x, y))
 
     def _draw_labels(self) -> None:
         """Names over the split view's two sides, and notices (screenshot written)."""
@@ -349,14 +390,22 @@ class ViewerWindow:
 
     def _scripted_screenshot(self, path: Path) -> None:
         write_srgb8(path, self.read_window())
-        report = dict(self.session.statistics(), image_rect=list(self.ui.image_rect),
-                      panels={k: list(v) for k, v in self.ui.panel_rects.items()}, view=self.session.display.view,
+        report = dict(self.session.statistics(), **self.layout_report(), view=self.session.display.view,
                       exposure=self.session.display.exposure, operator=self.session.display.operator,
                       errors=list(self.session.errors.entries))
         path.with_suffix(".json").write_text(json.dumps(report, indent=2) + "\n")
         print(f"{path}: {report['render_size'][0]}x{report['render_size'][1]}, {report['integrator']}, "
               f"{report['spp']} spp in {report['render_seconds']:.2f} s, dropped NaN/Inf samples: "
               f"{report['dropped_samples']}")
+
+    def layout_report(self) -> dict:
+        """Where this frame put the image and the panels: window pixels from the top left (panels in
+        ImGui's window coordinates, the same without high-DPI scaling); panel_fit: for each panel
+        drawn in front, the right edge its widest line reached and the right edge of its room."""
+        return {"window_size": list(self.wnd.buffer_size), "image_area": list(self._image_area),
+                "image_rect": list(self.ui.image_rect), "render_size": list(self.session.renderer.size),
+                "panels": {k: list(v) for k, v in self.ui.panel_rects.items()},
+                "panel_fit": {k: list(v) for k, v in self.ui.panel_fit.items()}}
 
     def close(self) -> None:
         self.session.release()

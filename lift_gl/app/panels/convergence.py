@@ -35,28 +35,21 @@ def _label(value: float) -> str:
 
 class ConvergencePanel(Panel):
     title = "Convergence"
+    dock = "below"  # under the image: a reference fixes the render's aspect, which leaves room there
 
     def draw(self, session, ui: UiState) -> None:
         if session.reference is None:
             return
-        # Below the statistics panel when it is open (its rectangle from the last frame).
-        stats = ui.panel_rects.get("Statistics")
-        if stats is not None and stats[3] < 64:
-            return  # the statistics panel sizes itself on its first frames: place this after it
-        top = stats[1] + stats[3] + 8 if stats else ui.window_size[1] * 0.5
-        height = max(180, ui.window_size[1] - top - 8)
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, ui.window_size[1] - 8),
-                                  ui.placement(), imgui.ImVec2(1.0, 1.0))
-        imgui.set_next_window_size(imgui.ImVec2(min(440, ui.window_size[0] * 0.45), height), ui.placement())
         if not self.begin(ui):
             return
         points = session.convergence
         if points:
             last = points[-1]
-            imgui.text(f"relMSE {last.rel_mse:.4g}  RMSE {last.rmse:.4g}  at {last.spp} spp, {last.seconds:.1f} s")
+            imgui.text_wrapped(f"relMSE {last.rel_mse:.4g}  RMSE {last.rmse:.4g}  at {last.spp} spp, "
+                               f"{last.seconds:.1f} s")
         if len(points) < 2:
-            imgui.text("measuring (at 1, 2, 3, 4, 5, 7, 9... spp)")
-            imgui.end()
+            imgui.text_wrapped("measuring (at 1, 2, 3, 4, 5, 7, 9... spp)")
+            self.end(ui)
             return
         seconds = np.array([p.seconds for p in points], np.float64)
         rel_mse = np.array([p.rel_mse for p in points], np.float64)
@@ -73,4 +66,4 @@ class ConvergencePanel(Panel):
             implot.set_next_line_style(imgui.ImVec4(0.6, 0.6, 0.6, 1.0), 1.0)
             implot.plot_line("1 / time", seconds, guide)
             implot.end_plot()
-        imgui.end()
+        self.end(ui)

@@ -8,24 +8,26 @@ from imgui_bundle import imgui
 from ...denoise import DENOISERS
 from ...passes.atrous import AtrousSettings
 from ..session import NOISY_SPLIT
-from . import Panel, UiState
+from . import Panel, UiState, push_label_room, text_wrapped_colored
 
 MODES = (("off", "off"), ("every", "every frame"), ("final", "final frame"))
+LABELS = ("denoiser", "iterations", "sigma luminance", "sigma normal", "sigma depth", "divider")
 
 
 class DenoiserPanel(Panel):
     title = "Denoiser"
     key = "F3"
     visible = False
-    flags = imgui.WindowFlags_.always_auto_resize
 
     def draw(self, session, ui: UiState) -> None:
-        # Bottom right, under the statistics (the convergence plot, with a reference, opens there too).
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, ui.window_size[1] - 8), ui.placement(),
-                                  imgui.ImVec2(1.0, 1.0))
-        imgui.set_next_window_bg_alpha(0.85)
         if not self.begin(ui):
             return
+        push_label_room(LABELS)
+        self._draw(session)
+        imgui.pop_item_width()
+        self.end(ui)
+
+    def _draw(self, session) -> None:
         r = session.renderer
         for i, (mode, label) in enumerate(MODES):
             if i:
@@ -43,7 +45,6 @@ class DenoiserPanel(Panel):
             self._atrous(session)
         if r.denoise_mode == "off":
             imgui.text_disabled("showing the noisy mean")
-            imgui.end()
             return
         split = session.display.view == NOISY_SPLIT
         changed, split = imgui.checkbox("noisy | denoised split", split)
@@ -54,14 +55,13 @@ class DenoiserPanel(Panel):
                                                                    0.0, 1.0, "%.2f")
         stats = r.stats
         shown = "denoised" if r.denoised_current else "noisy (the final frame is not reached yet)"
-        imgui.text(f"showing     {shown}")
-        imgui.text(f"runs        {stats.denoise_runs}, {stats.denoise_seconds:.3f} s in all")
+        imgui.text_wrapped(f"showing     {shown}")
+        imgui.text_wrapped(f"runs        {stats.denoise_runs}, {stats.denoise_seconds:.3f} s in all")
         last = session.last_frame.pass_ms.get("denoise")
         if last is not None:
             imgui.text(f"last run    {last:.2f} ms")
-        imgui.text_colored(imgui.ImVec4(1.0, 0.7, 0.3, 1.0), "BIASED: denoised images trade noise for blur")
+        text_wrapped_colored(imgui.ImVec4(1.0, 0.7, 0.3, 1.0), "BIASED: denoised images trade noise for blur")
         imgui.set_item_tooltip("the error estimate and the convergence plot are of the noisy mean")
-        imgui.end()
 
     def _atrous(self, session) -> None:
         s = AtrousSettings(**session.renderer.denoiser_options)

@@ -7,17 +7,16 @@ import numpy as np
 from imgui_bundle import imgui
 
 from ...scene import edit
-from . import Panel, UiState
+from . import Panel, UiState, push_label_room
 
 SIZE_RANGE = (0.1, 10.0)  # of the size the object had when the scene was opened
+LABELS = ("radiance", "light colour", "size", "position", "material", "colour", "roughness", "path")
 
 
 class EditPanel(Panel):
     title = "Edit"
     key = "F4"
     visible = False
-    width = 360
-    flags = imgui.WindowFlags_.always_auto_resize
 
     def __init__(self):
         self._path_text = ""
@@ -25,23 +24,19 @@ class EditPanel(Panel):
 
     def draw(self, session, ui: UiState) -> None:
         editor = session.editor
-        # Top left, where Settings (F1) also opens: it grows downwards as a selection adds rows.
-        imgui.set_next_window_pos(imgui.ImVec2(8, 8), ui.placement())
         if not self.begin(ui):
             return
         scene = editor.scene
         if editor is not self._editor:
             self._editor, self._path_text = editor, str(editor.save_path)
-        imgui.push_item_width(self.width * 0.55)
-        imgui.push_text_wrap_pos(self.width)
+        push_label_room(LABELS)
         imgui.text_wrapped("Click an object in the image to select it; drag a light (or the selected "
                            "object) to move it. Every edit restarts accumulation.")
-        imgui.pop_text_wrap_pos()
         self._lights(editor, scene)
         self._material(editor, scene)
         self._save(editor)
         imgui.pop_item_width()
-        imgui.end()
+        self.end(ui)
 
     def _lights(self, editor, scene):
         imgui.separator_text("Lights")

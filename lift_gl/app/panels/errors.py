@@ -1,5 +1,6 @@
 """Errors: shader compile errors (file:line), bad scene, plugin or reference files. The last good
-renderer keeps running; the panel stays until cleared."""
+renderer keeps running; the panel stays until cleared, in the strip below the image, and comes
+to the front when a new error arrives."""
 from __future__ import annotations
 
 from imgui_bundle import imgui
@@ -9,13 +10,18 @@ from . import Panel, UiState
 
 class ErrorsPanel(Panel):
     title = "Errors"
+    dock = "below"
+
+    def __init__(self):
+        self._shown = 0  # errors in the log when last drawn
 
     def draw(self, session, ui: UiState) -> None:
         if not session.errors.entries:
+            self._shown = 0
             return
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] * 0.5, ui.window_size[1] - 8),
-                                  imgui.Cond_.appearing, imgui.ImVec2(0.5, 1.0))
-        imgui.set_next_window_size(imgui.ImVec2(min(720, ui.window_size[0] - 16), 0), imgui.Cond_.appearing)
+        if len(session.errors.entries) > self._shown:
+            self.focus_next = True
+        self._shown = len(session.errors.entries)
         imgui.push_style_color(imgui.Col_.title_bg_active, imgui.ImVec4(0.6, 0.1, 0.1, 1.0))
         imgui.push_style_color(imgui.Col_.title_bg, imgui.ImVec4(0.45, 0.08, 0.08, 1.0))
         visible = self.begin(ui)
@@ -31,4 +37,4 @@ class ErrorsPanel(Panel):
             imgui.text_wrapped(text)
         if imgui.button("Clear"):
             session.errors.clear()
-        imgui.end()
+        self.end(ui)

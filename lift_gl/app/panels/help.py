@@ -1,4 +1,4 @@
-"""H: the keyboard and mouse help overlay."""
+"""H: the keyboard and mouse help, a tab beside Settings."""
 from __future__ import annotations
 
 from imgui_bundle import imgui
@@ -29,20 +29,16 @@ class HelpOverlay(Panel):
     title = "Keys"
     key = "H"
     visible = False
-    flags = imgui.WindowFlags_.always_auto_resize | imgui.WindowFlags_.no_collapse
+    flags = imgui.WindowFlags_.no_collapse
 
     def draw(self, session, ui: UiState) -> None:
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] * 0.5, ui.window_size[1] * 0.5),
-                                  imgui.Cond_.appearing, imgui.ImVec2(0.5, 0.5))
-        imgui.set_next_window_bg_alpha(0.9)
         if not self.begin(ui):
             return
-        if imgui.begin_table("keys", 2):
-            for key, action in KEYS:
-                imgui.table_next_row()
-                imgui.table_next_column()
-                imgui.text_colored(imgui.ImVec4(1.0, 0.85, 0.3, 1.0), key)
-                imgui.table_next_column()
-                imgui.text(action)
-            imgui.end_table()
-        imgui.end()
+        # Two columns by hand, not a table: the actions wrap at the panel's edge, whatever its width.
+        style = imgui.get_style()
+        action_x = style.window_padding.x + max(imgui.calc_text_size(k).x for k, _ in KEYS) + style.item_spacing.x
+        for key, action in KEYS:
+            imgui.text_colored(imgui.ImVec4(1.0, 0.85, 0.3, 1.0), key)
+            imgui.same_line(action_x)
+            imgui.text_wrapped(action)
+        self.end(ui)

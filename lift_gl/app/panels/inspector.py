@@ -1,4 +1,6 @@
-"""Pixel inspector: a tooltip with what the render pixel under the mouse holds."""
+"""Pixel inspector (I): what the render pixel under the mouse holds, in a panel beside the
+image (a tab by the statistics), so the readout never covers the pixels around the mouse. The
+last pixel the mouse was over stays shown, its values kept up to date, while the mouse is away."""
 from __future__ import annotations
 
 from imgui_bundle import imgui
@@ -13,25 +15,33 @@ def _rgb(v) -> str:
 
 class PixelInspector(Panel):
     title = "Pixel"
+    dock = "readout"
+
+    def __init__(self):
+        self._pixel = None  # render pixel (x, y from the top left) last under the mouse
 
     def draw(self, session, ui: UiState) -> None:
-        if not ui.inspector or ui.mouse is None or imgui.get_io().want_capture_mouse:
+        if not ui.inspector:
             return
-        pixel = window_to_pixel(ui.mouse, ui.image_rect, session.renderer.size)
-        if pixel is None:
+        if ui.mouse is not None and not imgui.get_io().want_capture_mouse:
+            self._pixel = window_to_pixel(ui.mouse, ui.image_rect, session.renderer.size) or self._pixel
+        if not self.begin(ui):
             return
-        info = session.inspect(*pixel)
+        if not self.visible:  # closed with its box
+            ui.inspector, self.visible = False, True
+        info = session.inspect(*self._pixel) if self._pixel is not None else None
         if info is None:
+            imgui.text_wrapped("hover the image to read a pixel")
+            self.end(ui)
             return
-        if imgui.begin_tooltip():
-            imgui.text(f"pixel {pixel[0]}, {pixel[1]} (from the top left)")
-            imgui.text(f"radiance {_rgb(info['radiance'])}")
-            imgui.text(f"samples  {info['samples']:.0f}")
-            if "compare_radiance" in info:
-                imgui.text(f"right side {_rgb(info['compare_radiance'])}")
-            if "reference" in info:
-                imgui.text(f"reference {_rgb(info['reference'])}")
-            imgui.text(f"albedo   {_rgb(info['albedo'])}")
-            imgui.text(f"normal   {_rgb(info['normal'])}")
-            imgui.text(f"depth    {float(info['depth'][0]):.4g}")
-            imgui.end_tooltip()
+        imgui.text(f"pixel {self._pixel[0]}, {self._pixel[1]} (from the top left)")
+        imgui.text_wrapped(f"radiance {_rgb(info['radiance'])}")
+        imgui.text(f"samples  {info['samples']:.0f}")
+        if "compare_radiance" in info:
+            imgui.text_wrapped(f"right side {_rgb(info['compare_radiance'])}")
+        if "reference" in info:
+            imgui.text_wrapped(f"reference {_rgb(info['reference'])}")
+        imgui.text_wrapped(f"albedo   {_rgb(info['albedo'])}")
+        imgui.text_wrapped(f"normal   {_rgb(info['normal'])}")
+        imgui.text(f"depth    {float(info['depth'][0]):.4g}")
+        self.end(ui)

@@ -8,11 +8,16 @@ from ..aov_view import AOV_VIEWS
 from ..session import NOISY_SPLIT
 from ..camera_controller import MODES
 from ..scene_catalog import find_scenes
-from . import Panel, UiState
+from . import Panel, UiState, push_label_room, text_wrapped_colored
 from .params import param_widget
 
 VIEWS = ("render",) + AOV_VIEWS
 SPP_CHOICES = (1, 2, 4, 8, 16, 32, 64)
+# The labels drawn beside widgets (the plugins' parameter names join them): the widest sets
+# how much of the panel's width the labels keep.
+LABELS = ("scene", "path", "integrator", "samples / frame", "target spp", "target seconds", "speed",
+          "mouse sensitivity", "fov (vertical)", "aperture radius", "focus distance", "name", "view", "exposure",
+          "tone mapping", "render scale", "scale while moving", "right side", "divider")
 
 
 def _combo(label: str, items, current) -> tuple[bool, str]:
@@ -25,19 +30,16 @@ def _combo(label: str, items, current) -> tuple[bool, str]:
 class SettingsPanel(Panel):
     title = "Settings"
     key = "F1"
-    width = 400
 
     def __init__(self):
         self._scenes = None  # found once, on the first draw (refresh button)
         self._plugins = None
 
     def draw(self, session, ui: UiState) -> None:
-        imgui.set_next_window_pos(imgui.ImVec2(8, 8), ui.placement())
-        imgui.set_next_window_size(imgui.ImVec2(min(self.width, 0.45 * ui.window_size[0]), max(200, ui.window_size[1] - 16)),
-                                   ui.placement())
         if not self.begin(ui):
             return
-        imgui.push_item_width(imgui.get_window_width() * 0.55)  # leaves room for the labels
+        params = [p.name for r in session.renderers for p in r.plugin.params.values()]
+        push_label_room(LABELS + tuple(params))
         self._scene(session, ui)
         self._integrator(session)
         self._sampling(session)
@@ -45,7 +47,7 @@ class SettingsPanel(Panel):
         self._display(session, ui)
         self._reference(session, ui)
         imgui.pop_item_width()
-        imgui.end()
+        self.end(ui)
 
     # ---- scene ----
     def _scene(self, session, ui):
@@ -165,14 +167,14 @@ class SettingsPanel(Panel):
                 break
             imgui.same_line()
             key = f" ({i + 1})" if i < 9 else ""
-            imgui.text(bookmark.name + key)
+            imgui.text_wrapped(bookmark.name + key)
             imgui.pop_id()
         _, ui.bookmark_name = imgui.input_text("name##bookmark", ui.bookmark_name)
         imgui.same_line()
         if imgui.button("Add (B)"):
             session.add_bookmark(ui.bookmark_name.strip() or None)
             ui.bookmark_name = ""
-        imgui.text_disabled(session.bookmarks_file.name)
+        text_wrapped_colored(imgui.get_style_color_vec4(imgui.Col_.text_disabled), session.bookmarks_file.name)
         imgui.set_item_tooltip(str(session.bookmarks_file))
 
     # ---- display ----

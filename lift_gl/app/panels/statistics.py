@@ -4,7 +4,7 @@ from __future__ import annotations
 from imgui_bundle import imgui
 
 from ...gl.context import is_software
-from . import Panel, UiState
+from . import Panel, UiState, text_wrapped_colored
 
 SATURATED_MS = 4294.9  # moderngl reads GL_TIME_ELAPSED as 32 bits: 2^32 ns is its ceiling
 
@@ -19,24 +19,26 @@ def _si(value: float) -> str:
 class StatisticsPanel(Panel):
     title = "Statistics"
     key = "F2"
-    flags = imgui.WindowFlags_.always_auto_resize
+    dock = "readout"
 
     def draw(self, session, ui: UiState) -> None:
-        imgui.set_next_window_pos(imgui.ImVec2(ui.window_size[0] - 8, 8), ui.placement(),
-                                  imgui.ImVec2(1.0, 0.0))
-        imgui.set_next_window_bg_alpha(0.8)
         if not self.begin(ui):
             return
         stats = session.statistics()
         frame = session.last_frame
-        imgui.text(f"{stats['integrator']}" + (f" | {stats['compare_integrator']}" if stats["compare_integrator"] else "")
-                   + f" on {session.scene_path.name}")
+        # Names of any length (scene files, GL renderers) wrap; the rows below are short.
+        imgui.text_wrapped(f"{stats['integrator']}" + (f" | {stats['compare_integrator']}"
+                                                       if stats["compare_integrator"] else "")
+                           + f" on {session.scene_path.name}")
         renderer_name, _, version = stats["device"].partition(" | ")
-        imgui.text_disabled(renderer_name)
+        text_wrapped_colored(imgui.get_style_color_vec4(imgui.Col_.text_disabled), renderer_name)
         imgui.set_item_tooltip(version)
         w, h = stats["render_size"]
-        ww, wh = stats["window_size"]
-        imgui.text(f"resolution   {w} x {h}  (window {ww} x {wh})")
+        aw, ah = stats["image_area_size"]
+        imgui.text(f"resolution   {w} x {h}")
+        imgui.set_item_tooltip("the render's; it follows the image's area (render scale in Settings)")
+        imgui.text(f"image area   {aw} x {ah} of {ui.window_size[0]} x {ui.window_size[1]}")
+        imgui.set_item_tooltip("window pixels the image may take beside the panels (letterboxed in it)")
         imgui.text(f"accumulated  {stats['spp']} spp, {stats['frames']} frames")
         imgui.text(f"render time  {stats['render_seconds']:.2f} s")
         imgui.text(f"frame        {frame.wall_ms:.1f} ms  ({frame.samples} spp)")
@@ -61,4 +63,4 @@ class StatisticsPanel(Panel):
             imgui.text_colored(imgui.ImVec4(1.0, 0.8, 0.3, 1.0), "moving: lower resolution")
         else:
             imgui.text_disabled("rendering")
-        imgui.end()
+        self.end(ui)
