@@ -54,10 +54,10 @@ class Writer:
             ax.set_title(title, fontsize=8)
         h, w = data["mean"].shape[:2]
         # Where: each block's relative difference, shown only where the noise cannot explain it.
-        z, relative = data["block_z"], data["block_bias"]
+        z, block_bias = data["block_z"], data["block_bias"]
         significant = np.abs(z) >= Z_SIGNIFICANT
-        shown_values = np.where(significant, relative, 0.0)
-        scale = max(0.05, float(np.nanmax(np.abs(np.where(significant, relative, np.nan)), initial=0.0)))
+        shown_values = np.where(significant, block_bias, 0.0)
+        scale = max(0.05, float(np.nanmax(np.abs(np.where(significant, block_bias, np.nan)), initial=0.0)))
         scale = min(scale, 1.0)
         shown = axes[2].imshow(np.where(np.isnan(z), np.nan, shown_values), cmap="RdBu_r", vmin=-scale, vmax=scale,
                                extent=(0, z.shape[1] * data["block"], z.shape[0] * data["block"], 0),
