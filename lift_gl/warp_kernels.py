@@ -30,7 +30,8 @@ DISK_TOLERANCE = 1e-5  # x^2 + y^2 <= 1 + this counts as inside the disk (float3
 # Gauss-Legendre never meets the disk's edge inside a rectangle as a jump.
 PDF_KERNEL = """
 layout(std430, binding = 10) readonly buffer Rects { vec4 rects[]; };
-layout(std430, binding = 11) writeonly buffer RectIntegral { vec4 rect_integral[]; };  // integral, least pdf, non-finite nodes
+// Each rectangle's integral, the least pdf at its nodes, and how many nodes were NaN or Inf.
+layout(std430, binding = 11) writeonly buffer RectIntegral { vec4 rect_integral[]; };
 uniform int u_order;
 uniform float u_nodes[16];    // on [-1, 1]
 uniform float u_weights[16];
@@ -59,11 +60,26 @@ void main() {
 }
 """
 
+# density_at(a, b): the pdf at the point of parameters (a, b). Its arguments have long names:
+# a parameter would hide a student's function of the same name.
 WHOLE_B_AXIS = "vec2 domain_b_range(float a) { return vec2(-3.0e38, 3.0e38); }\n"
+DISK_CHORD = "vec2 domain_b_range(float x) { float h = sqrt(max(0.0, 1.0 - x * x)); return vec2(-h, h); }\n"
+POINT_DENSITY = """
+float density_at(float warptest_x, float warptest_y) { return @PDF@(vec2(warptest_x, warptest_y)); }
+"""
 DIRECTION_AT = """
 vec3 direction_at(float cos_theta, float phi) {
     float c = clamp(cos_theta, -1.0, 1.0), s = sqrt(max(0.0, 1.0 - c * c));
     return vec3(s * cos(phi), s * sin(phi), c);
+}
+"""
+DIRECTION_DENSITY = DIRECTION_AT + """
+float density_at(float warptest_c, float warptest_phi) { return @PDF@(direction_at(warptest_c, warptest_phi)); }
+"""
+BSDF_DENSITY = DIRECTION_AT + """
+uniform vec3 u_wo;
+float density_at(float warptest_c, float warptest_phi) {
+    return @PDF@(test_material(), u_wo, direction_at(warptest_c, warptest_phi));
 }
 """
 
@@ -100,22 +116,14 @@ class Domain:
 
 
 DOMAINS = {
-    "square": Domain("square", "vec2", ((0.0, 1.0), (0.0, 1.0)), (32, 32), ("x", "y"),
-                     WHOLE_B_AXIS + "float density_at(float x, float y) { return @PDF@(vec2(x, y)); }\n"),
-    "disk": Domain("disk", "vec2", ((-1.0, 1.0), (-1.0, 1.0)), (32, 32), ("x", "y"),
-                   "vec2 domain_b_range(float x) { float h = sqrt(max(0.0, 1.0 - x * x)); return vec2(-h, h); }\n"
-                   "float density_at(float x, float y) { return @PDF@(vec2(x, y)); }\n"),
-    "sphere": Domain("sphere", "vec3", SPHERE_BOUNDS, (32, 64), ("cos theta", "phi"),
-                     WHOLE_B_AXIS + DIRECTION_AT
-                     + "float density_at(float c, float phi) { return @PDF@(direction_at(c, phi)); }\n"),
+    "square": Domain("square", "vec2", ((0.0, 1.0), (0.0, 1.0)), (32, 32), ("x", "y"), WHOLE_B_AXIS + POINT_DENSITY),
+    "disk": Domain("disk", "vec2", ((-1.0, 1.0), (-1.0, 1.0)), (32, 32), ("x", "y"), DISK_CHORD + POINT_DENSITY),
+    "sphere": Domain("sphere", "vec3", SPHERE_BOUNDS, (32, 64), ("cos theta", "phi"), WHOLE_B_AXIS + DIRECTION_DENSITY),
     "hemisphere": Domain("hemisphere", "vec3", ((0.0, 1.0), SPHERE_BOUNDS[1]), (16, 64), ("cos theta", "phi"),
-                         WHOLE_B_AXIS + DIRECTION_AT
-                         + "float density_at(float c, float phi) { return @PDF@(direction_at(c, phi)); }\n"),
+                         WHOLE_B_AXIS + DIRECTION_DENSITY),
 }
 # Directions over the whole sphere, for BSDFs: their pdf is a function of wo too.
-BSDF_DOMAIN = Domain("sphere", "vec3", SPHERE_BOUNDS, BSDF_GRID, ("cos theta", "phi"),
-                     WHOLE_B_AXIS + DIRECTION_AT + "uniform vec3 u_wo;\n"
-                     "float density_at(float c, float phi) { return @PDF@(test_material(), u_wo, direction_at(c, phi)); }\n")
+BSDF_DOMAIN = Domain("sphere", "vec3", SPHERE_BOUNDS, BSDF_GRID, ("cos theta", "phi"), WHOLE_B_AXIS + BSDF_DENSITY)
 
 # Sampling kernels: uniform numbers in (binding 10), points out (binding 11). A BSDF sample's
 # w is 0 when the routine rejected it, 1 for a sample with a density, 2 for a delta lobe's.
@@ -123,10 +131,10 @@ WARP_SAMPLE_KERNEL = """
 layout(std430, binding = 10) readonly buffer UniformNumbers { vec2 u_in[]; };
 layout(std430, binding = 11) writeonly buffer Points { vec4 points[]; };
 @POINT4@
-void main() {
-    uint i = invocation_index();
-    if (i >= u_count) return;
-    points[i] = warptest_point4(@SAMPLER@(u_in[i]));
+void main() {  // the names here are long: a local would hide a student's function of its name
+    uint warptest_i = invocation_index();
+    if (warptest_i >= u_count) return;
+    points[warptest_i] = warptest_point4(@SAMPLER@(u_in[warptest_i]));
 }
 """
 # The one conversion the domain's type has: a sampler of the other type does not compile.
@@ -137,11 +145,11 @@ layout(std430, binding = 10) readonly buffer UniformNumbers { vec4 u_in[]; };
 layout(std430, binding = 11) writeonly buffer Points { vec4 points[]; };
 uniform vec3 u_wo;
 void main() {
-    uint i = invocation_index();
-    if (i >= u_count) return;
-    BsdfSample s;
-    bool ok = @SAMPLER@(test_material(), u_wo, u_in[i].xyz, s);
-    points[i] = vec4(s.wi, ok ? (s.is_delta ? 2.0 : 1.0) : 0.0);
+    uint warptest_i = invocation_index();
+    if (warptest_i >= u_count) return;
+    BsdfSample warptest_s;
+    bool warptest_ok = @SAMPLER@(test_material(), u_wo, u_in[warptest_i].xyz, warptest_s);
+    points[warptest_i] = vec4(warptest_s.wi, warptest_ok ? (warptest_s.is_delta ? 2.0 : 1.0) : 0.0);
 }
 """
 

@@ -43,8 +43,12 @@ EVERY_BSDF = {"HAS_CONDUCTOR": True, "HAS_ROUGH_CONDUCTOR": True, "HAS_DIELECTRI
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "warptest", help="chi-square test of a sampling routine against its pdf (exit 0 pass, 1 rejected)",
-        description=__doc__.split("\n\n")[0] + " Writes nothing unless --out DIR is given: then DIR/warptest.png "
-        "(observed, expected, (obs - exp) / sqrt(exp)) and DIR/warptest.json.")
+        description="Chi-square test of a sampling routine against its pdf (Nori's warptest). The sampler runs on "
+        "the GPU on --samples uniform numbers; its points are counted on a grid and held against the pdf integrated "
+        "over each cell. Also rejected: samples outside the domain or NaN, a pdf that does not integrate to 1 (a "
+        "BSDF's: to more than 1), a pdf negative, NaN or Inf anywhere. Exit 0: pass; 1: rejected; 2: the file does "
+        "not compile or lacks a function. Writes nothing unless --out DIR is given: DIR/warptest.png (observed, "
+        "expected, (obs - exp) / sqrt(exp)) and DIR/warptest.json.")
     p.add_argument("file", nargs="?", metavar="FILE.glsl",
                    help="GLSL defining the sampler and its pdf (left out with --bsdf: the built-in BSDF)")
     p.add_argument("--sampler", metavar="NAME",
@@ -52,7 +56,8 @@ def add_parser(subparsers) -> None:
                         "sphere or hemisphere; with --bsdf: bool NAME(Material m, vec3 wo, vec3 u, out BsdfSample s)")
     p.add_argument("--pdf", metavar="NAME",
                    help="its density (default: the sampler's name + '_pdf'): float NAME(vec2 p) per unit area, "
-                        "float NAME(vec3 w) per unit solid angle; with --bsdf: float NAME(Material m, vec3 wo, vec3 wi)")
+                        "float NAME(vec3 w) per unit solid angle; with --bsdf: "
+                        "float NAME(Material m, vec3 wo, vec3 wi)")
     p.add_argument("--domain", choices=("square", "disk", "sphere", "hemisphere"),
                    help="[0,1]^2, the unit disk, unit directions, or directions with z >= 0")
     p.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help=f"default {DEFAULT_SAMPLES} (2^20)")
@@ -60,7 +65,7 @@ def add_parser(subparsers) -> None:
                    help="cells: x by y (square, disk: over [-1,1]^2), cos theta by phi (directions); default "
                         "32x32, 32x32, 32x64, 16x64 (equal-area cells); 48x96 with --bsdf")
     p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
-                   help=f"significance level: a correct sampler is rejected with this probability (default {DEFAULT_ALPHA})")
+                   help=f"significance level: the chance that a correct sampler is rejected (default {DEFAULT_ALPHA})")
     p.add_argument("--integral-tolerance", type=float, default=DEFAULT_INTEGRAL_TOLERANCE,
                    help=f"how far from 1 the pdf's integral may be (default {DEFAULT_INTEGRAL_TOLERANCE:g})")
     p.add_argument("--seed", type=int, default=0, help="seed of the uniform numbers (default 0)")
@@ -352,7 +357,8 @@ def bsdf_case(kind: str, cos_theta_o: float, roughness: float, ior: float, color
 SIGNATURES = {
     "vec2": ("vec2 {name}(vec2 u)", "float {name}(vec2 p)"),
     "vec3": ("vec3 {name}(vec2 u)", "float {name}(vec3 w)"),
-    "bsdf": ("bool {name}(Material m, vec3 wo, vec3 u, out BsdfSample s)", "float {name}(Material m, vec3 wo, vec3 wi)"),
+    "bsdf": ("bool {name}(Material m, vec3 wo, vec3 u, out BsdfSample s)",
+             "float {name}(Material m, vec3 wo, vec3 wi)"),
 }
 
 
@@ -385,8 +391,10 @@ class _errors_in:
         if line is None:
             raise ShaderError(f"no function '{self.name}' is defined (the {self.role}); warptest calls "
                               f"{self.signature}", self.file) from None
-        raise ShaderError(f"the {self.role} must be {self.signature} for {self.domain} (the compiler says: "
-                          f"{exc.message})", self.file, line) from None
+        # The compiler's first line; the signature above says what its list of candidates would.
+        said = exc.message.splitlines()[0].removeprefix("error: ").split("; candidates are")[0]
+        raise ShaderError(f"the {self.role} must be {self.signature} for {self.domain} (the compiler: {said})",
+                          self.file, line) from None
 
 
 def _definition_line(text: str, name: str) -> int | None:

@@ -123,7 +123,8 @@ def test_pdf_integral_rejects_what_too_few_samples_hide(tmp_path):
     # Negative on a strip and compensated elsewhere: the integral is 1, the cells' expected
     # counts are all >= 0 (each cell is wider than the strip), so only the sign check sees it.
     ("p.x < 0.01 ? -1.0 : 1.0 + 0.02 / 0.99", "the pdf is negative"),
-    ("p.x < 0.5 ? 1.0 : 0.0 / (p.y - p.y)", "NaN or Inf"),
+    ("p.x < 0.5 ? 1.0 : uintBitsToFloat(0x7fc00000u)", "NaN or Inf"),  # a quiet NaN, spelt in bits
+    ("p.x < 0.5 ? 1.0 : uintBitsToFloat(0x7f800000u)", "NaN or Inf"),  # +Inf
 ])
 def test_pdf_sign_and_finiteness(tmp_path, pdf, why):
     path = tmp_path / "square.glsl"
@@ -134,7 +135,7 @@ def test_pdf_sign_and_finiteness(tmp_path, pdf, why):
 
 def test_nan_samples_are_outside_the_domain(tmp_path):
     path = tmp_path / "square.glsl"
-    path.write_text("vec2 square(vec2 u) { return u.x < 0.001 ? vec2(sqrt(-1.0 - u.x)) : u; }\n"
+    path.write_text("vec2 square(vec2 u) { return u.x < 0.001 ? vec2(uintBitsToFloat(0x7fc00000u)) : u; }\n"
                     "float square_pdf(vec2 p) { return 1.0; }\n")
     result = warptest(str(path), sampler="square", domain="square", samples=1 << 16)
     assert result.outside["not finite"] == pytest.approx(65.5, abs=5 * math.sqrt(65.5))
@@ -177,7 +178,8 @@ def test_pearson_matches_scipy_and_pools_low_cells():
 # ---- bad files: exit 2, FILE:line ----------------------------------------------------------
 def test_file_that_does_not_compile(capsys, tmp_path):
     path = tmp_path / "broken.glsl"
-    path.write_text("// a typo on line 3\nvec2 tent(vec2 u) {\n    return u * 2.0 +;\n}\nfloat tent_pdf(vec2 p) { return 1.0; }\n")
+    path.write_text("// a typo on line 3\nvec2 tent(vec2 u) {\n    return u * 2.0 +;\n}\n"
+                    "float tent_pdf(vec2 p) { return 1.0; }\n")
     code, _, err = run(capsys, str(path), "--sampler", "tent", "--domain", "square")
     assert code == 2
     assert f"{path}:3:" in err and err.count("\n") == 1, err
