@@ -169,15 +169,15 @@ def student_files(lab: Lab) -> list[tuple[Path, Path]]:
         if not path.exists():
             raise LiftError(f"include {item!r}: no such file or folder in the lab", lab.path, where)
         for file in _files_under(path):
+            relative = file.relative_to(root)
             real = file.resolve()  # a link into the solution is the solution
             if _inside(real, solution):
-                raise LiftError(f"{file.relative_to(lab.folder)} leads into {SOLUTION_DIR}/ (a link): not for students",
-                                lab.path, where)
+                raise LiftError(f"{relative} leads into {SOLUTION_DIR}/ (a link): not for students", lab.path, where)
             leaked = secrets.get(_normalised(real.read_bytes()))
             if leaked is not None:
-                raise LiftError(f"{file.relative_to(lab.folder)} has the contents of the solution's "
-                                f"{leaked.relative_to(lab.folder)}: not for students", lab.path, where)
-            chosen[file.absolute().relative_to(lab.folder.absolute())] = file
+                raise LiftError(f"{relative} has the contents of the solution's {leaked.relative_to(lab.folder)}: "
+                                "not for students", lab.path, where)
+            chosen[relative] = file
     return [(file, relative) for relative, file in sorted(chosen.items())]
 
 
