@@ -68,6 +68,21 @@ def variance_of_mean(totals: np.ndarray, difference: np.ndarray) -> np.ndarray:
     return np.where(valid, variance, np.nan)
 
 
+def variance_of_mean_rgby(totals: np.ndarray, difference: np.ndarray) -> np.ndarray:
+    """variance_of_mean for R, G, B and luminance Y, (..., 4) float64: Y's needs the channels'
+    covariances, which the halves hold (Y is linear in them)."""
+    from .consistency import LUMINANCE
+
+    def with_y(a):
+        a = np.asarray(a, np.float64)
+        return np.concatenate([a[..., :3], (a[..., :3] @ LUMINANCE)[..., None], a[..., 3:4]], axis=-1)
+
+    t, d = with_y(totals), with_y(difference)
+    rgb = variance_of_mean(t[..., [0, 1, 2, 4]], d[..., [0, 1, 2, 4]])
+    y = variance_of_mean(t[..., [3, 3, 3, 4]], d[..., [3, 3, 3, 4]])[..., :1]
+    return np.concatenate([rgb, y], axis=-1)
+
+
 def estimate_error(totals: np.ndarray, difference: np.ndarray, eps: float = REL_MSE_EPS) -> ErrorEstimate | None:
     """The image's estimated relMSE; None before both halves hold samples (one frame)."""
     variance = variance_of_mean(totals, difference)

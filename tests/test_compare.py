@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -253,3 +254,41 @@ def test_reference_of_another_size_names_the_file(capsys, tmp_path):
     np.save(path, np.ones((10, 10, 3), np.float32))
     code, _, err = run_cli(capsys, "compare", FURNACE, "--spp", 2, "--size", "8x8", "--ref", path, "--out", tmp_path / "c")
     assert code == 2 and f"{path}: the reference is 10x10" in err
+
+
+def test_compare_tells_bias_from_noise(capsys, tmp_path, monkeypatch):
+    """A biased configuration (pt:max_depth=0: the sphere black) is marked biased and never the
+    winner; a far noisier unbiased one (every sample kept with chance 0.05, weighted 20x) is
+    consistent. Against a rendered reference, whose own noise comes from its halves."""
+    monkeypatch.setenv("LIFT_GL_CACHE_DIR", str(tmp_path / "cache"))
+    noisy = Path(__file__).resolve().parent.parent / "examples" / "grading" / "class" / "hank"
+    out = tmp_path / "cmp"
+    code, stdout, err = run_cli(capsys, "compare", FURNACE, "--integrators", f"pt,pt:max_depth=0,{noisy}:keep=0.05",
+                                "--spp", 32, "--seeds", 2, "--size", "24x24", "--ref-spp", 256, "--out", out)
+    assert code == 0, err
+    summary = json.loads((out / "summary.json").read_text())
+    c = summary["consistency"]
+    assert c["pt"]["consistent_with_reference"] is True
+    assert c[f"{noisy}:keep=0.05"]["consistent_with_reference"] is True
+    assert c["pt:max_depth=0"]["consistent_with_reference"] is False and c["pt:max_depth=0"]["bias_z"] < -10
+    for v in summary["verdicts"]:
+        assert v["winner"] != "pt:max_depth=0"
+    report = (out / "report.md").read_text()
+    assert "**BIASED** `pt:max_depth=0` (the bias test" in report
+    assert f"**BIASED** `{noisy}" not in report
+
+
+def test_a_bound_is_printed_as_a_bound():
+    """A target met at a run's first checkpoint gives an upper bound on its time, so a ratio
+    against it is a bound too."""
+    from lift_gl.report.summary import verdict
+
+    def run(errors, times=(1.0, 2.0, 4.0)):
+        return [{"render_seconds": t, "rel_mse": e} for t, e in zip(times, errors)]
+
+    runs = {"fast": [run([0.01, 0.005, 0.002])] * 2, "slow": [run([0.2, 0.1, 0.05])] * 2}
+    v = verdict(runs, "rel_mse", target=0.05)
+    assert v.winner == "fast"
+    assert "at most 1 s" in v.sentence() and "at least 4.00× as long" in v.sentence()
+    biased = verdict(runs, "rel_mse", target=0.05, consistent={"fast": False, "slow": True})
+    assert biased.winner == "slow" and "**biased**" in biased.sentence()

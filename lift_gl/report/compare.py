@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..consistency import BIAS_TOLERANCE
 from ..denoise import DENOISERS
 from ..errors import LiftError
 from .configurations import Configuration, parse_configurations
@@ -54,6 +55,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--flip", action="store_true",
                    help="also FLIP (needs pip install 'lift-gl[flip]'; slow: about 1 s a checkpoint at 128x128 here)")
+    p.add_argument("--alpha", type=float, default=1e-3,
+                   help="bias test: chance that a configuration consistent with the reference is called biased "
+                        "(default 0.001)")
+    p.add_argument("--tolerance", type=float, default=BIAS_TOLERANCE,
+                   help=f"bias test: relative difference from the reference not called a bias (default {BIAS_TOLERANCE:g})")
     p.add_argument("--target-rel-mse", type=float, help="relMSE for the verdict (default: the highest error of any run's end)")
     p.add_argument("--target-dssim", type=float, help="DSSIM for the verdict (default: the highest error of any run's end)")
     p.add_argument("--points-per-doubling", type=int, default=1, help="checkpoints per factor of 2 (default 1)")
@@ -86,6 +92,10 @@ def _check_arguments(args) -> None:
         raise LiftError(f"--time must be positive, not {args.seconds}")
     if args.ref_spp is not None and args.ref_spp < 1:
         raise LiftError(f"--ref-spp must be at least 1, not {args.ref_spp}")
+    if not 0 < args.alpha < 1:
+        raise LiftError(f"--alpha must be between 0 and 1, not {args.alpha}")
+    if not 0 <= args.tolerance < 1:
+        raise LiftError(f"--tolerance must be in [0, 1), not {args.tolerance}")
     if args.points_per_doubling < 1:
         raise LiftError(f"--points-per-doubling must be at least 1, not {args.points_per_doubling}")
     if args.flip:
@@ -124,7 +134,10 @@ class Session:
                         denoiser=config.denoiser)
 
     def run(self, config: Configuration, seed: int, reference: np.ndarray, keep_images: bool):
-        """One progressive run: its rows (one per checkpoint), images if asked, total wall time."""
+        """One progressive run: its rows (one per checkpoint), images if asked, total wall time,
+        and its final image with the variance of each pixel's mean (the bias test's input)."""
+        from ..error_estimate import variance_of_mean_rgby
+
         from .progressive import run_checkpoints, warm_up
 
         renderer = self.renderer(config, seed)
@@ -145,9 +158,13 @@ class Session:
             rows.append(row)
             if keep_images:
                 images.append((cp.spp, cp.render_seconds, cp.image))
+            last = cp
         total_wall = time.perf_counter() - start
+        # The denoised image's own variance is not known: the noisy mean's, larger, stands for it.
+        final = (last.image, variance_of_mean_rgby(renderer.accumulate.read_totals(),
+                                                   renderer.accumulate.read_half_difference()), last.spp)
         renderer.release()
-        return rows, images, total_wall
+        return rows, images, total_wall, final
 
     def plain_render_seconds(self, config: Configuration, seed: int, spp: int) -> float:
         """Wall time of a plain render of `spp` (one call, one readback), as `lift-gl render` does."""
@@ -189,13 +206,15 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
 def _run_all(session: Session, configs: list[Configuration], reference: np.ndarray, args):
     """Every configuration once per seed, interleaved; with --measure-overhead, a plain render
     after each run. Returns rows per label (a list per seed), seed 1's checkpoint images per
-    label, and the overhead table."""
+    label, the overhead table, and each run's final image and variance per label."""
     runs = {c.label: [] for c in configs}
+    finals = {c.label: [] for c in configs}
     images, walls, plains = {}, {c.label: [] for c in configs}, {c.label: [] for c in configs}
     for seed in range(1, args.seeds + 1):
         for config in configs:
-            rows, kept, wall = session.run(config, seed, reference, keep_images=seed == 1)
+            rows, kept, wall, final = session.run(config, seed, reference, keep_images=seed == 1)
             runs[config.label].append(rows)
+            finals[config.label].append(final)
             walls[config.label].append(wall)
             if seed == 1:
                 images[config.label] = kept
@@ -216,7 +235,7 @@ def _run_all(session: Session, configs: list[Configuration], reference: np.ndarr
                            "compare_render_seconds": [run[-1]["render_seconds"] for run in runs[label]],
                            "checkpoints": len(runs[label][0]), "ratios": ratios,
                            "median_ratio": float(np.median(ratios))}
-    return runs, images, overhead
+    return runs, images, overhead, finals
 
 
 def _contact_sheet(images: dict, reference: np.ndarray, t_equal: float, path: Path, exposure: float) -> None:
@@ -238,6 +257,8 @@ def cmd_compare(args) -> int:
     from . import report_md
     from .machine import describe_machine
     from .plots import plot_convergence
+    from .bias import as_json as bias_json
+    from .bias import consistency_of_runs
     from .summary import at_time, common_time, curve, final_row, verdict
 
     _check_arguments(args)
@@ -267,15 +288,17 @@ def cmd_compare(args) -> int:
     started = time.strftime("%Y-%m-%d %H:%M")
     machine = describe_machine(create_context(args.backend))
 
-    runs, images, overhead = _run_all(session, configs, reference.image, args)
+    runs, images, overhead, run_finals = _run_all(session, configs, reference.image, args)
+    consistency = consistency_of_runs(run_finals, reference, args.alpha, args.tolerance)
+    consistent = {label: (c.consistent if c is not None else None) for label, c in consistency.items()}
 
     # ---- what the runs say ----
     _write_csv(out / "metrics.csv", [row for label in runs for run in runs[label] for row in run])
     grid = session.spp_targets if session.mode == "spp" else session.time_targets
     curves = {label: curve(r, session.mode, grid) for label, r in runs.items()}
     finals = {label: final_row(r) for label, r in runs.items()}
-    verdicts = [v for v in (verdict(runs, "rel_mse", args.target_rel_mse), verdict(runs, "dssim", args.target_dssim))
-                if v is not None]
+    verdicts = [v for v in (verdict(runs, "rel_mse", args.target_rel_mse, consistent),
+                            verdict(runs, "dssim", args.target_dssim, consistent)) if v is not None]
     t_equal = common_time(runs)
     equal_time = {m: at_time(runs, t_equal, m) for m in ("rel_mse", "dssim")}
 
@@ -283,7 +306,8 @@ def cmd_compare(args) -> int:
     for config in configs:
         write_image(out / "images" / f"{config.file_stem}.exr", images[config.label][-1][2])
     title = f"{Path(args.scene).name} {size[0]}x{size[1]}, {args.seeds} seed{'s' if args.seeds > 1 else ''}, 95% CI"
-    plot_convergence(curves, out / "convergence", title, {v.metric: v.target for v in verdicts})
+    plot_convergence(curves, out / "convergence", title, {v.metric: v.target for v in verdicts},
+                     biased={label for label, ok in consistent.items() if ok is False})
     _contact_sheet(images, reference.image, t_equal, out / "contact_sheet.png", args.exposure)
     summary = {"scene": str(args.scene), "size": list(size), "mode": session.mode,
                "budget": args.spp if session.mode == "spp" else args.seconds, "seeds": args.seeds,
@@ -292,10 +316,11 @@ def cmd_compare(args) -> int:
                "machine": machine, "started": started, "equal_time_seconds": t_equal, "overhead": overhead,
                "final": {label: {k: (v.__dict__ if hasattr(v, "__dict__") else v) for k, v in f.items()}
                          for label, f in finals.items()},
-               "verdicts": [{"metric": v.metric, "target": v.target, "sentence": v.sentence(),
-                             "seconds": {r.label: r.seconds.__dict__ for r in v.reaches}} for v in verdicts]}
+               "consistency": {label: bias_json(c) for label, c in consistency.items()},
+               "verdicts": [v.as_json() for v in verdicts]}
     (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
-    (out / "report.md").write_text(report_md.render(summary, finals, verdicts, equal_time, t_equal, overhead, machine))
+    (out / "report.md").write_text(report_md.render(summary, finals, verdicts, equal_time, t_equal, overhead, machine,
+                                                    consistency))
     for v in verdicts:
         print(v.sentence().replace("**", ""))
     print(f"wrote {out / 'report.md'}, metrics.csv, convergence.png/.svg, contact_sheet.png")

@@ -10,9 +10,11 @@ import numpy as np
 PANELS = (("rel_mse", "relMSE"), ("dssim", "DSSIM (1/SSIM − 1)"))
 
 
-def plot_convergence(curves: dict, path_stem: Path, title: str, targets: dict | None = None) -> list[Path]:
+def plot_convergence(curves: dict, path_stem: Path, title: str, targets: dict | None = None,
+                     biased=frozenset()) -> list[Path]:
     """curves: label -> {"seconds": [...], "<metric>": [Interval, ...]} for the PANELS metrics.
-    targets: metric -> the error the verdict uses (a dotted line). Writes STEM.png and
+    targets: metric -> the error the verdict uses (a dotted line). biased: labels the bias test
+    found inconsistent with the reference (dashed, and labelled so). Writes STEM.png and
     STEM.svg; returns their paths."""
     try:
         import matplotlib
@@ -35,7 +37,9 @@ def plot_convergence(curves: dict, path_stem: Path, title: str, targets: dict | 
             hi = np.array([v.hi for v in values])
             keep = (seconds > 0) & np.isfinite(mean) & (mean > 0)
             color = colors[i % len(colors)]
-            ax.plot(seconds[keep], mean[keep], "o-", ms=3, lw=1.5, color=color, label=label)
+            is_biased = label in biased
+            ax.plot(seconds[keep], mean[keep], "o--" if is_biased else "o-", ms=3, lw=1.5, color=color,
+                    label=f"{label} (biased)" if is_biased else label)
             if any(v.n > 1 for v in values):
                 ax.fill_between(seconds[keep], lo[keep], hi[keep], color=color, alpha=0.2, lw=0)
         if metric == "rel_mse":  # the rate of an unbiased Monte Carlo estimator

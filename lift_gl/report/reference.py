@@ -20,12 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from ..accel.cache import default_cache_dir
+from ..error_estimate import variance_of_mean_rgby
 from ..errors import LiftError
 from ..image_io import read_image
 from ..metrics import resize_to
 
 REFERENCE_SEED = 0x5EED_F00D  # far from the seeds compare uses (1, 2, ...): independent noise
-FORMAT_VERSION = "1"
+FORMAT_VERSION = "2"  # 2: the variance of each pixel's mean is kept beside the image
 
 
 @dataclass
@@ -34,6 +35,9 @@ class Reference:
     source: str        # a file path, or "pt, N spp"
     info: dict = field(default_factory=dict)  # how it was made; estimated error when rendered
     cached: bool = False
+    # (H, W, 4): the estimated variance of each pixel's mean, R, G, B and luminance, from the
+    # render's two halves; None for a file, whose noise is not known (taken as exact)
+    variance: np.ndarray | None = None
 
 
 def reference_cache_dir() -> Path:
@@ -72,11 +76,12 @@ def reference_key(renderer, spp: int) -> str:
     return h.hexdigest()[:32]
 
 
-def _store(folder: Path, key: str, image: np.ndarray, info: dict) -> None:
+def _store(folder: Path, key: str, image: np.ndarray, info: dict, variance: np.ndarray) -> None:
     """Atomic writes (temp file + rename); a cache that cannot be written is not an error."""
     try:
         folder.mkdir(parents=True, exist_ok=True)
         for suffix, write in ((".npy", lambda f: np.save(f, image)),
+                              ("-variance.npz", lambda f: np.savez(f, variance=variance)),
                               (".json", lambda f: f.write(json.dumps(info, indent=1).encode()))):
             fd, tmp = tempfile.mkstemp(dir=folder, prefix=key, suffix=".tmp")
             with os.fdopen(fd, "wb") as f:
@@ -86,15 +91,19 @@ def _store(folder: Path, key: str, image: np.ndarray, info: dict) -> None:
         pass
 
 
-def _load(folder: Path, key: str, size) -> tuple[np.ndarray, dict] | None:
+def _load(folder: Path, key: str, size) -> tuple[np.ndarray, dict, np.ndarray] | None:
     try:
         image = np.load(folder / f"{key}.npy", allow_pickle=False)
         info = json.loads((folder / f"{key}.json").read_text())
-    except (OSError, ValueError):
+        with np.load(folder / f"{key}-variance.npz", allow_pickle=False) as data:
+            variance = data["variance"]
+    except (OSError, ValueError, KeyError):
         return None
     if image.shape != (size[1], size[0], 3) or image.dtype != np.float32 or not np.isfinite(image).all():
         return None
-    return image, info
+    if variance.shape != (size[1], size[0], 4):
+        return None
+    return image, info, variance
 
 
 def rendered_reference(make_renderer, spp: int, cache_dir=None, progress=None) -> Reference:
@@ -106,11 +115,13 @@ def rendered_reference(make_renderer, spp: int, cache_dir=None, progress=None) -
     found = _load(folder, key, renderer.size)
     if found is not None:
         renderer.release()
-        image, info = found
-        return Reference(image=image, source=f"{info['integrator']}, {info['spp']} spp", info=info, cached=True)
+        image, info, variance = found
+        return Reference(image=image, source=f"{info['integrator']}, {info['spp']} spp", info=info, cached=True,
+                         variance=variance)
     start = time.perf_counter()
     image = renderer.render(spp=spp, progress=progress)
     estimate = renderer.estimate_error()
+    variance = variance_of_mean_rgby(renderer.accumulate.read_totals(), renderer.accumulate.read_half_difference())
     info = {"integrator": renderer.plugin.name, "params": renderer.params, "spp": spp, "seed": renderer.seed,
             "size": list(renderer.size), "render_seconds": renderer.stats.render_seconds,
             "wall_seconds": time.perf_counter() - start, "dropped_samples": renderer.stats.dropped_samples,
@@ -120,5 +131,6 @@ def rendered_reference(make_renderer, spp: int, cache_dir=None, progress=None) -
     renderer.release()
     if not np.isfinite(image).all():
         raise LiftError("the reference render holds NaN or infinite values")
-    _store(folder, key, image, info)
-    return Reference(image=image, source=f"{info['integrator']}, {spp} spp", info=info, cached=False)
+    _store(folder, key, image, info, variance)
+    return Reference(image=image, source=f"{info['integrator']}, {spp} spp", info=info, cached=False,
+                     variance=variance)

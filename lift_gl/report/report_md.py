@@ -24,8 +24,17 @@ def _reference_text(ref: dict) -> str:
     return text
 
 
+def _bias_cell(c) -> str:
+    if c is None:
+        return "not tested"
+    if c.consistent:
+        return f"consistent (z = {c.z:+.1f}; bias < {100 * c.resolution:.2g}%)"
+    return f"**biased** ({100 * c.bias:+.2f}%, z = {c.z:+.1f})"
+
+
 def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equal: float, overhead: dict,
-           machine: dict) -> str:
+           machine: dict, consistency: dict | None = None) -> str:
+    consistency = consistency or {}
     size = "x".join(str(v) for v in summary["size"])
     budget = (f"equal spp: {summary['budget']} samples per pixel each" if summary["mode"] == "spp"
               else f"equal time: {summary['budget']:g} s of render time each")
@@ -37,18 +46,24 @@ def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equa
              f"- reference: {_reference_text(summary['reference'])}",
              f"- machine: {machine_line(machine)}; started {summary['started']}"]
     lines += [f"- **BIASED** `{label}`: {why}" for label, why in summary.get("biased", {}).items()]
+    lines += [f"- **BIASED** `{label}` (the bias test: it converges to another image than the reference): "
+              f"{c.sentence()}" for label, c in consistency.items()
+              if c is not None and not c.consistent and label not in summary.get("biased", {})]
     lines += ["",
              "## Verdict", ""]
     lines += [f"- {v.sentence()}" for v in verdicts] or ["- (no verdict: no metric in common)"]
     best = {}
     for m in ("rel_mse", "dssim"):
         values = {k: v for k, v in equal_time[m].items() if v.n and math.isfinite(v.mean)}
-        if values:
-            best[m] = min(values, key=lambda k: values[k].mean)
+        unbiased = {k: v for k, v in values.items() if consistency.get(k) is None or consistency[k].consistent}
+        if unbiased or values:
+            pool = unbiased or values
+            best[m] = min(pool, key=lambda k: pool[k].mean)
     if best:
         parts = []
         for m, winner in best.items():
-            others = ", ".join(f"{k} {v.mean:.3g} ({v.mean / equal_time[m][winner].mean:.2f}× the error)"
+            tag = lambda k: " (biased)" if consistency.get(k) is not None and not consistency[k].consistent else ""  # noqa: E731
+            others = ", ".join(f"{k}{tag(k)} {v.mean:.3g} ({v.mean / equal_time[m][winner].mean:.2f}× the error)"
                                for k, v in equal_time[m].items() if k != winner and v.n)
             parts.append(f"{NAMES[m]}: **{winner}** {equal_time[m][winner].format()}" + (f"; {others}" if others else ""))
         lines += [f"- At equal render time ({t_equal:.3g} s, the shortest run's end): " + "; ".join(parts) + "."]
@@ -57,20 +72,24 @@ def render(summary: dict, finals: dict, verdicts: list, equal_time: dict, t_equa
               "an unbiased Monte Carlo estimator at constant cost per sample; dashed: the verdict's target. "
               "Vector version: [convergence.svg](convergence.svg); every checkpoint: [metrics.csv](metrics.csv).", "",
               "## At the end of each run", ""]
-    header = ["configuration", "spp", "render s", "wall s"] + [NAMES[m] for m in metrics] + ["est. relMSE", "relMSE / est.", "dropped"]
+    header = ["configuration", "spp", "render s", "wall s"] + [NAMES[m] for m in metrics] + ["est. relMSE", "bias test", "dropped"]
     lines += ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for label, f in finals.items():
-        ratio = f["rel_mse"].mean / f["est_rel_mse"].mean if f["est_rel_mse"].mean > 0 else math.nan
         cells = [f"`{label}`", f"{f['spp'].mean:.0f}", _fmt(f["render_seconds"], ".3g"), _fmt(f["wall_seconds"], ".3g")]
-        cells += [_fmt(f[m]) for m in metrics] + [_fmt(f["est_rel_mse"]), f"{ratio:.2f}", str(f["dropped_samples"])]
+        cells += [_fmt(f[m]) for m in metrics] + [_fmt(f["est_rel_mse"]), _bias_cell(consistency.get(label)),
+                                                  str(f["dropped_samples"])]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "**est. relMSE** is the render's own estimate of its relMSE, without the reference (from two "
-              "halves of its frames accumulated apart): the variance part of the error. **relMSE / est.** near 1 means "
-              "the error against the reference is all noise; well above 1 means bias (a biased estimator, a short "
-              "max_depth) or a reference of another scene or renderer." + (
-                  " For a denoised configuration the estimate is of its noisy mean, before the denoiser: there the "
-                  "ratio compares the denoised error with the noise it started from (below 1: the denoiser helped)."
-                  if any("+denoise=" in label for label in finals) else ""), "",
+              "halves of its frames accumulated apart): the variance part of the error. **bias test**: whether the "
+              "configuration's expectation is the reference's (lift_gl/consistency.py): the final images of its "
+              "seeds, with each pixel's variance from its two halves, against the reference's "
+              + ("(its own variance from its halves)" if summary["reference"].get("spp") and "file" not in
+                 summary["reference"] else "(a file, taken as exact: its own noise is not known)")
+              + f", per {8}x{8} block and over the image; a difference beyond the tolerance that the noise cannot "
+              "explain is a bias (z: the image's difference in standard errors; `bias <`: what the test would have "
+              "seen). A biased configuration is never named the winner over a consistent one." + (
+                  " For a denoised configuration the variance is that of its noisy mean, larger than the denoised "
+                  "image's: its test is lenient." if any("+denoise=" in label for label in finals) else ""), "",
               "## Images at equal render time", "", "![contact sheet](contact_sheet.png)", "",
               f"Seed 1 of each configuration at its checkpoint nearest to {t_equal:.3g} s of render time; beneath, "
               "each pixel's relative squared error against the reference. Linear images: `images/*.exr`.", ""]

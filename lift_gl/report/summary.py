@@ -71,7 +71,13 @@ class Reach:
     seconds: Interval                    # time to reach the target, over seeds
     per_seed: list[float]
     ratio: Interval | None = None        # its time / the winner's time
-    already: bool = False                # below the target at its first checkpoint
+    already: bool = False                # some seed was below the target at its first checkpoint:
+                                         # its time is an upper bound (the target was met sooner)
+    consistent: bool | None = None       # the bias test's answer (None: not tested)
+
+    @property
+    def reached(self) -> bool:
+        return math.isfinite(self.seconds.mean)
 
 
 @dataclass
@@ -80,44 +86,75 @@ class Verdict:
     target: float
     target_given: bool
     reaches: list[Reach]                 # fastest first; inf: never reached
+    winner: str | None = None            # the fastest consistent configuration that reached the target
+
+    def ratio_text(self, r: Reach, best: Reach) -> str:
+        """r's time over the winner's, as a bound where either time is one."""
+        if r.already and best.already:
+            return "at its first checkpoint too (no ratio: both met it before they were first measured)"
+        value = r.ratio.format(".2f", "×")
+        if best.already:
+            return f"at least {r.ratio.mean:.2f}× as long (the winner met it before its first checkpoint)"
+        if r.already:
+            return f"at most {r.ratio.mean:.2f}× as long (it met it before its first checkpoint)"
+        return f"{value} as long"
 
     def sentence(self) -> str:
         name = NAMES[self.metric]
-        reached = [r for r in self.reaches if math.isfinite(r.seconds.mean)]
-        if not reached:
+        best = next((r for r in self.reaches if r.label == self.winner), None)
+        if best is None:
             return f"No configuration reaches {name} {self.target:.3g} within its budget."
-        best = reached[0]
         how = "(the target given)" if self.target_given else "(the highest final error of any run: every run got there)"
-        parts = [f"**{best.label}** reaches {name} {self.target:.3g} {how} first, in "
-                 f"{best.seconds.format('.3g', ' s')}{' or less' if best.already else ''}"]
-        for r in self.reaches[1:]:
-            if not math.isfinite(r.seconds.mean):
-                parts.append(f"{r.label} does not reach it within its budget")
+        unbiased = " among the configurations consistent with the reference" if any(
+            r.consistent is False for r in self.reaches) else ""
+        parts = [f"**{best.label}** reaches {name} {self.target:.3g} {how} first{unbiased}, in "
+                 f"{'at most ' if best.already else ''}{best.seconds.format('.3g', ' s')}"]
+        for r in self.reaches:
+            if r is best:
+                continue
+            tag = " (**biased**: it converges to another image)" if r.consistent is False else ""
+            if not r.reached:
+                parts.append(f"{r.label}{tag} does not reach it within its budget")
+            elif r.ratio is None:
+                parts.append(f"{r.label}{tag} takes {r.seconds.format('.3g', ' s')}")
             else:
-                parts.append(f"{r.label} takes {r.seconds.format('.3g', ' s')}: "
-                             f"{r.ratio.format('.2f', '×')} as long")
+                parts.append(f"{r.label}{tag} takes {'at most ' if r.already else ''}"
+                             f"{r.seconds.format('.3g', ' s')}: {self.ratio_text(r, best)}")
         return "; ".join(parts) + "."
 
+    def as_json(self) -> dict:
+        return {"metric": self.metric, "target": self.target, "sentence": self.sentence(), "winner": self.winner,
+                "seconds": {r.label: r.seconds.__dict__ for r in self.reaches},
+                "bounds": {r.label: ("upper" if r.already else "never" if not r.reached else "measured")
+                           for r in self.reaches}}
 
-def verdict(runs_by_label: dict, metric: str, target: float | None = None) -> Verdict | None:
+
+def verdict(runs_by_label: dict, metric: str, target: float | None = None,
+            consistent: dict | None = None) -> Verdict | None:
     """Who reaches `target` error first (default: the highest error of any run's last
-    checkpoint, which every run reached), and the ratio of times with its confidence interval."""
+    checkpoint, which every run reached), and the ratio of times with its confidence interval.
+    consistent: label -> the bias test's answer; a configuration found biased is never the
+    winner over one that is not."""
     if any(metric not in runs[0][0] for runs in runs_by_label.values()):
         return None
+    consistent = consistent or {}
     given = target is not None
     if target is None:  # the worst last checkpoint of any run: every run got at least there
         target = max(run[-1][metric] for runs in runs_by_label.values() for run in runs)
     reaches = []
     for label, runs in runs_by_label.items():
         times = [time_to_reach([r["render_seconds"] for r in run], [r[metric] for r in run], target) for run in runs]
-        already = all(run[0][metric] <= target for run in runs)
-        reaches.append(Reach(label, log_interval(times), times, already=already))
+        already = any(run[0][metric] <= target for run in runs)
+        reaches.append(Reach(label, log_interval(times), times, already=already, consistent=consistent.get(label)))
     reaches.sort(key=lambda r: r.seconds.mean)
-    best = reaches[0]
-    for r in reaches[1:]:
-        if math.isfinite(r.seconds.mean) and math.isfinite(best.seconds.mean):
-            r.ratio = ratio_interval(r.per_seed, best.per_seed)
-    return Verdict(metric=metric, target=target, target_given=given, reaches=reaches)
+    reached = [r for r in reaches if r.reached]
+    best = next((r for r in reached if r.consistent is not False), reached[0] if reached else None)
+    if best is not None:
+        for r in reaches:
+            if r is not best and r.reached:
+                r.ratio = ratio_interval(r.per_seed, best.per_seed)
+    return Verdict(metric=metric, target=target, target_given=given, reaches=reaches,
+                   winner=best.label if best is not None else None)
 
 
 def common_time(runs_by_label: dict) -> float:
