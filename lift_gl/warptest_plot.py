@@ -43,7 +43,7 @@ def plot_warptest(result, path: Path) -> None:
         return values.T if transpose else values
 
     fig, axes = plt.subplots(1, 3, figsize=(12.6, 3.7) if directions else (11.6, 3.9))
-    fig.subplots_adjust(left=0.06, right=0.975, bottom=0.14, top=0.8, wspace=0.42)  # fixed: layout engines are slow
+    fig.subplots_adjust(left=0.06, right=0.955, bottom=0.14, top=0.8, wspace=0.42)  # fixed: layout engines are slow
     # A peaked density (a glossy lobe) on a log scale, where its tails stay visible.
     positive = expected[expected > 0]
     peaked = positive.size > 0 and top > PEAKED * float(np.median(positive))
