@@ -28,7 +28,9 @@ COLUMN_EM = (28.0, 36.0)  # in font heights: the narrowest column that fits the 
 MAX_COLUMN_FRACTION = 0.45  # a narrow window keeps at least this much for the image
 READOUT_ROWS = 15  # text lines of the statistics panel (its height: the readout node's)
 MAX_READOUT_FRACTION = 0.5  # of the column's height
-BELOW_FRACTION = 0.3  # of the image's height: the strip for the convergence plot and errors
+BELOW_FRACTION = 0.3  # of the window's height: the strip for the convergence plot and errors, within:
+BELOW_EM = 16.0  # in font heights: a tab, a line of text and implot's smallest plot (150 points high)
+MAX_BELOW_FRACTION = 0.45
 
 
 def column_width(window_width: float, font_size: float) -> float:
@@ -88,7 +90,8 @@ class DockLayout:
         internal.dock_builder_set_node_size(dock, imgui.ImVec2(width, height))
         column = column_width(width, imgui.get_font_size())
         _, left, rest = internal.dock_builder_split_node_py(dock, imgui.Dir.left, column / max(width, 1.0))
-        _, below, _ = internal.dock_builder_split_node_py(rest, imgui.Dir.down, BELOW_FRACTION)
+        below_height = min(max(BELOW_FRACTION * height, BELOW_EM * imgui.get_font_size()), MAX_BELOW_FRACTION * height)
+        _, below, _ = internal.dock_builder_split_node_py(rest, imgui.Dir.down, below_height / max(height, 1.0))
         readout_height = (READOUT_ROWS * imgui.get_text_line_height_with_spacing() + imgui.get_frame_height()
                           + 2 * style.window_padding.y)
         readout_ratio = min(readout_height / max(height, 1.0), MAX_READOUT_FRACTION)
