@@ -158,8 +158,8 @@ def student_files(lab: Lab) -> list[tuple[Path, Path]]:
     solution = (lab.folder / SOLUTION_DIR).resolve()
     secrets = secret_files(lab)
     chosen: dict[Path, Path] = {}
+    where = lab.line("student", "include")  # every refusal points at the include list
     for item in lab.include:
-        where = lab.line("student", "include")
         path = (lab.folder / item).resolve()
         if not _inside(path, root):
             raise LiftError(f"include {item!r} is outside the lab's folder", lab.path, where)
