@@ -83,7 +83,7 @@ def main() -> None:
                     est = Estimate.from_seeds(images[b], grid, settings.spp)
                     ref_est = Estimate.from_seeds(ref.images, grid, settings.spp)
                     for level in LEVELS:
-                        levels[level].append(not compare_estimates(est, ref_est, level, tolerance=0.0).consistent)
+                        levels[level].append(not compare_estimates(est, ref_est, level, tolerance=0.0, block_tolerance=None).consistent)
             print(f"{name} on {scene.name}: {time.time() - start:.0f} s", flush=True)
         trials = {}
         for o in outcomes:

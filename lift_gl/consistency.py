@@ -29,7 +29,8 @@ independence, and it uses luminance alone; Sidak is conservative under the posit
 of the others. A block where neither estimate varies (the background of a furnace, an emitter
 seen directly) must agree to float rounding, or it is infinitely significant.
 
-A difference within `tolerance` (relative, default 1%) of the reference's mean is allowed: each t
+A difference within `tolerance` (relative, default 1% for the image's mean, 5% for a block's:
+BLOCK_TOLERANCE says why) of the reference's mean is allowed: each t
 counts only the part of the difference beyond it (a composite null hypothesis, tested at its
 boundary). Under the hypothesis that both have the same expectation, the family rejects with probability
 at most alpha (up to the normal approximation of each block's t, which needs the blocks' means
@@ -54,6 +55,13 @@ EXACT_TOLERANCE = 1e-5
 # both right up to a path-length cut-off (max_depth counted one bounce apart) or a float
 # rounding differ by less. The tests ask whether the difference exceeds it.
 BIAS_TOLERANCE = 0.01
+# One block's mean is held to a wider tolerance. A block holds a few thousand samples, and an
+# estimator with rare large samples (light sampling alone on a glossy surface, a caustic found
+# by chance) skews its block means: in a block where the seeds happened to miss them, the mean
+# and its spread are both low, and t is far from normal in its tail. Seen with a correct
+# estimator at the grader's defaults: a block 3.5% dark at z = -5.3. The image's mean pools all
+# blocks, is close to normal, and keeps the tight tolerance.
+BLOCK_TOLERANCE = 0.05
 
 
 def with_luminance(image: np.ndarray) -> np.ndarray:
@@ -279,10 +287,13 @@ def _sidak(p_min: float, count: int) -> float:
 
 
 def compare_estimates(estimate: Estimate, reference: Estimate, alpha: float = 1e-3,
-                      tolerance: float = BIAS_TOLERANCE) -> Consistency:
+                      tolerance: float = BIAS_TOLERANCE, block_tolerance: float | None = BLOCK_TOLERANCE) -> Consistency:
     """Whether `estimate` and `reference` (same Blocks) have the same expectation, up to a
     relative `tolerance`: the family of three tests rejects with probability at most alpha
-    when no mean (image or block) differs by more than tolerance x the reference's."""
+    when no mean differs by more than tolerance (the image's) or block_tolerance (a block's;
+    None: the same as the image's) times the reference's."""
+    if block_tolerance is None:
+        block_tolerance = tolerance
     from scipy import stats
 
     if not np.array_equal(estimate.blocks.labels, reference.blocks.labels):
@@ -300,7 +311,7 @@ def compare_estimates(estimate: Estimate, reference: Estimate, alpha: float = 1e
 
     # 2. The most extreme block, channels R, G, B.
     t_blk, dof_blk = _welch(estimate.mean, estimate.var, estimate.dof, reference.mean, reference.var, reference.dof,
-                            tolerance)
+                            block_tolerance)
     p_blk, z_blk = _z_of_t(t_blk, dof_blk)
     rgb = p_blk[:, :3]
     worst = np.unravel_index(int(np.argmin(rgb)), rgb.shape) if rgb.size else (0, 0)

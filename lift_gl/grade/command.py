@@ -34,6 +34,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--alpha", type=float, help=f"chance that a correct submission fails (default {d.alpha:g})")
     p.add_argument("--tolerance", type=float,
                    help=f"relative difference not called a bias (default {d.tolerance:g})")
+    p.add_argument("--block-tolerance", type=float,
+                   help=f"... and for one {d.block}x{d.block} block's mean (default {d.block_tolerance:g})")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="a plugin setting for every render, reference included (e.g. max_depth=8)")
     p.add_argument("--jobs", type=int, help="submissions rendered at once (default 1)")
@@ -58,7 +60,8 @@ def settings_from_args(args):
     return settings.with_options(reference=args.reference, scenes=scenes, size=tuple(args.size) if args.size else None,
                                  spp=args.spp, seeds=args.seeds, first_seed=args.first_seed,
                                  reference_seeds=args.reference_seeds, timeout=args.timeout, alpha=args.alpha,
-                                 tolerance=args.tolerance, jobs=args.jobs, cache_dir=args.cache_dir, params=params)
+                                 tolerance=args.tolerance, block_tolerance=args.block_tolerance, jobs=args.jobs,
+                                 cache_dir=args.cache_dir, params=params)
 
 
 def cmd_grade(args) -> int:

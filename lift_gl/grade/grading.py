@@ -222,13 +222,13 @@ def judge(name: str, scene: str, run: SceneRun, reference: ReferenceRun, setting
     estimate = Estimate.from_seeds(images, blocks, spp)
     ref_estimate = Estimate.from_seeds(reference.images, blocks, spp)
     level = alpha / 2.0 if reference.analytic is not None else alpha
-    against_ref = compare_estimates(estimate, ref_estimate, level, settings.tolerance)
+    against_ref = compare_estimates(estimate, ref_estimate, level, settings.tolerance, settings.block_tolerance)
     checks = [("the reference", against_ref)]
     if reference.analytic is not None:
         known = Blocks.grid(h, w, settings.block, mask=np.isfinite(reference.analytic).all(axis=-1))
         exact = Estimate.exact(reference.analytic, known)
         checks.append(("the analytic answer", compare_estimates(Estimate.from_seeds(images, known, spp), exact,
-                                                                 level, settings.tolerance)))
+                                                                 level, settings.tolerance, settings.block_tolerance)))
     failed = [(what, c) for what, c in checks if not c.consistent]
     shown_what, shown = max(failed, key=lambda wc: abs(wc[1].z)) if failed else checks[0]
     if failed:
@@ -261,7 +261,8 @@ def check_reference(reference: ReferenceRun, settings: GradeSettings, alpha: flo
     h, w = reference.images.shape[1:3]
     known = Blocks.grid(h, w, settings.block, mask=np.isfinite(reference.analytic).all(axis=-1))
     return compare_estimates(Estimate.from_seeds(reference.images, known, settings.spp),
-                             Estimate.exact(reference.analytic, known), alpha, settings.tolerance)
+                             Estimate.exact(reference.analytic, known), alpha, settings.tolerance,
+                             settings.block_tolerance)
 
 
 # ---- the whole class ----

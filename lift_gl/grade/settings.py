@@ -15,7 +15,7 @@ import tomllib
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
-from ..consistency import BIAS_TOLERANCE
+from ..consistency import BIAS_TOLERANCE, BLOCK_TOLERANCE
 from ..errors import LiftError
 from .scenes import DEFAULT_SCENES
 
@@ -34,7 +34,8 @@ class GradeSettings:
     reference_seeds: int = 128            # the reference's seeds, of `spp` samples per pixel each
     timeout: float = 120.0                # seconds per submission and scene (compiling included)
     alpha: float = 1e-3                   # chance that a correct submission fails anywhere (all scenes)
-    tolerance: float = BIAS_TOLERANCE     # relative difference of expectations not called a bias
+    tolerance: float = BIAS_TOLERANCE     # relative difference of the image's mean not called a bias
+    block_tolerance: float = BLOCK_TOLERANCE  # ... and of one block's (consistency.BLOCK_TOLERANCE)
     block: int = 8                        # side of the blocks tested, in pixels
     params: dict = field(default_factory=dict)  # plugin settings for every render (e.g. max_depth)
     jobs: int = 1                         # submissions rendered at once
@@ -44,7 +45,9 @@ class GradeSettings:
     def __post_init__(self):
         checks = [("spp", self.spp >= 1), ("seeds", self.seeds >= 2), ("reference_seeds", self.reference_seeds >= 2),
                   ("timeout", self.timeout > 0),
-                  ("alpha", 0 < self.alpha < 1), ("tolerance", 0 <= self.tolerance < 1), ("block", self.block >= 1),
+                  ("alpha", 0 < self.alpha < 1), ("tolerance", 0 <= self.tolerance < 1),
+                  ("block_tolerance", 0 <= self.block_tolerance < 1),
+                  ("block", self.block >= 1),
                   ("jobs", self.jobs >= 1),
                   ("first_seed", 0 < self.first_seed and self.first_seed + self.seeds <= REFERENCE_SEED_BASE),
                   ("size", len(self.size) == 2 and min(self.size) >= 1)]

@@ -76,7 +76,7 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
             float z = u.x, r = sqrt(max(0.0, 1.0 - z * z)), phi = 2.0 * LIFT_PI * u.y;
             bs.wi = vec3(r * cos(phi), r * sin(phi), z);
             bs.pdf = 0.5 * LIFT_INV_PI;
-            bs.weight = bsdf_eval(m, wo, bs.wi) * bs.wi.z / bs.pdf;
+            bs.weight = bsdf_eval(m, wo, bs.wi) / bs.pdf;  // bsdf_eval holds the cosine
             bs.is_delta = false;
         } else if (!bsdf_sample(m, wo, vec3(rng_ld2(rng), rng_next(rng)), bs)) break;
         vec3 wi_world = to_world(frame, bs.wi);
