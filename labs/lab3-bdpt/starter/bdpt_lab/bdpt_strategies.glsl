@@ -1,6 +1,6 @@
-// bdpt_strategies.glsl (steps 1-3): the four kinds of strategy (s light vertices, t camera vertices). A
-// camera vertex z = z_{t-1} comes with its predecessor z_prev = z_{t-2}; light vertices are
-// read from the stored light subpath (bdpt_light).
+// bdpt_strategies.glsl (steps 1-3): the four kinds of strategy (s light vertices, t camera
+// vertices). A camera vertex z = z_{t-1} comes with its predecessor z_prev = z_{t-2}; light
+// vertices are read from the stored light subpath (bdpt_light).
 
 int bdpt_depth_limit() { return min(max_depth, BDPT_MAX_DEPTH); }
 
@@ -83,10 +83,10 @@ Join strategy_light_sample(PathVertex z, PathVertex z_prev, inout Rng rng) {
 // importance = true: light subpaths carry importance), and the camera's importance W_e
 // (camera_importance) times the camera's half of the geometry term, cos at the camera
 // (against u_cam_forward) over the squared distance; nothing if the camera does not see y
-// (vertex_sees). Check with --set bdpt_lab.only_s=2 --set bdpt_lab.only_depth=1 (handout).
+// (vertex_sees). Check with --set only_s=2 --set only_depth=1 (handout.md).
 // YOUR TURN (step 3): multiply by the MIS weight, mis_weight(0.0, light_side): the camera
 // subpath has no side here. light_side needs the reverse densities of y (a camera ray
-// reaching it: camera_pdf_dir) and of y_prev, as strategy_light_sample below computes its own.
+// reaching it: camera_pdf_dir) and of y_prev, as strategy_light_sample above computes its own.
 void strategy_light_tracing(PathVertex y, PathVertex y_prev) {
 }
 
@@ -96,7 +96,7 @@ void strategy_light_tracing(PathVertex y, PathVertex y_prev) {
 // (vertex_scatter: importance = false at z, true at y) and what remains of the geometry term,
 // 1 / distance^2 (vertex_scatter's f already holds each end's cosine). Return it with the
 // direction from z towards y and the distance: the caller traces the shadow ray. Check with
-// --set bdpt_lab.only_s=2 (handout).
+// --set only_s=2 --set only_depth=2 (handout.md).
 // YOUR TURN (step 3): multiply by the MIS weight, mis_weight(camera_side, light_side). A
 // connection changes the reverse densities of z and y and of their predecessors: compute the
 // four (area_density turns a BSDF's solid-angle density into an area density) and pass them

@@ -1,7 +1,8 @@
-// bdpt_vertex.glsl (given): the vertices of the two subpaths, and what a vertex can tell about a
-// direction through it: the BSDF (as radiance or as importance sees it), its density, and the
-// conversion of a direction's density into an area density at the next vertex. Multiple
-// importance sampling compares strategies by these area densities (Veach 1997, sec. 10.2).
+// bdpt_vertex.glsl (given): the vertices of the two subpaths, and what a vertex can tell
+// about a direction through it: the BSDF (as radiance or as importance sees it), its
+// density, and the conversion of a direction's density into an area density at the next
+// vertex. Multiple importance sampling compares strategies by these area densities (Veach
+// 1997, sec. 10.2).
 
 // Only the light subpath is stored: the camera subpath is joined to it vertex by vertex as it
 // is traced (bdpt_subpaths.glsl), keeping just its last two vertices in registers. The light
