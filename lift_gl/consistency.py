@@ -224,7 +224,8 @@ class Consistency:
     consistent: bool
     alpha: float
     tolerance: float
-    z: float                 # signed: the image's luminance z, or the worst block's if only it rejects
+    z: float                 # signed difference in standard errors (Welch's t): the image's luminance,
+                             # or the worst block's if only it rejects
     bias: float              # relative: (mean - reference) / reference, image luminance
     resolution: float        # relative bias the image test detects at its level (one side)
     where: str               # "image", "block" or "blocks" (what rejected), "" when consistent
@@ -351,11 +352,11 @@ def compare_estimates(estimate: Estimate, reference: Estimate, alpha: float = 1e
         z_crit = float(stats.norm.isf(level / 2.0 / 4.0))
         resolution = tolerance + float(z_crit * math.sqrt(estimate.image_var[Y] + reference.image_var[Y]) / abs(ref_y)) \
             if ref_y != 0 else math.nan
-    # What a person reads: the signed size of the whole difference, tolerance not taken off.
-    raw_img, raw_dof_img = _welch(estimate.image_mean, estimate.image_var, estimate.image_dof,
-                                  reference.image_mean, reference.image_var, reference.image_dof)
-    raw_blk, raw_dof_blk = _welch(estimate.mean, estimate.var, estimate.dof, reference.mean, reference.var, reference.dof)
-    z_img, z_blk = _z_of_t(raw_img, raw_dof_img)[1], _z_of_t(raw_blk, raw_dof_blk)[1]
+    # What a person reads: the whole difference in standard errors (Welch's t itself, tolerance
+    # not taken off; the tests above decide by p-values, these only report).
+    z_img, _ = _welch(estimate.image_mean, estimate.image_var, estimate.image_dof,
+                      reference.image_mean, reference.image_var, reference.image_dof)
+    z_blk, _ = _welch(estimate.mean, block_var, estimate.dof, reference.mean, reference.var, reference.dof)
     zy = z_blk[:, Y]
     rejected = [t.name for t in tests if t.rejects]
     if consistent:
