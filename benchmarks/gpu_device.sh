@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The issue-10 benchmark in one command, for the GPU machine (or, at small sizes, llvmpipe):
+# The GPU frame-time benchmark in one command, for the GPU machine (or, at small sizes, llvmpipe):
 # benchmarks/gpu.py on Lift's cornell-box, dining-room and classroom and the Covered Dragon.
 #
 #   SHARED=../shared [TREES="base=/path/a layout=/path/b"] [LABEL=new] [ROUNDS=1]
@@ -8,7 +8,7 @@
 #   [BDPT=1] [BDPT_EXTRA="..."] bash benchmarks/gpu_device.sh OUTDIR
 #
 # 1. pt (with its own Russian roulette and with Lift's, from the first bounce: the work per
-#    frame of the paper's times, docs/gpu.md "Ninth session") and the ray kinds for each
+#    frame of the paper's times, docs/integrators.md "Russian roulette") and the ray kinds for each
 #    version of the renderer: those in TREES (other checkouts,
 #    label=path) and this checkout (LABEL), ROUNDS times, in reversed order every other round
 #    so that no version always runs first;

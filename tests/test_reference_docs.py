@@ -1,8 +1,10 @@
-"""docs/cli.md and docs/manifest.md are what lift_gl/reference_docs.py makes from the code now,
-and what they make covers every command, argument, manifest key and accepted value."""
+"""docs/cli.md, docs/manifest.md and docs/options.md are what lift_gl/reference_docs.py makes
+from the code now, and they cover every command, argument, manifest key, value and option."""
 from __future__ import annotations
 
 import argparse
+
+import pytest
 
 from conftest import REPO
 from lift_gl import plugins, reference_docs
@@ -18,6 +20,18 @@ def test_the_committed_cli_page_is_what_the_parsers_make():
 def test_the_committed_manifest_page_is_what_plugins_py_and_the_manifests_make():
     assert (REPO / "docs" / "manifest.md").read_text(encoding="utf-8") == reference_docs.manifest_reference(), \
         f"docs/manifest.md {STALE}"
+
+
+def test_the_committed_options_page_is_what_options_py_makes():
+    assert (REPO / "docs" / "options.md").read_text(encoding="utf-8") == reference_docs.options_reference(), \
+        f"docs/options.md {STALE}"
+
+
+def test_every_option_is_on_the_options_page():
+    options = pytest.importorskip("lift_gl.options", reason="no lift_gl/options.py: the page says so")
+    page = reference_docs.options_reference()
+    for name in options.OPTION_FIELDS:
+        assert f"| `{name}` |" in page, name
 
 
 def _commands(parser, prefix="lift-gl"):
