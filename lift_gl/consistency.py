@@ -190,6 +190,17 @@ class Estimate:
                    image_mean=np.mean([e.image_mean for e in estimates], axis=0), image_var=image_var,
                    image_dof=image_dof, blocks=first.blocks, samples=sum(e.samples for e in estimates))
 
+    def with_larger_variance(self, other: "Estimate") -> "Estimate":
+        """The same means, each variance the larger of this estimate's and `other`'s (two
+        estimates of the same means' noise: the larger is the safer where the noise has rare
+        large samples that one of them missed), with its degrees of freedom."""
+        take = other.var > self.var
+        take_image = other.image_var > self.image_var
+        return Estimate(mean=self.mean, var=np.where(take, other.var, self.var), dof=np.where(take, other.dof, self.dof),
+                        image_mean=self.image_mean, image_var=np.where(take_image, other.image_var, self.image_var),
+                        image_dof=np.where(take_image, other.image_dof, self.image_dof), blocks=self.blocks,
+                        samples=self.samples)
+
     @classmethod
     def exact(cls, image: np.ndarray, blocks: Blocks) -> "Estimate":
         """A known image (NaN pixels: unknown, left out of every block)."""

@@ -292,3 +292,25 @@ def test_a_bound_is_printed_as_a_bound():
     assert "at most 1 s" in v.sentence() and "at least 4.00× as long" in v.sentence()
     biased = verdict(runs, "rel_mse", target=0.05, consistent={"fast": False, "slow": True})
     assert biased.winner == "slow" and "**biased**" in biased.sentence()
+
+
+def test_pixel_variance_is_in_image_row_order(tmp_path):
+    """The furnace's sphere in the top half, sky (which has no variance at all) below: the
+    variance of each pixel's mean that the bias test reads (from the accumulation, which keeps
+    row 0 at the bottom) must be zero where the seeds' images do not vary, and not elsewhere."""
+    from lift_gl.report.bias import pixel_variance
+
+    scene = tmp_path / "high_sphere.toml"
+    scene.write_text(FURNACE.read_text().replace("target = [0, 0, 0]", "target = [0, -0.9, 0]"))
+    r = Renderer(load_scene(scene), size=(32, 32), seed=1)
+    images = []
+    for seed in range(1, 5):
+        r.reset(seed=seed)
+        images.append(r.render(spp=8))
+    variance = pixel_variance(r)
+    r.release()
+    varies = np.ptp(np.stack(images), axis=0).max(axis=-1) > 0
+    assert varies[:8].mean() > 0.5 and not varies[-8:].any()  # the sphere above, the sky below
+    noisy = variance[..., 3] > 0
+    assert not (noisy & ~varies).any()   # no variance where the seeds never differ (the sky)
+    assert (noisy == varies).mean() > 0.95  # (an edge pixel one seed's frames all saw the same way: none)

@@ -1,7 +1,8 @@
 """Does each configuration of a comparison converge to the reference's image? The bias test
 of lift_gl/consistency.py on a comparison's runs: each run's final image with the variance of
-each pixel's mean (its two halves), pooled over seeds, against the reference's (its halves too,
-when it was rendered; a file's noise is not known and it is taken as exact)."""
+each pixel's mean (its two halves), pooled over seeds, or the seeds' spread where that is
+larger, against the reference's (its halves too, when it was rendered; a file's noise is not
+known and it is taken as exact)."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,6 +10,15 @@ import numpy as np
 from ..consistency import BIAS_TOLERANCE, Blocks, Estimate, compare_estimates
 
 BLOCK = 8          # pixels on a block's side
+
+
+def pixel_variance(renderer) -> np.ndarray:
+    """The estimated variance of each pixel's mean so far, R, G, B and luminance: (H, W, 4),
+    row 0 = top, as the images are (the accumulation's buffers keep row 0 at the bottom)."""
+    from ..error_estimate import variance_of_mean_rgby
+
+    acc = renderer.accumulate
+    return np.ascontiguousarray(variance_of_mean_rgby(acc.read_totals(), acc.read_half_difference())[::-1])
 ALPHA = 1e-3       # chance that a consistent configuration is called biased
 
 
@@ -37,6 +47,10 @@ def consistency_of_runs(finals: dict, reference, alpha: float = ALPHA, tolerance
             continue
         estimate = Estimate.combine([Estimate.from_pixel_variance(image, variance, blocks, spp)
                                      for image, variance, spp in runs])
+        if len(runs) >= 2:  # the seeds' spread too: it sees the rare large samples one run's halves missed
+            spread = Estimate.from_seeds(np.stack([image for image, _, _ in runs]), blocks,
+                                         float(np.mean([spp for _, _, spp in runs])))
+            estimate = estimate.with_larger_variance(spread)
         out[label] = compare_estimates(estimate, ref, alpha, tolerance)
     return out
 

@@ -20,13 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from ..accel.cache import default_cache_dir
-from ..error_estimate import variance_of_mean_rgby
 from ..errors import LiftError
 from ..image_io import read_image
 from ..metrics import resize_to
 
 REFERENCE_SEED = 0x5EED_F00D  # far from the seeds compare uses (1, 2, ...): independent noise
-FORMAT_VERSION = "2"  # 2: the variance of each pixel's mean is kept beside the image
+FORMAT_VERSION = "3"  # 2: the variance of each pixel's mean is kept beside the image; 3: in image order
 
 
 @dataclass
@@ -121,7 +120,9 @@ def rendered_reference(make_renderer, spp: int, cache_dir=None, progress=None) -
     start = time.perf_counter()
     image = renderer.render(spp=spp, progress=progress)
     estimate = renderer.estimate_error()
-    variance = variance_of_mean_rgby(renderer.accumulate.read_totals(), renderer.accumulate.read_half_difference())
+    from .bias import pixel_variance
+
+    variance = pixel_variance(renderer)
     info = {"integrator": renderer.plugin.name, "params": renderer.params, "spp": spp, "seed": renderer.seed,
             "size": list(renderer.size), "render_seconds": renderer.stats.render_seconds,
             "wall_seconds": time.perf_counter() - start, "dropped_samples": renderer.stats.dropped_samples,
