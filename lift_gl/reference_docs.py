@@ -103,8 +103,8 @@ def _subcommands(parser: argparse.ArgumentParser):
 def _command_section(name: str, summary: str, parser: argparse.ArgumentParser, depth: int) -> list[str]:
     formatter = argparse.HelpFormatter(parser.prog)   # for its %(default)s expansion only
     lines = [f"{'#' * depth} `{parser.prog}`", ""]
-    description = " ".join((parser.description or "").split()) or summary  # the table above has the summary
-    if description and depth > 2 or description != summary:
+    description = " ".join((parser.description or "").split()) or summary
+    if description:
         lines += [description[0].upper() + description[1:] + ("" if description.endswith(".") else "."), ""]
     rows = []
     for group in parser._action_groups:
@@ -131,13 +131,9 @@ def cli_reference() -> str:
         "by hand; change the help strings in the code and run it again. `lift-gl COMMAND --help`",
         "prints the same. The commands are also `python -m lift_gl COMMAND`.",
         "",
-        "| command | what it does |",
-        "| --- | --- |",
     ]
-    lines += [f"| [`{name}`](#lift-gl-{name.replace(' ', '-')}) | {_cell(help_text)} |"
-              for name, help_text, _ in commands]
-    lines += ["", "Every command exits 0 on success and 2 on a bad input (one line `lift-gl: error: ...`",
-              "naming the file); `warptest` and `grade` say what their other exit codes mean.", ""]
+    lines += ["Commands: " + ", ".join(f"[`{name}`](#lift-gl-{name.replace(' ', '-')})" for name, _, _ in commands)
+              + ". Each exits 0 on success and 2 on a bad input (one line `lift-gl: error: ...` naming the file).", ""]
     for name, help_text, sub in commands:
         lines += _command_section(name, help_text, sub, 2)
     return "\n".join(lines).rstrip() + "\n"
@@ -235,7 +231,6 @@ def options_reference() -> str:
     if not fields:
         return OPTIONS_STUB
     allowed = getattr(options, "allowed", lambda name: "")
-    intro = (options.__doc__ or "").strip().split("\n\n")
     lines = [
         "# Options reference",
         "",
@@ -245,8 +240,7 @@ def options_reference() -> str:
         "why, and each render's JSON records it.",
         "",
     ]
-    lines += [" ".join(part.split()) for part in intro[1:] if not part.startswith("    ")]
-    lines += ["", "| key | values | default | meaning |", "| --- | --- | --- | --- |"]
+    lines += ["| key | values | default | meaning |", "| --- | --- | --- | --- |"]
     for name, f in fields.items():
         lines.append(f"| `{name}` | {_cell(allowed(name))} | `{f.default}` | {_cell(f.metadata.get('help', ''))} |")
     return "\n".join(lines).rstrip() + "\n"
