@@ -35,7 +35,7 @@ def _settings(pairs: list[str], integrator: str) -> dict:
         name, value = pair.split("=", 1)
         if "." in name:
             plugin, name = name.split(".", 1)
-            if plugin != integrator:
+            if plugin not in (integrator, Path(integrator).name):  # a name, or a plugin folder's
                 continue  # a setting for another integrator (as in compare runs)
         values[name.strip()] = value.strip()
     return values
