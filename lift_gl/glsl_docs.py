@@ -87,6 +87,7 @@ def _merge(decls: list[Declaration]) -> list[list[Declaration]]:
 
 
 def _anchor(name: str) -> str:
+    """The anchor GitHub gives an entry's heading, `#### `Name``."""
     return name.lower()
 
 
@@ -99,10 +100,9 @@ def _entry(variants: list[Declaration]) -> str:
     first = variants[0]
     comment = _comment(variants)
     lines = []
+    lines.append(f"#### `{first.name}`")  # (the anchor is the name alone: _anchor)
     if first.kind == "struct":
-        lines.append(f"#### struct `{first.name}`")
-    else:
-        lines.append(f"#### `{first.name}`")
+        lines.append(f"```glsl\nstruct {first.name}\n```")
     signatures = list(dict.fromkeys(d.signature + (";" if d.kind != "define" else "") for d in variants
                                     if d.kind != "prototype" or len(variants) == 1))
     if first.kind != "struct":
@@ -212,8 +212,12 @@ def generate() -> str:
               "until it returns false, and takes `path_radiance(path)` as the sample's radiance, where it "
               "would have called `radiance(ray, hit, rng)`. `PathState` may hold only types a storage buffer "
               "can (no samplers or images). `plugins/pt/pt.glsl` defines them; its comments are shown here.")
-    index_rows = "\n".join(f"| [`{name}`](#{_anchor(name)}) | {file} | {_cell(summary)} |"
-                           for name, file, summary in sorted(index + steps_index, key=lambda e: e[0].lower()))
+    # The index: each file's names, linked (their one-line summaries are in the sections).
+    by_file: dict[str, list[str]] = {}
+    for name, file, _ in index + steps_index:
+        by_file.setdefault(file, []).append(name)
+    index_rows = "\n".join(f"- `{file}`: " + ", ".join(f"[`{n}`](#{_anchor(n)})" for n in sorted(names, key=str.lower))
+                           for file, names in by_file.items())
     intro = ("# The GLSL library\n\n"
              "The functions, structs and constants a plugin's shader can use: `shaders/lift/*.glsl`, all "
              "included before the plugin's code. This page is made from the comments in those files "
@@ -226,7 +230,7 @@ def generate() -> str:
     if host is not None and host.header:
         header = re.sub(r"^lift/host\.glsl:\s*", "", host.header)
         intro += "\n\n" + _markdown(header[:1].upper() + header[1:])
-    return (intro + "\n\n## Index\n\n| name | file | what it is |\n| --- | --- | --- |\n" + index_rows + "\n\n"
+    return (intro + "\n\n## Index\n\n" + index_rows + "\n\n"
             + "\n\n".join(sections + [steps_text]) + "\n")
 
 

@@ -45,11 +45,11 @@ def test_every_library_function_the_template_and_pt_call_is_documented():
 
 def test_the_material_fields_and_the_structs_are_on_the_page():
     page = PAGE.read_text(encoding="utf-8")
-    material = page.split("#### struct `Material`\n", 1)[1].split("\n####", 1)[0]
+    material = page.split("#### `Material`\n\n```glsl\nstruct Material\n```", 1)[1].split("\n####", 1)[0]
     for field in ("color_type", "emission_alpha", "eta_ior", "k_pad"):
         assert f"| `{field}` | `vec4` |" in material
     for struct in ("Surface", "Hit", "Ray", "BsdfSample", "LightSample", "Rng", "Frame", "PathState"):
-        assert f"#### struct `{struct}`" in page
+        assert f"#### `{struct}`\n\n```glsl\nstruct {struct}\n```" in page
 
 
 def test_the_guide_and_the_template_link_to_it():
@@ -58,3 +58,15 @@ def test_the_guide_and_the_template_link_to_it():
     assert "(glsl-library.md)" in library_section
     header = (REPO / "plugins" / "template" / "template.glsl").read_text().split("\n\n", 1)[0]
     assert "docs/glsl-library.md" in header
+
+
+def test_every_link_within_the_page_has_its_heading():
+    """Links to #name land on a heading whose GitHub anchor is name (lower case, punctuation
+    other than - and _ dropped, spaces as -)."""
+    import re
+
+    page = PAGE.read_text(encoding="utf-8")
+    anchors = {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+               for h in re.findall(r"^#+ (.*)$", page, re.M)}
+    targets = set(re.findall(r"\]\(#([^)]+)\)", page))
+    assert targets and not targets - anchors, sorted(targets - anchors)[:10]
