@@ -1,61 +1,228 @@
-"""Fuzz every loader many times (tests/fuzz_harness.py) and count the outcomes: loaded,
-refused with one clear LiftError, or escaped (any other exception, or a LiftError the loader
-marked as unforeseen). Prints a table; exits 1 if anything escaped, after showing the first
-input that did (saved under --out).
+"""Fuzz every loader many times (tests/fuzz_harness.py TARGETS, inputs from
+tests/fuzz_strategies.py) and count the outcomes: loaded, refused with file:line, refused
+naming the file only, and escaped, by kind (an exception that is not a LiftError, a LiftError
+marked internal or naming no file, a non-finite or negative value reaching the GPU, a hang,
+more than 1 GiB, text printed by a library, a plugin file from outside its folder).
 
-    python benchmarks/fuzz_loaders.py [--cases 2000] [--seed 0] [--out out/fuzz]
+Each loader runs in a worker process of its own (hypothesis, seeded), which reports every
+case on a pipe; a worker silent for --stall seconds (a hang the harness's timers cannot
+interrupt, inside a C library) or one that dies (a crash) is counted as one escape, its input
+kept, and a new worker goes on with the remaining cases. Escaping inputs are saved under
+--out (the first few of each kind and message). Prints a table, writes it with the escapes
+to --results (markdown and JSON), exits 1 if anything escaped.
+
+    nice -n 19 python benchmarks/fuzz_loaders.py [--cases 10000] [--seed 0] [--only NAME]
 """
 from __future__ import annotations
 
 import argparse
-import random
+import json
+import os
+import re
+import select
+import shutil
+import subprocess
 import sys
 import tempfile
 import time
-import traceback
+from collections import Counter
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from fuzz_harness import LOADERS, check_input, mutate, prepare  # noqa: E402
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+RESULTS = ROOT / "benchmarks" / "results" / "fuzz_loaders"
+KEEP_PER_SIGNATURE = 3
+
+
+def signature(target: str, kind: str, message: str) -> str:
+    """An escape's message without its paths and numbers: escapes of one cause share it."""
+    text = re.sub(r"/\S*?/case/", "", message)
+    text = re.sub(r"(/[\w.-]+)+", "PATH", text)
+    text = re.sub(r"-?\d[\d.e+-]*", "N", text)
+    return f"{target} | {kind} | {text[:160]}"
+
+
+# ---- the worker ---------------------------------------------------------------------------
+
+def worker(target_name: str, cases: int, seed: int, root: Path, out: Path) -> None:
+    """Run `cases` inputs of one target, one JSON line a case on stdout."""
+    from hypothesis import HealthCheck, Phase, given, settings
+    from hypothesis import seed as hypothesis_seed
+
+    from fuzz_harness import BY_NAME, Escape, check_case, save_case
+
+    target = BY_NAME[target_name]
+    emit = os.fdopen(os.dup(1), "w", buffering=1)  # the pipe; fd 1 itself is captured per case
+    kept: Counter = Counter()
+    number = [0]
+
+    @hypothesis_seed(seed)
+    @settings(max_examples=cases, database=None, deadline=None, phases=[Phase.generate],
+              suppress_health_check=list(HealthCheck))
+    @given(case=target.strategy())
+    def run(case):
+        number[0] += 1
+        emit.write(json.dumps({"start": number[0], "how": case.how[:300]}) + "\n")
+        try:
+            outcome = check_case(target, case, root)
+            record = {"outcome": outcome.kind, "cpu": round(outcome.seconds, 4),
+                      "numpy_warnings": outcome.numpy_warnings, "warned": outcome.warned}
+        except Escape as escape:
+            sig = signature(target_name, escape.kind, escape.message)
+            record = {"outcome": "escaped", "kind": escape.kind, "message": escape.message,
+                      "signature": sig, "how": case.how[:300]}
+            kept[sig] += 1
+            if kept[sig] <= KEEP_PER_SIGNATURE:
+                record["saved"] = str(save_case(case, out / f"{_slug(target_name)}-{seed}-{number[0]}",
+                                                target.filename))
+        emit.write(json.dumps(record) + "\n")
+
+    run()
+    emit.write(json.dumps({"done": number[0]}) + "\n")
+
+
+def _slug(name: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "_", name.lower()).strip("_")
+
+
+# ---- the parent ---------------------------------------------------------------------------
+
+def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> dict:
+    counts = Counter()
+    escapes: dict[str, dict] = {}
+    cpu_max, numpy_warned, warned = 0.0, 0, 0
+    slowest = ""
+    start = time.perf_counter()
+    done, restarts = 0, 0
+    while done < cases:
+        with tempfile.TemporaryDirectory(prefix="lift-gl-fuzz-") as tmp:
+            root = Path(tmp) / "root"
+            command = [sys.executable, __file__, "--worker", name, "--cases", str(cases - done),
+                       "--seed", str(seed + 1000 * restarts), "--root", str(root), "--out", str(out)]
+            env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+            proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
+            current = None
+            finished = False
+            while True:
+                ready, _, _ = select.select([proc.stdout], [], [], stall)
+                if not ready:  # silent: a hang no timer could interrupt
+                    proc.kill()
+                    proc.wait()
+                    _lost(current, "hang", f"no answer in {stall:g} s (killed)", name, root, out, seed, restarts,
+                          counts, escapes)
+                    done += 1
+                    break
+                line = proc.stdout.readline()
+                if not line:  # the worker died
+                    proc.wait()
+                    if current is not None:
+                        _lost(current, "crash", f"the worker died (exit {proc.returncode})", name, root, out, seed,
+                              restarts, counts, escapes)
+                        done += 1
+                    elif not finished:
+                        raise RuntimeError(f"the {name} worker failed to start (exit {proc.returncode})")
+                    break
+                record = json.loads(line)
+                if "start" in record:
+                    current = record
+                    continue
+                if "done" in record:
+                    finished = True
+                    continue
+                how = (current or {}).get("how", "")
+                current = None
+                done += 1
+                counts[record["outcome"]] += 1
+                if record["outcome"] == "escaped":
+                    entry = escapes.setdefault(record["signature"], {"count": 0, "kind": record["kind"],
+                                                                     "message": record["message"],
+                                                                     "how": record["how"], "saved": None})
+                    entry["count"] += 1
+                    entry["saved"] = entry["saved"] or record.get("saved")
+                else:
+                    numpy_warned += record["numpy_warnings"] > 0
+                    warned += bool(record["warned"])
+                    if record["cpu"] > cpu_max:
+                        cpu_max, slowest = record["cpu"], how
+                if done % 500 == 0:
+                    print(f"{name}: {done}/{cases}, escaped {counts['escaped']}", file=sys.stderr, flush=True)
+        if finished:
+            break  # all asked for were run (or hypothesis ran out of distinct inputs)
+        restarts += 1
+    print(file=sys.stderr)
+    return {"target": name, "cases": done, "loaded": counts["loaded"], "refused": counts["refused"],
+            "refused_no_line": counts["refused, no line"], "escaped": counts["escaped"],
+            "warned": warned, "numpy_warnings": numpy_warned, "max_cpu_s": round(cpu_max, 3), "slowest": slowest,
+            "seconds": round(time.perf_counter() - start, 1), "restarts": restarts,
+            "escapes": sorted(escapes.values(), key=lambda e: -e["count"]),
+            "signatures": {sig: e["count"] for sig, e in escapes.items()}}
+
+
+def _lost(current, kind, message, name, root, out, seed, restarts, counts, escapes):
+    """A case the worker never answered: keep its folder (the input is still on disk)."""
+    how = (current or {}).get("how", "")
+    saved = out / f"{_slug(name)}-{seed}-r{restarts}-{kind}"
+    if (root / "case").exists() and not saved.exists():
+        shutil.copytree(root / "case", saved, symlinks=True)
+    sig = signature(name, kind, message)
+    entry = escapes.setdefault(sig, {"count": 0, "kind": kind, "message": message, "how": how, "saved": str(saved)})
+    entry["count"] += 1
+    counts["escaped"] += 1
+
+
+def table(rows) -> str:
+    lines = ["| loader | inputs | loaded | refused: file:line | refused: file only | escaped | loaded with a warning "
+             "| numpy warnings | slowest case (CPU s) | seconds |",
+             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        lines.append(f"| {r['target']} | {r['cases']} | {r['loaded']} | {r['refused']} | {r['refused_no_line']} "
+                     f"| {r['escaped']} | {r['warned']} | {r['numpy_warnings']} | {r['max_cpu_s']:.2f} "
+                     f"| {r['seconds']:.0f} |")
+    return "\n".join(lines)
+
+
+def escapes_text(rows) -> str:
+    lines = []
+    for r in rows:
+        for e in r["escapes"]:
+            lines.append(f"- {r['target']}, {e['kind']} ({e['count']}): {e['message'][:240]} — input: {e['how'][:160]}"
+                         + (f" (saved: {e['saved']})" if e["saved"] else ""))
+    return "\n".join(lines) or "None."
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", type=int, default=2000, help="inputs per loader")
+    parser.add_argument("--cases", type=int, default=10000, help="inputs per loader (default 10000)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--only", help="fuzz only the loaders whose name contains this (comma-separated)")
     parser.add_argument("--out", default="out/fuzz", help="where escaping inputs are saved")
-    parser.add_argument("--only", help="fuzz only the loader whose name contains this")
+    parser.add_argument("--results", default=str(RESULTS), help="results file, without extension (.md, .json)")
+    parser.add_argument("--stall", type=float, default=120.0, help="seconds of silence that count as a hang")
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--root", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    rows, escaped_any = [], False
-    for loader in LOADERS:
-        if args.only and args.only.lower() not in loader.name.lower():
+    out = Path(args.out).resolve()
+    if args.worker:
+        worker(args.worker, args.cases, args.seed, Path(args.root), out)
+        return 0
+    from fuzz_harness import TARGETS
+
+    wanted = [w.strip().lower() for w in args.only.split(",")] if args.only else None
+    rows = []
+    for target in TARGETS:
+        if wanted and not any(w in target.name.lower() for w in wanted):
             continue
-        rng = random.Random(f"{args.seed}:{loader.name}")
-        counts = {"loaded": 0, "refused": 0, "refused, no line": 0, "escaped": 0}
-        start = time.perf_counter()
-        with tempfile.TemporaryDirectory() as tmp:
-            path = prepare(loader, Path(tmp))
-            for case in range(args.cases):
-                data = mutate(rng.choice(loader.seeds).read_bytes(), rng)
-                try:
-                    counts[check_input(loader, data, path)] += 1
-                except Exception:  # noqa: BLE001 - counting exactly these
-                    counts["escaped"] += 1
-                    out = Path(args.out)
-                    out.mkdir(parents=True, exist_ok=True)
-                    saved = out / f"{loader.name.replace(' ', '_')}-{case}{Path(loader.filename).suffix}"
-                    saved.write_bytes(data)
-                    if counts["escaped"] <= 3:
-                        print(f"--- {loader.name}: escaped, input saved to {saved}", file=sys.stderr)
-                        traceback.print_exc(limit=4)
-        rows.append((loader.name, args.cases, counts, time.perf_counter() - start))
-        escaped_any |= counts["escaped"] > 0
-    print("| loader | inputs | loaded | refused: file:line | refused: file only | escaped | seconds |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for name, n, c, seconds in rows:
-        print(f"| {name} | {n} | {c['loaded']} | {c['refused']} | {c['refused, no line']} | {c['escaped']} "
-              f"| {seconds:.0f} |")
-    return 1 if escaped_any else 0
+        rows.append(fuzz_target(target.name, args.cases, args.seed, out, args.stall))
+    text = table(rows)
+    print(text)
+    print("\nEscapes:\n" + escapes_text(rows))
+    results = Path(args.results)
+    results.parent.mkdir(parents=True, exist_ok=True)
+    command = "python benchmarks/fuzz_loaders.py " + " ".join(a for a in sys.argv[1:])
+    results.with_suffix(".md").write_text(f"`{command.strip()}`\n\n{text}\n\nEscapes:\n\n{escapes_text(rows)}\n")
+    results.with_suffix(".json").write_text(json.dumps({"command": command.strip(), "rows": rows}, indent=1) + "\n")
+    return 1 if any(r["escaped"] for r in rows) else 0
 
 
 if __name__ == "__main__":
