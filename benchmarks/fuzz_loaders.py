@@ -101,7 +101,8 @@ def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> di
             command = [sys.executable, __file__, "--worker", name, "--cases", str(cases - done),
                        "--seed", str(seed + 1000 * restarts), "--root", str(root), "--out", str(out)]
             env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
-            proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True)
+            proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, text=True,
+                                    preexec_fn=_die_with_parent)
             current = None
             finished = False
             while True:
@@ -159,6 +160,16 @@ def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> di
             "signatures": {sig: e["count"] for sig, e in escapes.items()}}
 
 
+def _die_with_parent() -> None:
+    """In the worker, before it starts: Linux kills it when this process ends."""
+    import ctypes
+    import signal
+    try:
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except OSError:
+        pass
+
+
 def _lost(current, kind, message, name, root, out, seed, restarts, counts, escapes):
     """A case the worker never answered: keep its folder (the input is still on disk)."""
     how = (current or {}).get("how", "")
@@ -191,6 +202,21 @@ def escapes_text(rows) -> str:
     return "\n".join(lines) or "None."
 
 
+def machine() -> dict:
+    """Where the run was made: CPU, cores, load, Python, the commit and whether the tree was clean."""
+    import platform
+
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() \
+        else platform.processor()
+
+    def git(*args):
+        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    return {"cpu": cpu, "cores": os.cpu_count(), "load_average": os.getloadavg(), "python": platform.python_version(),
+            "commit": git("rev-parse", "--short", "HEAD"),
+            "uncommitted_loader_changes": bool(git("status", "--porcelain", "--", "lift_gl"))}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cases", type=int, default=10000, help="inputs per loader (default 10000)")
@@ -209,6 +235,7 @@ def main() -> int:
     from fuzz_harness import TARGETS
 
     wanted = [w.strip().lower() for w in args.only.split(",")] if args.only else None
+    where = machine()
     rows = []
     for target in TARGETS:
         if wanted and not any(w in target.name.lower() for w in wanted):
@@ -220,8 +247,14 @@ def main() -> int:
     results = Path(args.results)
     results.parent.mkdir(parents=True, exist_ok=True)
     command = "python benchmarks/fuzz_loaders.py " + " ".join(a for a in sys.argv[1:])
-    results.with_suffix(".md").write_text(f"`{command.strip()}`\n\n{text}\n\nEscapes:\n\n{escapes_text(rows)}\n")
-    results.with_suffix(".json").write_text(json.dumps({"command": command.strip(), "rows": rows}, indent=1) + "\n")
+    where["load_average_end"] = os.getloadavg()
+    head = (f"`{command.strip()}` at commit {where['commit']}"
+            + (" (with uncommitted changes to lift_gl/)" if where["uncommitted_loader_changes"] else "")
+            + f"; {where['cpu']}, {where['cores']} cores, load {where['load_average'][0]:.1f} at the start "
+              f"and {where['load_average_end'][0]:.1f} at the end, Python {where['python']}")
+    results.with_suffix(".md").write_text(f"{head}\n\n{text}\n\nEscapes:\n\n{escapes_text(rows)}\n")
+    results.with_suffix(".json").write_text(json.dumps({"command": command.strip(), "machine": where, "rows": rows},
+                                                       indent=1) + "\n")
     return 1 if any(r["escaped"] for r in rows) else 0
 
 
