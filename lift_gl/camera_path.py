@@ -33,9 +33,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, read_utf8
 from .scene.model import Camera, Scene
 from .scene.primitives import translate_matrix
+from .scene.validate import camera_problem
 
 
 @dataclass(frozen=True)
@@ -73,8 +74,12 @@ class CameraPath:
         s = 0.0 if b.time == a.time else float(np.clip((time - a.time) / (b.time - a.time), 0.0, 1.0))
         fov_a = a.fov if a.fov is not None else base.fov_deg
         fov_b = b.fov if b.fov is not None else base.fov_deg
-        return dataclasses.replace(base, position=(1 - s) * a.position + s * b.position,
-                                   target=(1 - s) * a.target + s * b.target, fov_deg=(1 - s) * fov_a + s * fov_b)
+        camera = dataclasses.replace(base, position=(1 - s) * a.position + s * b.position,
+                                     target=(1 - s) * a.target + s * b.target, fov_deg=(1 - s) * fov_a + s * fov_b)
+        problem = camera_problem(camera.position, camera.target, camera.up, camera.fov_deg)
+        if problem:  # between two good keyframes (position and target crossing): the scene's rule
+            raise SceneError(f"at time {time:g}: {problem}", self.path)
+        return camera
 
     def scene_at(self, time: float, scene: Scene) -> Scene:
         """The scene with its `[[move]]` objects translated by velocity * time (and the path's camera)."""
@@ -92,6 +97,12 @@ class CameraPath:
         return dataclasses.replace(scene, camera=camera, meshes=meshes, spheres=spheres, instances=instances)
 
     def check_objects(self, scene: Scene) -> None:
+        """Each [[move]] names an object of `scene`, and each keyframe's camera (with the scene
+        camera's up and fov where the keyframe has none) is one the scene loader accepts."""
+        for i, k in enumerate(self.keyframes):
+            problem = camera_problem(k.position, k.target, scene.camera.up, k.fov if k.fov is not None else scene.camera.fov_deg)
+            if problem:
+                raise SceneError(f"keyframe {i + 1} (time {k.time:g}): {problem}", self.path)
         names = {m.name for m in scene.meshes} | {_name(s) for s in scene.spheres} | {i.name for i in scene.instances}
         for move in self.moves:
             if move.name not in names:
@@ -118,10 +129,10 @@ def load_camera_path(path) -> CameraPath:
     """Read a camera path file; a bad one raises SceneError naming the file."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
+        data = tomllib.loads(read_utf8(path, SceneError))
+    except (FileNotFoundError, IsADirectoryError):
         raise SceneError("camera path file not found", path) from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:
         raise SceneError(f"not a valid TOML camera path: {exc}", path) from None
     unknown = set(data) - {"keyframe", "move"}
     if unknown:

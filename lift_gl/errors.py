@@ -39,11 +39,13 @@ class LimitError(LiftError):
 
 
 def read_utf8(path, error=LiftError) -> str:
-    """The text of a UTF-8 file, or `error` naming the file and the line of the first byte
-    that is not UTF-8 (a binary file, or one saved in another encoding)."""
-    data = open(path, "rb").read()
+    """The text of a UTF-8 file (without the byte order mark some editors write), or `error`
+    naming the file and the line of the first byte that is not UTF-8 (a binary file, or one
+    saved in another encoding)."""
+    with open(path, "rb") as f:
+        data = f.read()
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
         line = data[:exc.start].count(b"\n") + 1
         raise error(f"not UTF-8 text (byte 0x{data[exc.start]:02x}); save the file as UTF-8",

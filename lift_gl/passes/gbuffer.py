@@ -10,10 +10,11 @@ outputs: visibility (RGBA32UI: primitive id + 1 (0 = background), barycentrics a
          shaders/passes/motion_vectors.glsl), and the previous frame's normal_depth kept
          (two textures used in turn: swap_history()).
 
-The depth test compares view depth / far (written as gl_FragDepth), not the projection's
-hyperbolic depth: 24 bits of that spread over the scene give a resolution of far / 2^24
-everywhere, whereas hyperbolic depth with the tiny near plane that a camera inside the
-scene needs cannot tell a wall from the back of the same wall (tests/test_stress.py).
+The depth test compares a depth the fragment shader writes (gl_FragDepth: linear in view depth
+near the camera, logarithmic beyond, camera.DEPTH_STEPS), not the projection's hyperbolic
+depth, which with the tiny near plane that a camera inside the scene needs cannot tell a wall
+from the back of the same wall (tests/test_stress.py); nor view depth / far, whose steps of
+far / 2^24 cannot tell a ball from the floor under it when the floor reaches 1e9 away.
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ import moderngl
 import numpy as np
 
 from .. import shaders
-from .camera import near_far, view_projection
+from .camera import depth_uniforms, view_projection
 from ..env_settings import env_choice
 from .common import groups, set_uniforms
 
@@ -109,7 +110,7 @@ class GBufferPass:
         all the same (its cost is rasterizing, not the stores: docs/gpu.md)."""
         uniforms = dict(scene_uniforms, **camera_uniforms, **(motion_uniforms or {}))
         uniforms["u_view_proj"] = view_projection(camera, self.size, bounds, jitter).ravel()
-        uniforms["u_inv_far"] = 1.0 / near_far(camera, bounds)[1]
+        uniforms.update(depth_uniforms(camera, bounds))
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)  # motion too: background has no history
         self.ctx.enable(moderngl.DEPTH_TEST)

@@ -19,6 +19,7 @@ is lit by a white sky (radiance 1), as a single mesh file is.
 """
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -34,7 +35,7 @@ SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength"
 
 
 def read_gltf_json(path: Path) -> dict:
-    """The JSON of a .gltf file, or the JSON chunk of a .glb."""
+    """The JSON of a .gltf file, or the JSON chunk of a .glb (a UTF-8 byte order mark allowed)."""
     data = path.read_bytes()
     try:
         if path.suffix.lower() == ".glb":
@@ -43,41 +44,100 @@ def read_gltf_json(path: Path) -> dict:
             length = int.from_bytes(data[12:16], "little")
             if data[16:20] != b"JSON":
                 raise ValueError("the first chunk of a .glb must be JSON")
-            return json.loads(data[20:20 + length].decode("utf-8"))
-        return json.loads(data.decode("utf-8"))
-    except (ValueError, UnicodeDecodeError) as e:
+            doc = json.loads(data[20:20 + length].decode("utf-8-sig"))
+        else:
+            doc = json.loads(data.decode("utf-8-sig"))
+    except (ValueError, UnicodeDecodeError, RecursionError) as e:
         line = getattr(e, "lineno", None)
         raise SceneError(f"not a readable glTF file ({e})", path, line) from None
+    if not isinstance(doc, dict):
+        raise SceneError(f"the top level of a glTF file must be a JSON object, not {_json_type(doc)}", path)
+    return doc
 
 
-def _node_matrix(node: dict) -> np.ndarray:
+def _json_type(value) -> str:
+    return {dict: "an object", list: "an array", str: "a string", bool: "true/false"}.get(
+        type(value), "null" if value is None else "a number")
+
+
+class _Fields:
+    """Typed reads of the JSON's values: a value of the wrong type is one SceneError naming the
+    file and the value's place (glTF has no line numbers worth giving: files are often one line)."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def fail(self, where: str, message: str):
+        raise SceneError(f"{where}: {message}", self.path)
+
+    def table(self, obj: dict, key: str, where: str) -> dict:
+        value = obj.get(key, {})
+        if not isinstance(value, dict):
+            self.fail(f"{where}.{key}", f"must be a JSON object, not {_json_type(value)}")
+        return value
+
+    def items(self, obj: dict, key: str, where: str) -> list:
+        value = obj.get(key, [])
+        if not isinstance(value, list):
+            self.fail(f"{where}.{key}", f"must be an array, not {_json_type(value)}")
+        return value
+
+    def objects(self, obj: dict, key: str, where: str) -> list[dict]:
+        values = self.items(obj, key, where)
+        for i, v in enumerate(values):
+            if not isinstance(v, dict):
+                self.fail(f"{where}.{key}[{i}]", f"must be a JSON object, not {_json_type(v)}")
+        return values
+
+    def number(self, obj: dict, key: str, default: float, where: str) -> float:
+        value = obj.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(f"{where}.{key}", f"must be a number, not {_json_type(value)} {value!r:.40}")
+        return float(value)
+
+    def numbers(self, obj: dict, key: str, count: int, default, where: str) -> np.ndarray:
+        value = obj.get(key, default)
+        if not (isinstance(value, list) and len(value) == count
+                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+            self.fail(f"{where}.{key}", f"must be an array of {count} numbers, not {value!r:.60}")
+        return np.asarray(value, dtype=np.float64)
+
+    def index(self, obj: dict, key: str, where: str) -> int | None:
+        value = obj.get(key)
+        if value is not None and (isinstance(value, bool) or not isinstance(value, int)):
+            self.fail(f"{where}.{key}", f"must be an index (an integer), not {value!r:.40}")
+        return value
+
+
+def _node_matrix(node: dict, fields: _Fields, where: str) -> np.ndarray:
     if "matrix" in node:
-        return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T  # column-major
+        return fields.numbers(node, "matrix", 16, None, where).reshape(4, 4).T  # column-major
     t = np.eye(4)
-    t[:3, 3] = node.get("translation", [0, 0, 0])
-    x, y, z, w = node.get("rotation", [0, 0, 0, 1])
+    t[:3, 3] = fields.numbers(node, "translation", 3, [0, 0, 0], where)
+    x, y, z, w = fields.numbers(node, "rotation", 4, [0, 0, 0, 1], where)
     r = np.eye(4)
     r[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                  [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                  [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
-    s = np.diag([*node.get("scale", [1, 1, 1]), 1.0])
+    s = np.diag([*fields.numbers(node, "scale", 3, [1, 1, 1], where), 1.0])
     return t @ r @ s
 
 
-def _world_matrices(doc: dict) -> list[tuple[int, np.ndarray]]:
+def _world_matrices(doc: dict, fields: _Fields) -> list[tuple[int, np.ndarray]]:
     """(node index, world matrix) of every node under the default scene."""
-    nodes = doc.get("nodes", [])
-    scenes = doc.get("scenes", [])
-    roots = scenes[doc.get("scene", 0)].get("nodes", []) if scenes else range(len(nodes))
+    nodes = fields.objects(doc, "nodes", "glTF")
+    scenes = fields.objects(doc, "scenes", "glTF")
+    scene = fields.index(doc, "scene", "glTF") or 0
+    roots = fields.items(scenes[scene], "nodes", f"scenes[{scene}]") if 0 <= scene < len(scenes) else range(len(nodes))
     out, stack, seen = [], [(i, np.eye(4)) for i in roots], set()
     while stack:
         i, parent = stack.pop()
-        if i in seen or not 0 <= i < len(nodes):
+        if not isinstance(i, int) or i in seen or not 0 <= i < len(nodes):
             continue
         seen.add(i)
-        world = parent @ _node_matrix(nodes[i])
+        world = parent @ _node_matrix(nodes[i], fields, f"nodes[{i}]")
         out.append((i, world))
-        stack.extend((c, world) for c in nodes[i].get("children", []))
+        stack.extend((c, world) for c in fields.items(nodes[i], "children", f"nodes[{i}]"))
     return out
 
 
@@ -89,19 +149,32 @@ class _Gltf:
         self.warned: set[str] = set()
         self.textures: dict[int, int] = {}
         self.materials: dict[int, int] = {}
-        json_materials = self.doc.get("materials", [])
+        self.fields = f = _Fields(path)
+        json_materials = f.objects(self.doc, "materials", "glTF")
         names = [m.get("name") for m in json_materials]
         # Exact factors by material name, where names are unique (trimesh keeps 8 bits).
-        self.by_name = {n: m for n, m in zip(names, json_materials) if n and names.count(n) == 1}
+        self.by_name = {n: m for n, m in zip(names, json_materials) if isinstance(n, str) and n and names.count(n) == 1}
         # glTF: primitives without NORMAL are flat-shaded. trimesh would invent smooth ones.
-        prims = [p for m in self.doc.get("meshes", []) for p in m.get("primitives", [])]
-        with_normals = [("NORMAL" in p.get("attributes", {})) for p in prims]
+        prims = [p for i, m in enumerate(f.objects(self.doc, "meshes", "glTF"))
+                 for p in f.objects(m, "primitives", f"meshes[{i}]")]
+        with_normals = [("NORMAL" in f.table(p, "attributes", "primitive")) for p in prims]
         self.use_normals = bool(with_normals) and all(with_normals)
         if any(with_normals) and not self.use_normals:
             self.warn("some primitives have normals and some not: all are flat-shaded")
-        for extension in self.doc.get("extensionsUsed", []):
+        for extension in f.items(self.doc, "extensionsUsed", "glTF"):
             if extension not in SUPPORTED_EXTENSIONS:
                 self.warn(f"extension {extension} is not supported; ignored")
+        self._missing_images()
+
+    def _missing_images(self) -> None:
+        """trimesh drops an image file it cannot find without a word: say so."""
+        from urllib.parse import unquote
+
+        for i, image in enumerate(self.fields.objects(self.doc, "images", "glTF")):
+            uri = image.get("uri")
+            if isinstance(uri, str) and not uri.startswith("data:") and not (self.path.parent / unquote(uri)).is_file():
+                self.warn(f"images[{i}]: texture file not found: {self.path.parent / unquote(uri)}; the materials "
+                          "using it get their constant factors")
 
     def warn(self, message: str) -> None:
         if message not in self.warned:
@@ -111,7 +184,12 @@ class _Gltf:
     def load(self) -> Scene:
         import trimesh
         try:
-            tm_scene = trimesh.load(str(self.path), force="scene", process=False)
+            data = self.path.read_bytes()
+            if data.startswith(b"\xef\xbb\xbf"):  # trimesh refuses a byte order mark: give it the text without
+                tm_scene = trimesh.load(io.BytesIO(data[3:]), file_type="gltf", force="scene", process=False,
+                                        resolver=trimesh.resolvers.FilePathResolver(str(self.path)))
+            else:
+                tm_scene = trimesh.load(str(self.path), force="scene", process=False)
         except Exception as e:  # trimesh raises many kinds; all mean "unreadable"
             raise SceneError(f"cannot read glTF file ({type(e).__name__}: {e})", self.path) from None
         for node_name in tm_scene.graph.nodes_geometry:
@@ -148,29 +226,41 @@ class _Gltf:
         exact = self.by_name.get(getattr(pbr, "name", None))
         if exact is None and len(self.doc.get("materials", [])) == 1:
             exact = self.doc["materials"][0]
+        if exact is not None:
+            where = f"material '{name}'"
+            for key in ("pbrMetallicRoughness", "extensions"):
+                self.fields.table(exact, key, where)
         m = self._convert(pbr, exact, name)
         self.scene.materials.append(m)
         self.materials[key] = len(self.scene.materials) - 1
         return self.materials[key]
 
     def _convert(self, pbr, exact: dict | None, name: str) -> Material:
-        src = f"{self.path}: material '{name}'"
+        src = str(self.path)  # validate_scene names the material
         if pbr is None:
             return Material(name, "diffuse", base_color=[0.8] * 3, source=src)
+        f, where = self.fields, f"material '{name}'"
         metal_rough = (exact or {}).get("pbrMetallicRoughness", {})
         if exact is not None:
-            base = np.asarray(metal_rough.get("baseColorFactor", [1, 1, 1, 1]), dtype=np.float64)[:3]
-            emission = np.asarray(exact.get("emissiveFactor", [0, 0, 0]), dtype=np.float64)
+            base = f.numbers(metal_rough, "baseColorFactor", 4, [1, 1, 1, 1], f"{where}.pbrMetallicRoughness")[:3]
+            emission = f.numbers(exact, "emissiveFactor", 3, [0, 0, 0], where)
         else:
             factor = pbr.baseColorFactor
             base = np.ones(3) if factor is None else np.asarray(factor[:3], dtype=np.float64) / 255.0
             emission = np.zeros(3) if pbr.emissiveFactor is None else np.asarray(pbr.emissiveFactor, dtype=np.float64)
         metallic = 1.0 if pbr.metallicFactor is None else float(pbr.metallicFactor)
         roughness = 1.0 if pbr.roughnessFactor is None else float(pbr.roughnessFactor)
+        if exact is not None:  # the file's own values (trimesh may have rounded them)
+            metallic = f.number(metal_rough, "metallicFactor", 1.0, f"{where}.pbrMetallicRoughness")
+            roughness = f.number(metal_rough, "roughnessFactor", 1.0, f"{where}.pbrMetallicRoughness")
         extensions = (exact or {}).get("extensions", {})
-        emission = emission * float(extensions.get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0))
-        ior = float(extensions.get("KHR_materials_ior", {}).get("ior", 1.5))
-        transmission = float(extensions.get("KHR_materials_transmission", {}).get("transmissionFactor", 0.0))
+        ext = {key: f.table(extensions, key, f"{where}.extensions") for key in
+               ("KHR_materials_emissive_strength", "KHR_materials_ior", "KHR_materials_transmission")}
+        emission = emission * f.number(ext["KHR_materials_emissive_strength"], "emissiveStrength", 1.0,
+                                       f"{where}.KHR_materials_emissive_strength")
+        ior = f.number(ext["KHR_materials_ior"], "ior", 1.5, f"{where}.KHR_materials_ior")
+        transmission = f.number(ext["KHR_materials_transmission"], "transmissionFactor", 0.0,
+                                f"{where}.KHR_materials_transmission")
 
         texture = self._texture(pbr.baseColorTexture)
         for attr, what in (("metallicRoughnessTexture", "metallic-roughness textures are ignored: the factors are used"),
@@ -183,7 +273,7 @@ class _Gltf:
         if 0.0 < metallic < 1.0:
             self.warn("metallic factors between 0 and 1 are approximated by the nearer of metal (>= 0.5) "
                       "and dielectric")
-        alpha = roughness ** 2
+        alpha = roughness * abs(roughness)  # GGX alpha; a negative roughness stays negative for validate_scene
         if transmission > 0:
             if transmission < 1:
                 self.warn("partial KHR_materials_transmission is approximated by full transmission")
@@ -205,42 +295,52 @@ class _Gltf:
 
     # ---- cameras and lights ------------------------------------------------------------------
     def _cameras_and_lights(self) -> None:
-        nodes = self.doc.get("nodes", [])
-        cameras = self.doc.get("cameras", [])
-        lights = self.doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
+        f = self.fields
+        nodes = f.objects(self.doc, "nodes", "glTF")
+        cameras = f.objects(self.doc, "cameras", "glTF")
+        punctual = f.table(f.table(self.doc, "extensions", "glTF"), "KHR_lights_punctual", "glTF.extensions")
+        lights = f.objects(punctual, "lights", "KHR_lights_punctual")
         camera = None
-        for i, world in _world_matrices(self.doc):
+        for i, world in _world_matrices(self.doc, f):
             node = nodes[i]
-            if "camera" in node and camera is None and 0 <= node["camera"] < len(cameras):
-                camera = self._camera(cameras[node["camera"]], world)
-            light_index = node.get("extensions", {}).get("KHR_lights_punctual", {}).get("light")
+            index = f.index(node, "camera", f"nodes[{i}]")
+            if index is not None and camera is None and 0 <= index < len(cameras):
+                camera = self._camera(cameras[index], world, f"cameras[{index}]")
+            node_lights = f.table(f.table(node, "extensions", f"nodes[{i}]"), "KHR_lights_punctual",
+                                  f"nodes[{i}].extensions")
+            light_index = f.index(node_lights, "light", f"nodes[{i}].KHR_lights_punctual")
             if light_index is not None and 0 <= light_index < len(lights):
-                self._light(lights[light_index], world)
+                self._light(lights[light_index], world, light_index)
         if camera is None:
             camera = framing_camera(self.scene)
         self.scene.camera = camera
 
-    def _camera(self, cam: dict, world: np.ndarray) -> Camera | None:
-        if cam.get("type") != "perspective" or "perspective" in cam and "yfov" not in cam["perspective"]:
+    def _camera(self, cam: dict, world: np.ndarray, where: str) -> Camera | None:
+        p = self.fields.table(cam, "perspective", where)
+        if cam.get("type") != "perspective" or "yfov" not in p:
             self.warn("only perspective cameras are supported; the camera is ignored")
             return None
-        p = cam["perspective"]
-        if "aspectRatio" in p and p["aspectRatio"] > 0:
+        yfov = self.fields.number(p, "yfov", 0.0, f"{where}.perspective")
+        aspect = self.fields.number(p, "aspectRatio", 0.0, f"{where}.perspective")
+        if 1e-4 <= aspect <= 1e4:
             height = 256
-            self.scene.film_size = (max(1, int(round(height * p["aspectRatio"]))), height)
+            self.scene.film_size = (max(1, int(round(height * aspect))), height)
+        elif aspect != 0:
+            self.warn(f"{where}: aspectRatio {aspect:g} is ignored (not between 1e-4 and 1e4)")
         # glTF cameras look down -z with +y up.
         position = world[:3, 3]
         forward = -world[:3, 2] / np.linalg.norm(world[:3, 2])
         return Camera(position=position, target=position + forward, up=world[:3, 1],
-                      fov_deg=float(np.degrees(p["yfov"])))
+                      fov_deg=float(np.degrees(yfov)), source=str(self.path))
 
-    def _light(self, light: dict, world: np.ndarray) -> None:
-        color = np.asarray(light.get("color", [1, 1, 1]), dtype=np.float64)
-        intensity = float(light.get("intensity", 1.0))
+    def _light(self, light: dict, world: np.ndarray, index: int) -> None:
+        where = f"KHR_lights_punctual.lights[{index}]"
+        color = self.fields.numbers(light, "color", 3, [1, 1, 1], where)
+        intensity = self.fields.number(light, "intensity", 1.0, where)
         if light.get("type") == "directional":
             # The light shines along its node's -z: it arrives from +z.
             self.scene.distant_lights.append(DistantLight(world[:3, 2], color * intensity,
-                                                          source=f"{self.path}: light '{light.get('name', '')}'"))
+                                                          source=str(self.path)))
         else:
             self.warn(f"KHR_lights_punctual '{light.get('type')}' lights are not supported; skipped")
 

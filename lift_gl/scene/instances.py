@@ -43,14 +43,12 @@ MAX_MATERIALS = 0xFFFF
 
 def check_transform(m: np.ndarray, what: str, where: str = "") -> np.ndarray:
     """`m` as a float64 4x4 affine matrix, or a SceneError naming `where` ("file:line")."""
-    from .validate import _where  # late: validate imports the model
+    from .validate import _where, affine_problem  # late: validate imports the model
 
+    problem = affine_problem(m)
+    if problem:
+        raise SceneError(f"{what}: {problem}", *_where(where, None))
     m = np.asarray(m, dtype=np.float64)
-    if m.shape != (4, 4) or not np.isfinite(m).all():
-        raise SceneError(f"{what}: the transform must be a 4x4 matrix of finite numbers", *_where(where, None))
-    if not np.allclose(m[3], [0.0, 0.0, 0.0, 1.0]):
-        raise SceneError(f"{what}: the transform's last row must be [0, 0, 0, 1] (an affine map), got {m[3].tolist()}",
-                         *_where(where, None))
     linear = m[:3, :3]
     scale = float(np.abs(linear).max())
     if not scale > 0 or abs(np.linalg.det(linear)) <= 1e-12 * scale ** 3:

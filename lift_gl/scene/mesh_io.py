@@ -7,6 +7,7 @@ warning; zero-area triangles with distinct indices are kept (the BVH copes with 
 """
 from __future__ import annotations
 
+import io
 import json
 import warnings
 from pathlib import Path
@@ -40,7 +41,12 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
 
     try:
         # Not force="mesh": that route drops the normals stored in the file.
-        tm = trimesh.load(str(path), process=False)
+        text = _obj_as_utf8(path) if path.suffix.lower() == ".obj" else None
+        if text is not None:  # given as UTF-8 without a byte order mark: see _obj_as_utf8
+            tm = trimesh.load(io.BytesIO(text), file_type="obj", process=False,
+                              resolver=trimesh.resolvers.FilePathResolver(str(path)))
+        else:
+            tm = trimesh.load(str(path), process=False)
         if isinstance(tm, trimesh.Scene):  # several meshes (glTF): one, in world space
             tm = tm.to_mesh() if tm.geometry else None
     except Exception as e:  # trimesh raises many kinds; all mean "unreadable"
@@ -69,6 +75,21 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
     source = f"{ref[0]}:{ref[1]}" if ref is not None else str(path)
     return Mesh(path.stem, positions, indices, material, normals=normals, uvs=uvs,
                 source=source)
+
+
+def _obj_as_utf8(path: Path) -> bytes | None:
+    """An OBJ's bytes as UTF-8 without a byte order mark, where the file is not that already
+    (None: it is). trimesh guesses other encodings with charset_normalizer, which lift-gl does
+    not install, and reads a byte order mark as part of the first statement. OBJ's numbers
+    and keywords are ASCII, so a file that is not UTF-8 is read as Latin-1 (a comment, a
+    group or material name in another encoding): every byte is a character there."""
+    data = path.read_bytes()
+    bom = data.startswith(b"\xef\xbb\xbf")
+    try:
+        data.decode("utf-8")
+        return data[3:] if bom else None
+    except UnicodeDecodeError:
+        return data.decode("latin-1").encode("utf-8")
 
 
 # Bytes of each PLY scalar type; a list property has at least its count.

@@ -145,7 +145,10 @@ class _Loader:
         filename = node.get("filename")
         if filename is None:
             raise SceneError("<include> needs a 'filename'", *node.where)
-        path = (self.folder / filename).resolve()
+        try:
+            path = (self.folder / filename).resolve()
+        except (RuntimeError, OSError) as e:  # Python raises RuntimeError for a symlink loop
+            raise SceneError(f"cannot follow the include {filename} ({e})", *node.where) from None
         if path in self.included:
             raise SceneError(f"{filename} is included twice (or includes itself)", *node.where)
         if not path.is_file():
@@ -284,17 +287,17 @@ class _Loader:
         if kind not in SHAPES:
             self.warn(node, f"shape '{kind}' is not supported; skipped", key=("shape", kind))
             return
-        bsdf_node, emission = None, None
+        bsdf_node, emission, emitter = None, None, None
         for child in node.children:
             if child.tag == "bsdf" or (child.tag == "ref" and child.get("name") in (None, "bsdf")):
                 bsdf_node = self.lookup(child.get("id"), child) if child.tag == "ref" else child
                 p.used.add("bsdf")
             elif child.tag == "emitter":
-                emission = self._area_emission(child)
+                emission, emitter = self._area_emission(child), child
             elif child.get("name") is None and child.tag not in IGNORED_SILENTLY:
                 self.warn(child, f"unknown element <{child.tag}> in a shape; ignored", key=("element", child.tag))
         src = f"{node.path}:{node.line}"
-        material = self._material_index(bsdf_node, emission, node)
+        material = self._material_index(bsdf_node, emission, emitter or node)
         if material is None:
             return
         m = p.transform("to_world")
@@ -362,6 +365,7 @@ class _Loader:
         return rgb
 
     def _material_index(self, bsdf_node: Node | None, emission, shape: Node) -> int | None:
+        """`shape`: the emitter's node where there is one (an emitting material is defined there)."""
         if bsdf_node is None:
             base = self.material_ids.get("default")
             if base is None:
@@ -369,7 +373,8 @@ class _Loader:
                 self.material_ids["default"] = base
         else:
             base = self.bsdfs.material(bsdf_node, bsdf_node.get("id") or f"{bsdf_node.get('type')}@{bsdf_node.line}")
-        emissive = emission is not None and np.any(np.asarray(emission) > 0)
+        # Any emission but zero, so that a negative one reaches validate_scene, which refuses it.
+        emissive = emission is not None and bool(np.any(np.asarray(emission) != 0))
         if base is None:  # a null BSDF: invisible unless it emits
             if not emissive:
                 self.warn(shape, "a shape with a null BSDF (invisible) is skipped", key=("null",))
@@ -381,7 +386,7 @@ class _Loader:
             if emissive:
                 from dataclasses import replace
                 m = replace(base, name=f"{base.name}+emitter{len(self.material_ids)}",
-                            emission=np.asarray(emission, dtype=np.float64))
+                            emission=np.asarray(emission, dtype=np.float64), source=f"{shape.path}:{shape.line}")
             self.scene.materials.append(m)
             self.material_ids[key] = len(self.scene.materials) - 1
         return self.material_ids[key]
@@ -406,7 +411,8 @@ class _Loader:
                     raise SceneError(f"{e.message}: {self.folder / filename}", *node.where) from None
                 scale = p.float("scale", 1.0)
                 self.scene.environment = Environment(np.full(3, scale), image=image,
-                                                     to_world=p.transform("to_world")[:3, :3], source=src)
+                                                     to_world=p.transform("to_world")[:3, :3], source=src,
+                                                     image_file=str(self.folder / filename))
                 p.used.update({"gamma", "cache", "mis_compensation"})
             p.used.add("sampling_weight")
             p.warn_unused()

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..errors import SceneError
 from . import primitives as prim
+from .validate import affine_problem
 from .xml_tree import Node
 
 PROPERTY_TAGS = {"float", "integer", "boolean", "string", "rgb", "srgb", "spectrum", "point",
@@ -119,6 +120,9 @@ def parse_transform(node: Node, warn) -> np.ndarray:
                 t[:3, :3] = np.asarray(v).reshape(3, 3)
             else:
                 raise SceneError(f"<matrix> needs 16 (or 9) values, got {len(v)}", *op.where)
+            problem = affine_problem(t)
+            if problem:
+                raise SceneError(f"<matrix>: {problem}", *op.where)
         elif op.tag == "lookat":
             t = lookat_matrix(op)
         else:

@@ -28,6 +28,7 @@ class Camera:
     # Scene times at which the shutter opens and closes; objects with a velocity move
     # between them (motion blur). Time is in the same unit as the objects' velocities.
     shutter: tuple[float, float] = (0.0, 1.0)
+    source: str = ""  # "file:line" where it was defined, for error messages
 
     def __post_init__(self):
         self.position = np.asarray(self.position, dtype=np.float64)
@@ -183,6 +184,7 @@ class Environment:
     image: np.ndarray | None = None
     to_world: np.ndarray = field(default_factory=lambda: np.eye(3))
     source: str = ""
+    image_file: str = ""  # the map's file, for messages
 
     def __post_init__(self):
         self.radiance = np.asarray(self.radiance, dtype=np.float64)
@@ -261,6 +263,10 @@ class Scene:
     film_size: tuple[int, int] = (256, 256)  # width, height the scene file asks for
     pixel_filter: PixelFilter | None = None  # None: a box over each rendered pixel
     path: Path | None = None
+    # The world point that becomes the GPU coordinates' zero, where validate_scene found that the
+    # centre of the scene's bounds cannot hold every object in float32 (scene/precision.py);
+    # None: that centre (pack_scene computes it).
+    gpu_origin: np.ndarray | None = None
 
     @property
     def has_motion(self) -> bool:

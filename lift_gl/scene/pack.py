@@ -14,7 +14,8 @@ blend of the two, which bounds every triangle below the node at t (motion is lin
 Coordinates are rebased before they are rounded to float32: the GPU sees world space minus
 `origin` (the centre of the scene's bounds, kept in float64), so a scene far from the world
 origin (1e5 away) keeps the precision it has at the origin. Cameras must be rebased with
-`to_gpu_camera` too.
+`to_gpu_camera` too. Where that centre cannot hold every object in float32, validate_scene
+chose the camera's position instead (Scene.gpu_origin, scene/precision.py).
 """
 from __future__ import annotations
 
@@ -234,6 +235,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     if scene.instances:
         flat, traced = split_instances(scene)
         scene = dataclasses.replace(scene, meshes=list(scene.meshes) + flat, prototypes=[], instances=[])
+    if origin is None and scene.gpu_origin is not None:  # the camera's position (scene/precision.py)
+        origin = scene.gpu_origin
     if origin is None:
         origin = scene_origin(scene, instance_world_bounds(instanced, traced) if traced else None)
     origin = np.asarray(origin, dtype=np.float64)
@@ -302,7 +305,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
     light_prims, light_power, light_area = [], [], []
     if T_world:  # instanced triangles never emit: emissive instances are flattened
-        p = world_positions
+        p = world_positions.astype(np.float64)  # float32's squares overflow beyond edges of 1e19
         tri_area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
         tri_power = (emission[material_ids[:T_world]] @ LUMINANCE) * tri_area
         emissive = np.nonzero((tri_power > 0) & first_copy)[0]

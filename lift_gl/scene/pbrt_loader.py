@@ -38,6 +38,7 @@ from .mesh_io import load_mesh_file
 from .model import Camera, DistantLight, Environment, Instance, Material, Mesh, Scene, film_filter
 from .optics import ior_from_f0
 from .texture_files import FLOAT_EXTENSIONS, TextureLibrary, read_environment_image
+from .validate import affine_problem
 
 # --- tokens -------------------------------------------------------------------------------
 
@@ -71,6 +72,8 @@ def tokenize(text: str, path) -> list[Token]:
         elif kind == "num":
             tokens.append(Token("num", float(m.group()), line))
         elif kind == "name":
+            if m.group().lower() in ("nan", "inf", "infinity"):
+                raise SceneError(f"'{m.group()}' is not a number lift-gl accepts: values must be finite", path, line)
             tokens.append(Token("name", m.group(), line))
         elif kind in ("open", "close"):
             tokens.append(Token("[" if kind == "open" else "]", None, line))
@@ -328,6 +331,7 @@ class _State:
     reverse: bool = False
     material: Material | None = None
     emission: np.ndarray | None = None
+    emission_source: str = ""  # "file:line" of the AreaLightSource
 
 
 IGNORED = {"Sampler", "Accelerator", "WorldEnd", "ColorSpace", "Option"}
@@ -358,12 +362,12 @@ class _Builder:
     # dispatch
     def run(self, path: Path, included_at: Statement | None = None):
         where = (included_at.path, included_at.line) if included_at else (path, None)
-        if path.resolve() in self.including:
+        if _resolved(path, where) in self.including:
             raise SceneError(f"Include cycle: {path} includes itself", *where)
         if not path.is_file():
             raise SceneError(f"included file not found: {path}", *where)
         self.including.append(path.resolve())
-        text = path.read_text(encoding="utf-8", errors="replace")
+        text = path.read_text(encoding="utf-8", errors="replace").removeprefix("\ufeff")  # a byte order mark
         for st in statements(tokenize(text, path), path):
             handler = getattr(self, "do_" + st.name, None)
             if st.name in IGNORED:
@@ -436,7 +440,11 @@ class _Builder:
 
     def _matrix(self, st):
         # pbrt lists the matrix column by column.
-        return np.asarray(self._positional(st, 16)).reshape(4, 4).T
+        m = np.asarray(self._positional(st, 16)).reshape(4, 4).T
+        problem = affine_problem(m)
+        if problem:
+            raise SceneError(f"{st.name}: {problem}", st.path, st.line)
+        return m
 
     def do_Transform(self, st):
         self.state.ctm = self._matrix(st)
@@ -547,6 +555,9 @@ class _Builder:
     def do_Film(self, st):
         kind, ps = self._kind_and_params(st)
         self.scene.film_size = (ps.int("xresolution", 1280), ps.int("yresolution", 720))
+        if min(self.scene.film_size) <= 0:
+            raise SceneError(f"Film '{kind}': xresolution and yresolution must be positive, got "
+                             f"{self.scene.film_size[0]} x {self.scene.film_size[1]}", st.path, st.line)
         ps.warn_unused(f"Film '{kind}'", ignore=("filename",))
 
     def do_Camera(self, st):
@@ -693,6 +704,7 @@ class _Builder:
             warn_at(st.path, st.line, "two-sided area lights are not supported; the light "
                     "emits from its front side only")
         self.state.emission = ps.spectrum("L", [1, 1, 1]) * ps.spectrum("scale", [1, 1, 1])
+        self.state.emission_source = f"{st.path}:{st.line}"
         ps.warn_unused("AreaLightSource")
 
     def do_LightSource(self, st):
@@ -708,7 +720,8 @@ class _Builder:
             if mapname is not None:
                 image = read_environment_image_at(self.root.parent / mapname, st)
             self.scene.environment = Environment(radiance, image=image, to_world=linear @ PBRT_TO_MAP.T,
-                                                 source=f"{st.path}:{st.line}")
+                                                 source=f"{st.path}:{st.line}",
+                                                 image_file=str(self.root.parent / mapname) if mapname else "")
             ps.warn_unused("LightSource 'infinite'", ignore=("samples", "nsamples"))
         elif kind == "distant":
             source, target = ps.floats("from", 3, ("point",)), ps.floats("to", 3, ("point",))
@@ -725,13 +738,14 @@ class _Builder:
 
     def _material_index(self) -> int:
         base, emission = self.state.material, self.state.emission
-        emissive = emission is not None and np.any(emission > 0)
+        # Any emission but zero, so that a negative one reaches validate_scene, which refuses it.
+        emissive = emission is not None and bool(np.any(emission != 0))
         key = (id(base), tuple(emission) if emissive else None)
         if key not in self.material_ids:
             m = base
             if emissive:  # its own copy, so other shapes with this material don't glow
                 m = replace(base, name=f"{base.name}+light{len(self.material_ids)}",
-                            emission=np.asarray(emission, dtype=np.float64))
+                            emission=np.asarray(emission, dtype=np.float64), source=self.state.emission_source)
             self.scene.materials.append(m)
             self.material_ids[key] = len(self.scene.materials) - 1
         return self.material_ids[key]
@@ -815,6 +829,14 @@ class _Builder:
         self.run(self.root.parent / self._positional(st, 1, str)[0], included_at=st)
 
     do_Import = do_Include
+
+
+def _resolved(path: Path, where) -> Path:
+    """The file an Include names, with symbolic links followed; a link loop is refused."""
+    try:
+        return path.resolve(strict=False)
+    except (RuntimeError, OSError) as e:  # Python raises RuntimeError for a symlink loop
+        raise SceneError(f"cannot follow the include {path} ({e})", *where) from None
 
 
 def read_environment_image_at(path: Path, st: Statement) -> np.ndarray:

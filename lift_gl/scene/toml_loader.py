@@ -20,6 +20,7 @@ from .mesh_io import load_mesh_file
 from .instances import check_transform
 from .model import Camera, DistantLight, Environment, Instance, Material, Scene, film_filter
 from .texture_files import TextureLibrary, read_environment_image
+from .validate import camera_problem
 
 # RGB complex indices of refraction (eta, k) at roughly 650/550/450 nm.
 METALS = {
@@ -89,6 +90,10 @@ class SourceMap:
             return None
         if key is not None and key in t["keys"]:
             return t["keys"][key]
+        if key is not None:  # a table written as a header ([key] or [key.sub]): the header's line
+            header = next((u for u in self.tables if u["name"][:len(name) + 1] == (*name, key)), None)
+            if header is not None:
+                return header["line"]
         return t["line"]
 
 
@@ -179,7 +184,7 @@ class _Reader:
             self.error(key, f"'{key}' in {self.label} must be a string, not {_show(v)}")
         return v
 
-    def vec3(self, key, default=None, scalar_ok=False, nonnegative=False):
+    def vec3(self, key, default=None, scalar_ok=False):
         if key not in self.data:
             return None if default is None else np.asarray(default, dtype=np.float64)
         v = self.data[key]
@@ -192,10 +197,9 @@ class _Reader:
             self.error(key, f"'{key}' in {self.label} must be {shape}a list of 3 numbers, "
                        f"not {_show(v)}")
         a = np.asarray(v, dtype=np.float64)
-        if not np.isfinite(a).all() or (nonnegative and (a < 0).any()):
-            self.error(key, f"'{key}' in {self.label} must be finite"
-                       + (" and non-negative" if nonnegative else "") + f", got {v}")
-        return a
+        if not np.isfinite(a).all():
+            self.error(key, f"'{key}' in {self.label} must be finite, got {v}")
+        return a  # signs and ranges: validate_scene's rules, the same for every format
 
 
 class _InlineReader(_Reader):
@@ -325,19 +329,16 @@ def _read_camera(ctx, data) -> Camera:
             r.error(None, f"[camera] needs '{key}'")
     position, target = r.vec3("position"), r.vec3("target")
     up = r.vec3("up", [0, 1, 0])
-    forward = target - position
-    if np.linalg.norm(forward) == 0:
-        r.error("target", "camera 'target' equals 'position'")
-    if np.linalg.norm(np.cross(forward, up)) < 1e-9 * np.linalg.norm(forward) * max(
-            np.linalg.norm(up), 1e-30):
-        r.error("up", "camera 'up' is parallel to the viewing direction")
+    problem = camera_problem(position, target, up)
+    if problem:
+        r.error("up" if "parallel" in problem else "target", problem)
     fov = r.number("fov", 40.0, positive=True)
     if fov >= 180:
         r.error("fov", f"'fov' must be below 180 degrees, got {fov}")
     return Camera(position=position, target=target, up=up, fov_deg=fov,
                   aperture_radius=r.number("aperture", 0.0, minimum=0.0),
                   focus_distance=r.number("focus_distance", None, positive=True),
-                  shutter=_read_shutter(r))
+                  shutter=_read_shutter(r), source=f"{ctx.path}:{r.line()}")
 
 
 def _read_shutter(r) -> tuple[float, float]:
@@ -372,7 +373,7 @@ def _read_motion(r):
 def _read_environment(ctx, data) -> Environment:
     r = ctx.reader(data, ("environment",))
     r.check_keys({"radiance", "map", "rotate"})
-    radiance = r.vec3("radiance", [1, 1, 1], scalar_ok=True, nonnegative=True)
+    radiance = r.vec3("radiance", [1, 1, 1], scalar_ok=True)
     file = r.string("map")
     if file is None:
         if r.has("rotate"):
@@ -383,7 +384,8 @@ def _read_environment(ctx, data) -> Environment:
     except SceneError as e:
         r.error("map", f"{e.message}: {ctx.path.parent / file}")
     to_world = prim.euler_matrix(r.vec3("rotate", [0, 0, 0]))[:3, :3]
-    return Environment(radiance, image=image, to_world=to_world, source=f"{ctx.path}:{r.line()}")
+    return Environment(radiance, image=image, to_world=to_world, source=f"{ctx.path}:{r.line()}",
+                       image_file=str(ctx.path.parent / file))
 
 
 def _read_light(ctx, i, data) -> DistantLight:
@@ -398,7 +400,7 @@ def _read_light(ctx, i, data) -> DistantLight:
     direction = r.vec3("direction")
     if not np.linalg.norm(direction) > 0:
         r.error("direction", "'direction' must not be zero")
-    return DistantLight(direction, r.vec3("irradiance", [1, 1, 1], scalar_ok=True, nonnegative=True),
+    return DistantLight(direction, r.vec3("irradiance", [1, 1, 1], scalar_ok=True),
                         source=f"{ctx.path}:{r.line()}")
 
 
@@ -413,8 +415,8 @@ def _read_material(ctx, name, data, textures) -> Material:
     source = f"{ctx.path}:{r.line()}"
     m = Material(name=name, type=kind, source=source,
                  base_color=r.vec3("color", [0.8, 0.8, 0.8] if kind == "diffuse" else [1, 1, 1],
-                                   scalar_ok=True, nonnegative=True),
-                 emission=r.vec3("emission", [0, 0, 0], scalar_ok=True, nonnegative=True))
+                                   scalar_ok=True),
+                 emission=r.vec3("emission", [0, 0, 0], scalar_ok=True))
     if r.has("texture"):
         m.texture = textures.load(ctx.path.parent / r.string("texture"), srgb=True,
                                   where=(ctx.path, r.line("texture")))
@@ -422,10 +424,11 @@ def _read_material(ctx, name, data, textures) -> Material:
         return m
     if r.has("roughness") and r.has("alpha"):
         r.error("alpha", f"material '{name}' gives both 'roughness' and 'alpha'; use one")
-    if r.has("roughness"):
-        m.alpha = r.number("roughness", minimum=0.0) ** 2  # perceptual roughness
+    if r.has("roughness"):  # perceptual roughness; the sign kept for validate_scene's rule
+        roughness = r.number("roughness")
+        m.alpha = roughness * abs(roughness)
     else:
-        m.alpha = r.number("alpha", 0.0, minimum=0.0)
+        m.alpha = r.number("alpha", 0.0)
     if kind in ("dielectric", "plastic"):
         m.ior = r.number("ior", 1.5, positive=True)
         if kind == "plastic":
@@ -442,8 +445,8 @@ def _read_material(ctx, name, data, textures) -> Material:
     elif r.has("eta") or r.has("k"):
         if not (r.has("eta") and r.has("k")):
             r.error("eta" if r.has("eta") else "k", f"material '{name}' needs both 'eta' and 'k'")
-        m.eta = r.vec3("eta", scalar_ok=True, nonnegative=True)
-        m.k = r.vec3("k", scalar_ok=True, nonnegative=True)
+        m.eta = r.vec3("eta", scalar_ok=True)
+        m.k = r.vec3("k", scalar_ok=True)
     return m
 
 

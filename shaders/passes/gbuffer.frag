@@ -6,7 +6,8 @@
 #include "lift/textures.glsl"
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
-uniform float u_inv_far;  // depth test on linear view depth (see lift_gl/passes/gbuffer.py)
+uniform float u_inv_depth_scale;      // the depth test's depth (lift_gl/passes/camera.py DEPTH_STEPS)
+uniform float u_inv_log_depth_range;
 flat in uint v_prim;
 in vec2 v_bary;
 in vec3 v_normal;
@@ -35,7 +36,7 @@ void main() {
     vec3 n = length(v_normal) > 0.0 ? normalize(v_normal) : vec3(0.0, 0.0, 1.0);
     if (dot(n, u_cam_pos - v_world) < 0.0) n = -n;
     float view_depth = dot(v_world - u_cam_pos, u_cam_forward);
-    gl_FragDepth = clamp(view_depth * u_inv_far, 0.0, 1.0);
+    gl_FragDepth = clamp(log2(1.0 + max(view_depth, 0.0) * u_inv_depth_scale) * u_inv_log_depth_range, 0.0, 1.0);
     o_normal_depth = vec4(n, view_depth);
 #ifdef LIFT_MOTION_VECTORS
     o_motion = motion_vector(v_world, v_prev_world, view_depth);

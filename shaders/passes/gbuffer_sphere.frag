@@ -3,7 +3,8 @@
 #include "lift/textures.glsl"
 uniform vec3 u_cam_pos;
 uniform vec3 u_cam_forward;
-uniform float u_inv_far;  // depth test on linear view depth (see lift_gl/passes/gbuffer.py)
+uniform float u_inv_depth_scale;      // the depth test's depth (lift_gl/passes/camera.py DEPTH_STEPS)
+uniform float u_inv_log_depth_range;
 flat in uint v_sphere;
 in vec3 v_world;
 layout(location = 0) out uvec4 o_visibility;
@@ -27,7 +28,7 @@ void main() {
     if (t <= 0.0) discard;
     vec3 p = u_cam_pos + t * d;
     float view_depth = dot(p - u_cam_pos, u_cam_forward);
-    gl_FragDepth = clamp(view_depth * u_inv_far, 0.0, 1.0);
+    gl_FragDepth = clamp(log2(1.0 + max(view_depth, 0.0) * u_inv_depth_scale) * u_inv_log_depth_range, 0.0, 1.0);
     uint material = floatBitsToUint(spheres[2u * v_sphere + 1u].x);
     o_visibility = uvec4(u_num_triangles + v_sphere + 1u, 0u, 0u, material);
     vec3 n = normalize(p - cr.xyz);
