@@ -383,10 +383,36 @@ def _bad_exr() -> bytes:
 # fails its (strict xfail) test until its name is removed here.
 OPEN: dict[str, str] = {}
 
+# Cases that parts A and B of issue 32 handle in changes not yet committed (at commit 3b0e4e0
+# they fail): their tests may fail (a non-strict xfail) until those changes are committed;
+# then this set is emptied and the cases hold like the rest.
+PENDING = {
+    "i32-1-toml-film-1e12-triangle", "i32-2-toml-instance-at-3.5e38", "i32-3-env-texel-minus-100",
+    "i32-3-env-texel-nan", "i32-3-env-all-nan", "i32-4-pbrt-negative-area-light",
+    "i32-4-mitsuba-negative-area-emitter", "i32-4-gltf-negative-directional-light", "i32-5-path-looks-along-up",
+    "i32-6-pbrt-include-fanout-20", "i32-6-pbrt-200000-instances", "i32-8-texture-decompression-bomb",
+    "i32-8-pbrt-include-symlink-loop", "i32-8-mitsuba-include-symlink-loop", "i32-8-gltf-top-level-array",
+    "i32-8-gltf-emissive-strength-string", "i32-8-gltf-light-intensity-string", "i32-10-texture-10000x10000",
+    "i32-11-plugin-entry-outside", "i32-11-plugin-include-outside", "i32-11-plugin-entry-links-outside",
+    "i32-12-toml-bom", "i32-12-pbrt-bom", "i32-12-manifest-bom", "i32-12-path-bom", "i32-12-gltf-bom",
+    "i32-12-obj-latin1-comment", "i32-12-env-bad-exr-header", "i32-12-pbrt-nan", "i32-12-pbrt-xresolution-0", "i32-12-toml-unknown-table",
+    "i32-13-toml-empty-scene", "i32-13-pbrt-repeated-index", "i32-13-gltf-negative-roughness",
+    "i32-13-gltf-missing-texture", "i32-13-pbrt-projective-transform", "i32-13-mitsuba-projective-transform",
+}
+
 # Escapes the fuzzer still finds, known and left to parts A and B of issue 32: (target, kind,
 # a regular expression of the message, who). The test suite's sample tolerates these (and
 # counts them); the benchmark counts them as escapes.
 KNOWN_ESCAPES: list[tuple[str, str, str, str]] = [
+    # Pending: handled by parts A and B in changes not yet committed (see PENDING).
+    ("texture image", "internal", r"DecompressionBombError", "pending: pillow's size limit, before reading"),
+    ("environment map", "internal", r"DecompressionBombError", "pending: pillow's size limit, before reading"),
+    ("environment map", "value", r"non-finite environment map texels", "pending: NaN/Inf texels repaired"),
+    ("environment map", "value", r"negative environment map texels", "pending: negative texels repaired"),
+    ("environment map", "printed", r"Exception raised reading pixel data", "pending: EXR size checked first"),
+    ("reference image", "memory", r"Unable to allocate", "pending: the image's size checked before reading"),
+    ("camera path", "value", r"camera basis", "pending: keyframes validated as scene cameras"),
+    # Open: no part has a change for these yet.
     ("camera path", "exception", r"TypeError: ('\w+' object is not iterable|unhashable type)",
      "lift_gl/camera_path.py: 'keyframe' or 'move' that is not an array of tables ('keyframe = nan')"),
     ("pbrt scene", "internal", r"ValueError: embedded null byte",

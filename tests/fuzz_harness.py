@@ -28,6 +28,7 @@ the corpus) and benchmarks/fuzz_loaders.py (10,000 cases a row, counted).
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import resource
 import shutil
@@ -206,16 +207,28 @@ def limits():
                 signal.signal(sig, handler)
 
 
+def _flush_c_streams() -> None:
+    import ctypes
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):
+        pass
+
+
 @contextlib.contextmanager
 def captured_output():
-    """What the loader writes to file descriptors 1 and 2 (C libraries print there past
-    Python's sys.stdout), as a list that holds the text once the block ends."""
+    """What the loader prints: to sys.stdout and sys.stderr, and to file descriptors 1 and 2
+    (C libraries write there past Python's streams); a list that holds the text once the
+    block ends."""
     printed: list[str] = []
     import sys
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):
             stream.flush()
-    with tempfile.TemporaryFile() as sink:
+    _flush_c_streams()
+    python_text = io.StringIO()  # Python-level prints (pybind11's py::print writes to sys.stdout)
+    with tempfile.TemporaryFile() as sink, contextlib.redirect_stdout(python_text), \
+            contextlib.redirect_stderr(python_text):
         saved = [os.dup(1), os.dup(2)]
         os.dup2(sink.fileno(), 1)
         os.dup2(sink.fileno(), 2)
@@ -225,12 +238,13 @@ def captured_output():
             for stream in (sys.stdout, sys.stderr):
                 with contextlib.suppress(Exception):
                     stream.flush()
+            _flush_c_streams()  # what C and C++ libraries buffered (OpenEXR's warnings)
             os.dup2(saved[0], 1)
             os.dup2(saved[1], 2)
             os.close(saved[0])
             os.close(saved[1])
             sink.seek(0)
-            printed.append(sink.read().decode("utf-8", "replace"))
+            printed.append(sink.read().decode("utf-8", "replace") + python_text.getvalue())
 
 
 def _chain(exc: BaseException):
