@@ -53,7 +53,8 @@ def worker(target_name: str, cases: int, seed: int, root: Path, out: Path) -> No
     from fuzz_harness import BY_NAME, Escape, check_case, save_case
 
     target = BY_NAME[target_name]
-    emit = os.fdopen(os.dup(1), "w", buffering=1)  # the pipe; fd 1 itself is captured per case
+    emit = os.fdopen(os.dup(1), "w", buffering=1)  # the pipe to the parent
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)  # so that nothing else written to stdout reaches it
     kept: Counter = Counter()
     number = [0]
 
@@ -124,7 +125,10 @@ def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> di
                     elif not finished:
                         raise RuntimeError(f"the {name} worker failed to start (exit {proc.returncode})")
                     break
-                record = json.loads(line)
+                try:
+                    record = json.loads(line)
+                except ValueError:
+                    continue  # not the worker's line
                 if "start" in record:
                     current = record
                     continue
