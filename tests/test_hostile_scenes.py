@@ -248,6 +248,41 @@ def test_a_huge_floor_alone_renders_as_a_small_one(tmp_path):
     assert np.abs(image - expected).mean() < 0.01 * expected.mean()
 
 
+def test_a_sphere_too_large_for_what_lies_on_it_is_refused(tmp_path):
+    """A unit box on a sphere of radius 1e6 cast no shadow (rays left the sphere 7.6 away), on one of
+    1e9 it was noise; a sphere is not split as triangles are. Radius 1e3 is held."""
+    text = ('[camera]\nposition = [0, 1.5, 4]\ntarget = [0, 0.5, 0]\n\n[[lights]]\ndirection = [0.3, 1, 0.5]\n\n'
+            '[[objects]]\ntype = "sphere"\ncenter = [0, -{r}, 0]\nradius = {r}\n\n[[objects]]\ntype = "box"\n'
+            'center = [0, 0.5, 0]\n')
+    (tmp_path / "planet.toml").write_text(text.format(r=1e6))
+    err = refused(tmp_path / "planet.toml")
+    assert err.line == 8 and "sphere #1: radius 1e+06, too large for mesh 'box2'" in err.message
+    (tmp_path / "planet.toml").write_text(text.format(r=1e3))
+    assert len(load(tmp_path / "planet.toml")[0].spheres) == 1
+
+
+@pytest.mark.parametrize("table, words", [
+    ('[environment]\nradiance = 3e38\n', "environment radiance must be 3 finite values (at most 1e+30)"),
+    ('[materials.sun]\nemission = 1e38\n', "material 'sun': emission must be 3 finite values (at most 1e+30)"),
+])
+def test_light_beyond_what_float32_sums_hold_is_refused(tmp_path, table, words):
+    """An environment of 3e38 (finite in float32) gave NaN pixels: two samples' sum overflows."""
+    (tmp_path / "s.toml").write_text(table + '\n[[objects]]\ntype = "sphere"\n')
+    assert words in refused(tmp_path / "s.toml").message
+
+
+def test_reflectance_above_one_and_bad_texture_coordinates_are_reported():
+    mesh = Mesh("tri", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], 0, uvs=[[0, 0], [np.nan, 0], [0, 1]])
+    scene = Scene(camera=Camera([0, 0, 3], [0, 0, 0]), materials=[Material("bright", base_color=[1e30, 0.5, 0.5])],
+                  meshes=[mesh])
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        validate_scene(scene)
+    messages = [str(w.message) for w in record]
+    assert any("material 'bright': a reflectance above 1 (1e+30)" in m for m in messages), messages
+    assert any("mesh 'tri': NaN/Inf texture coordinates" in m for m in messages) and mesh.uvs is None
+
+
 def test_a_scene_too_small_for_float32_is_refused(tmp_path):
     (tmp_path / "tiny.toml").write_text('[[objects]]\ntype = "quad"\nu = [2e-12, 0, 0]\nv = [0, 2e-12, 0]\n')
     assert "only 2e-12 across" in refused(tmp_path / "tiny.toml").message
@@ -282,11 +317,12 @@ def test_quantized_wide_boxes_hold_tiny_boxes_far_apart():
     """The 8-bit child boxes of the 4-wide BVH round outwards even where a node spans 1e8 and
     its children are 1e-3 wide: decoded as the GLSL decodes them, they hold the float boxes."""
     from lift_gl.accel.bvh import build_bvh
-    from lift_gl.accel.wide import EMPTY, collapse, decoded_boxes, quantize
+    from lift_gl.accel.wide import EMPTY, decoded_boxes, quantize
+    from lift_gl.accel.wide_sah import collapse_sah
 
     rng = np.random.default_rng(5)
     clusters = [rng.random((40, 3, 3)) * 1e-3 + offset for offset in (0.0, 1e8, -3e7)]
-    wide = collapse(build_bvh(np.concatenate(clusters).astype(np.float32)).nodes)
+    wide = collapse_sah(build_bvh(np.concatenate(clusters).astype(np.float32)).nodes)
     q = quantize(wide)
     assert q is not None
     lo, hi, entries = decoded_boxes(wide)

@@ -20,6 +20,8 @@ to hit it again (shaders/lift/surface.glsl, offset_ray_origin_scaled). Hence:
   that normalises a triangle's normal. Edges are split, not triangles, so both triangles of a
   shared edge get the same new vertex and the surface stays watertight; its shape, normals and
   texture coordinates are unchanged (interpolated linearly, as the GPU does).
+- A sphere cannot be split: one whose surface passes near an object 2^14 times smaller than
+  its coordinates is refused (sphere_problem; a unit box on a sphere of radius 1e6 cast no shadow).
 - A scene smaller than MIN_EXTENT (2^-20) across is refused: the fourth powers of its lengths
   (squared normals) fall below float32's smallest normal number.
 """
@@ -145,6 +147,33 @@ def choose_origin(scene, extents: list[Extent]) -> tuple[np.ndarray | None, list
     if not camera:
         return np.array(scene.camera.position, dtype=np.float64), []
     return (None, centre) if len(centre) < len(camera) else (np.array(scene.camera.position, dtype=np.float64), camera)
+
+
+def sphere_problem(scene, extents: list[Extent], origin: np.ndarray) -> tuple[str, str] | None:
+    """(message, source) for a sphere too large for an object lying near its surface (a box on a
+    'planet'), or None. A sphere cannot be split as triangles are: rays leave it (|centre| +
+    radius) 2^-18 away, which must stay below 1/16 of the sizes of what touches it (a unit
+    box on a sphere of radius 1e6 casts no shadow: rays leave the sphere 7.6 away)."""
+    if not scene.spheres or len(extents) < 2:
+        return None
+    lo = np.array([e.lo for e in extents])
+    hi = np.array([e.hi for e in extents])
+    sizes = (hi - lo).max(axis=1)
+    for i, s in enumerate(scene.spheres):
+        scale = float(np.abs(s.center - origin).max()) + s.radius
+        small = sizes * MAX_DISTANCE_PER_SIZE < scale
+        if not small.any():
+            continue
+        nearest = np.linalg.norm(np.maximum(0.0, np.maximum(lo - s.center, s.center - hi)), axis=1)
+        farthest = np.linalg.norm(np.maximum(np.abs(lo - s.center), np.abs(hi - s.center)), axis=1)
+        near = small & (nearest <= s.radius + sizes) & (farthest >= s.radius - sizes)
+        near &= [e.what != f"sphere #{i + 1}" for e in extents]
+        if near.any():
+            k = int(np.flatnonzero(near)[np.argmin(sizes[near])])
+            return (f"sphere #{i + 1}: radius {s.radius:.3g}, too large for {extents[k].what} ({sizes[k]:.3g} across) "
+                    f"near its surface: rays leave the sphere {scale / 262144:.3g} away there; model the large "
+                    "surface as a mesh (lift-gl splits large triangles) or make it smaller", s.source)
+    return None
 
 
 def smallest_size(extents: list[Extent]) -> float:

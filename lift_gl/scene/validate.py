@@ -35,6 +35,9 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 # Vertices beyond this (in world coordinates) are dropped as if they were Inf.
 MAX_COORDINATE = precision.MAX_COORDINATE
 MAX_DEPTH = 1_000_000
+# Emitted radiance and irradiance: a pixel's samples are summed in float32, and two samples
+# of 3e38 already overflow (an environment of 3e38 gave NaN pixels).
+MAX_RADIANCE = 1e30
 # The camera's up may not be closer to its view direction than this (the sine of the angle).
 MIN_UP_SINE = 1e-9
 
@@ -86,11 +89,12 @@ def affine_problem(m) -> str | None:
     return None
 
 
-def colour_problem(value, what: str) -> str | None:
-    """Colours, emission, irradiance, radiance and complex IOR: 3 finite values >= 0."""
+def colour_problem(value, what: str, limit: float = FLOAT32_MAX) -> str | None:
+    """Colours, emission, irradiance, radiance and complex IOR: 3 finite values >= 0 (light:
+    at most MAX_RADIANCE)."""
     v = np.asarray(value, dtype=np.float64)
-    if v.shape != (3,) or not _finite(v):
-        return f"{what} must be 3 finite values (at most {FLOAT32_MAX:.3g}), got {v.tolist()}"
+    if v.shape != (3,) or not _finite(v, limit):
+        return f"{what} must be 3 finite values (at most {limit:.3g}), got {v.tolist()}"
     if (v < 0).any():
         return f"{what} must not be negative, got {v.tolist()}"
     return None
@@ -128,7 +132,7 @@ def validate_scene(scene: Scene) -> Scene:
 
     _check_lights(scene, fail, warn)
     _check_materials(scene, fail, warn)
-    _check_geometry(scene, fail)
+    _check_geometry(scene, fail, warn)
     check_instances(scene)
     _check_precision(scene, fail, warn)
     return scene
@@ -137,7 +141,7 @@ def validate_scene(scene: Scene) -> Scene:
 def _check_lights(scene: Scene, fail, warn) -> None:
     env = scene.environment
     if env is not None:
-        problem = colour_problem(env.radiance, "environment radiance")
+        problem = colour_problem(env.radiance, "environment radiance", MAX_RADIANCE)
         if problem:
             fail(problem, env.source)
         if env.image is not None:
@@ -147,7 +151,7 @@ def _check_lights(scene: Scene, fail, warn) -> None:
         if not (np.shape(light.direction) == (3,) and _finite(light.direction)):
             fail(f"{what}: the direction must be 3 finite numbers, not zero, got {np.asarray(light.direction).tolist()}",
                  light.source)
-        problem = colour_problem(light.irradiance, f"{what}: irradiance")
+        problem = colour_problem(light.irradiance, f"{what}: irradiance", MAX_RADIANCE)
         if problem:
             fail(problem, light.source)
 
@@ -172,8 +176,9 @@ def _repair_environment_image(env, fail, warn) -> None:
         env.image = np.where(finite & (image > 0), image, 0.0).astype(np.float32)
     with np.errstate(over="ignore"):
         brightest = float(env.image.max()) * float(np.max(env.radiance))
-    if not brightest <= FLOAT32_MAX:
-        fail(f"{name}: its brightest texel times the radiance scale is {brightest:.3g}, beyond float32", env.source)
+    if not brightest <= MAX_RADIANCE:
+        fail(f"{name}: its brightest texel times the radiance scale is {brightest:.3g}, more than {MAX_RADIANCE:g}",
+             env.source)
 
 
 def _check_materials(scene: Scene, fail, warn) -> None:
@@ -182,9 +187,12 @@ def _check_materials(scene: Scene, fail, warn) -> None:
         if m.type not in MATERIAL_TYPES:
             fail(f"{what}: unknown type '{m.type}'", m.source)
         for field in ("base_color", "emission", "specular"):
-            problem = colour_problem(getattr(m, field), f"{what}: {field}")
+            problem = colour_problem(getattr(m, field), f"{what}: {field}", MAX_RADIANCE if field == "emission" else FLOAT32_MAX)
             if problem:
                 fail(problem, m.source)
+        if m.texture is None and max(m.base_color.max(), m.specular.max()) > 1:  # a texture may be scaled by it
+            warn(f"{what}: a reflectance above 1 ({max(m.base_color.max(), m.specular.max()):g}) reflects more light "
+                 "than it receives; kept, but paths through it gain energy", m.source)
         for field in ("eta", "k"):
             v = getattr(m, field)
             problem = None if v is None else colour_problem(v, f"{what}: {field}")
@@ -199,7 +207,7 @@ def _check_materials(scene: Scene, fail, warn) -> None:
             fail(f"{what}: ior must be finite and > 0, got {m.ior}", m.source)
 
 
-def _check_geometry(scene: Scene, fail) -> None:
+def _check_geometry(scene: Scene, fail, warn) -> None:
     count = len(scene.materials)
     for mesh in (*scene.meshes, *scene.prototypes):
         where = mesh.source or mesh.name
@@ -222,6 +230,8 @@ def _check_geometry(scene: Scene, fail) -> None:
         mesh.positions, mesh.indices, mesh.normals, mesh.uvs = clean_triangles(
             positions, mesh.indices, mesh.normals, mesh.uvs, f"{where} (mesh '{mesh.name}')")
         if mesh.uvs is not None and not np.isfinite(mesh.uvs).all():
+            warn(f"mesh '{mesh.name}': NaN/Inf texture coordinates; it is drawn without them (its texture's "
+                 "corner texel)", mesh.source)
             mesh.uvs = None
     for s in scene.spheres:
         if not 0 <= s.material < count:
@@ -251,6 +261,9 @@ def _check_precision(scene: Scene, fail, warn) -> None:
         fail(worst.message(span), worst.extent.source)
     scene.gpu_origin = origin
     centre = precision.bounds_centre(extents) if origin is None else origin
+    problem = precision.sphere_problem(scene, extents, centre)
+    if problem:
+        fail(*problem)
     detail = precision.DETAIL_SPAN * precision.smallest_size(extents)
     added = 0
     for e in extents:
