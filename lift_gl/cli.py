@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
-from . import scaffold, warptest
+from . import arg_types, scaffold, warptest
 from .app.command import add_parser as add_view_parser
 from .denoise import DENOISERS
 from .errors import LiftError
@@ -16,14 +17,7 @@ from .grade import command as grade_command
 GBUFFER_AOVS = ("albedo", "normal", "depth")  # as lift_gl.renderer (not imported here: it loads GL)
 
 
-def _size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size must be WxH, e.g. 256x256, not {text!r}") from None
-    if w <= 0 or h <= 0:
-        raise argparse.ArgumentTypeError(f"size must be positive, not {text!r}")
-    return w, h
+_size = arg_types.size  # the other commands' parsers import it from here
 
 
 def _settings(pairs: list[str], integrator: str) -> dict:
@@ -46,10 +40,10 @@ def _add_render(sub):
     p.add_argument("scene")
     p.add_argument("--integrator", default="pt")
     budget = p.add_mutually_exclusive_group()
-    budget.add_argument("--spp", type=int, help="samples per pixel (default 64)")
-    budget.add_argument("--time", type=float, dest="seconds", help="render for this many seconds instead")
+    budget.add_argument("--spp", type=arg_types.positive_int, help="samples per pixel (default 64)")
+    budget.add_argument("--time", type=arg_types.positive, dest="seconds", help="render for this many seconds instead")
     p.add_argument("--size", type=_size, help="WxH (default: the scene's film size)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=arg_types.seed, default=0)
     p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
                    help="denoise the final image, or every frame (the output is then biased; default off)")
     p.add_argument("--denoiser", choices=DENOISERS, default="atrous",
@@ -60,7 +54,7 @@ def _add_render(sub):
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--aov", choices=("albedo", "normal", "depth", "history", "rejection", "variance", "irradiance"),
                    help="write this G-buffer channel, or view of the accumulation (after rendering), instead")
-    p.add_argument("--exposure", type=float, default=0.0, help="stops, for PNG output")
+    p.add_argument("--exposure", type=arg_types.finite, default=0.0, help="stops, for PNG output")
     p.add_argument("--tonemap", default="aces", choices=("aces", "reinhard", "clamp"), help="for PNG output")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
     p.add_argument("--all-features", action="store_true",
@@ -70,13 +64,13 @@ def _add_render(sub):
                    "--camera-path a folder (frame_0000.png, ...) or a pattern such as pan_{frame:04d}.png")
     seq = p.add_argument_group("image sequences (docs/temporal.md)")
     seq.add_argument("--camera-path", help="a camera path file (TOML keyframes): render a sequence along it")
-    seq.add_argument("--frames", type=int, help="frames of the sequence (default 24); --spp is per frame (default 4)")
+    seq.add_argument("--frames", type=arg_types.positive_int, help="frames of the sequence (default 24); --spp is per frame (default 4)")
     seq.add_argument("--temporal", choices=("reproject", "reset"), default=None,
                      help="when the camera or an object moves: reproject the accumulation (default with "
                           "--camera-path) or restart it")
-    seq.add_argument("--min-blend", type=float, default=None,
+    seq.add_argument("--min-blend", type=arg_types.positive, default=None,
                      help="least weight of a moving frame in the reprojected average (default 0.1)")
-    seq.add_argument("--clamp-sigma", type=float, default=0.0,
+    seq.add_argument("--clamp-sigma", type=arg_types.non_negative, default=0.0,
                      help="clamp the reprojected history to the frame's neighbourhood, +- this many "
                           "standard deviations (BIASED; default 0: off)")
     p.set_defaults(func=cmd_render)
@@ -96,6 +90,7 @@ def cmd_render(args) -> int:
         raise LiftError("--noisy-out needs --denoise final or every")
     if args.frames is not None and args.camera_path is None:
         raise LiftError("--frames needs --camera-path FILE")
+    _check_render_outputs(args)
     scene = load_scene(args.scene)
     path = None
     if args.camera_path is not None:
@@ -154,6 +149,17 @@ def cmd_render(args) -> int:
     for warning in warnings:
         print(f"lift-gl: warning: {args.out}: {warning}", file=sys.stderr)
     return 0
+
+
+def _check_render_outputs(args) -> None:
+    """--out and --noisy-out can be written (checked before the scene is loaded)."""
+    from .image_io import FORMATS
+
+    if args.out is not None:
+        out = _frame_file(args.out, 0) if args.camera_path is not None else args.out
+        arg_types.check_output_file(out, "--out", FORMATS)
+    if args.noisy_out:
+        arg_types.check_output_file(args.noisy_out, "--noisy-out", FORMATS)
 
 
 def _write_aov(out, renderer, name: str, exposure: float) -> None:
@@ -249,7 +255,7 @@ def cmd_plugins(args) -> int:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(prog="lift-gl", description="lift-gl: a hybrid raster + ray-tracing "
+    parser = arg_types.OneLineErrorParser(prog="lift-gl", description="lift-gl: a hybrid raster + ray-tracing "
                                      "renderer for teaching and studying light transport")
     sub = parser.add_subparsers(dest="command", required=True)
     _add_render(sub)
@@ -262,6 +268,8 @@ def main(argv=None) -> int:
     grade_command.add_parser(sub)
     add_lab_parser(sub)
     args = parser.parse_args(argv)
+    formatwarning = warnings.formatwarning
+    warnings.formatwarning = _one_line_warning
     try:
         return args.func(args)
     except LiftError as exc:
@@ -270,6 +278,21 @@ def main(argv=None) -> int:
     except FileNotFoundError as exc:
         print(f"lift-gl: error: {exc.filename}: file not found", file=sys.stderr)
         return 2
+    except OSError as exc:  # a disk that is full, a folder that went read-only while rendering
+        print(f"lift-gl: error: {exc.filename or ''}{': ' if exc.filename else ''}{exc.strerror or exc}",
+              file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:  # Ctrl-C: the files being written were removed (lift_gl/atomic.py)
+        print("lift-gl: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        warnings.formatwarning = formatwarning
+
+
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    """A warning as `lift-gl: warning: FILE:LINE: message` (the message names the user's file),
+    without the Python file and source line that warnings.warn prints by default."""
+    return "lift-gl: warning: " + " ".join(str(message).split()) + "\n"
 
 
 if __name__ == "__main__":

@@ -257,6 +257,7 @@ def render_references(lab: Lab, scenes=None, spp=None, handout_spp=None, size=No
     """For each scene: references/STEM.png and STEM.exr (linear, half float) at the reference's
     spp, STEM.noisy.png at the handout's spp, and STEM.json with both renders' estimated
     relative standard error (lift_gl/error_estimate.py) and what made them."""
+    from .atomic import write_text
     from .image_io import write_image
     from .renderer import Renderer
     from .scene.loader import load_scene
@@ -296,7 +297,7 @@ def render_references(lab: Lab, scenes=None, spp=None, handout_spp=None, size=No
                   "reference": dict(runs["reference"], image=f"{stem}.exr", preview=f"{stem}.png"),
                   "handout": dict(runs["handout"], example=f"{stem}.noisy.png")}
         json_path = out / f"{stem}.json"
-        json_path.write_text(json.dumps(record, indent=1) + "\n")
+        write_text(json_path, json.dumps(record, indent=1) + "\n")
         written.append(json_path)
         report(f"{entry}: reference {spp} spp (est. rel. std. error {_percent(runs['reference'])}), "
                f"at the handout's {handout_spp} spp {_percent(runs['handout'])}; {runs['reference']['seconds']:.0f} s")
@@ -310,6 +311,7 @@ def _percent(run: dict) -> str:
 
 # ---- the command line ----
 def add_parser(subparsers) -> None:
+    from .arg_types import positive_int
     from .cli import _size
 
     p = subparsers.add_parser("lab", help="lab kits: check one, build the students' archive, render references",
@@ -325,8 +327,8 @@ def add_parser(subparsers) -> None:
     refs = sub.add_parser("references", help="(re)render references/: images, noisy examples, expected noise")
     refs.add_argument("lab", type=Path)
     refs.add_argument("--scenes", help="comma-separated subset of [references] scenes (default: all)")
-    refs.add_argument("--spp", type=int, help="samples per pixel of the references (default: lab.toml's)")
-    refs.add_argument("--handout-spp", type=int, help="samples per pixel of the noisy examples (default: lab.toml's)")
+    refs.add_argument("--spp", type=positive_int, help="samples per pixel of the references (default: lab.toml's)")
+    refs.add_argument("--handout-spp", type=positive_int, help="samples per pixel of the noisy examples (default: lab.toml's)")
     refs.add_argument("--size", type=_size, help="WxH (default: lab.toml's)")
     refs.set_defaults(func=cmd_references)
 

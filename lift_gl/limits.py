@@ -5,7 +5,18 @@
 - the scene: every shader storage buffer at most GL_MAX_SHADER_STORAGE_BLOCK_SIZE (128 MiB on
   llvmpipe, 2 GiB on NVIDIA). The BVH and per-triangle arrays may be split across up to
   split.MAX_HEAP_CHUNKS buffers (lift_gl/scene/split.py); a scene that needs more is refused,
-  from the triangle count before the BVH is built and again, exactly, after packing.
+  from the triangle count before the BVH is built and again, exactly, after packing;
+- scene files: Include/Import directives executed (MAX_INCLUDES) and the text they read
+  (MAX_INCLUDED_BYTES), counted over the whole scene, so that a file including two others
+  twenty levels deep is refused after MAX_INCLUDES reads, not after 2^20; instance
+  placements (MAX_INSTANCES, the G-buffer's 16-bit instance id), counted in the file's text
+  before it is parsed;
+- images: a texture's or environment map's width x height, read from the file's header
+  before any pixel is decoded (MAX_TEXTURE_PIXELS), and any other image read
+  (MAX_IMAGE_PIXELS: a --ref, a PFM or EXR);
+- plugin shaders: each array a plugin's GLSL declares, in scalar components, from its
+  source before the GL compiler sees it (MAX_SHADER_ARRAY_COMPONENTS; lift_gl/glsl_arrays.py:
+  llvmpipe's compiler needs minutes and gigabytes for 65,536 floats).
 
 $LIFT_GL_MAX_SSBO_BYTES lowers the per-buffer limit below the GL's: tests force a split with
 it, and it shows on a GPU with 2 GiB buffers how a scene is split on llvmpipe.
@@ -16,6 +27,7 @@ import os
 from dataclasses import dataclass
 
 from .errors import LimitError
+from .scene.instances import MAX_INSTANCES
 from .scene.split import HEAP_ARRAYS, MAX_HEAP_CHUNKS, ROW_BYTES, plan_buffers
 
 MAX_SSBO_ENV_VAR = "LIFT_GL_MAX_SSBO_BYTES"
@@ -32,6 +44,12 @@ BVH_NODE_BYTES = 32
 # The per-triangle arrays together (tri_pos, tri_normal, tri_uv, tri_info), without the BVH:
 # a lower bound on the heap a split scene needs, used before the BVH exists.
 TRIANGLE_HEAP_BYTES = 3 * TRIANGLE_BYTES + 8
+
+MAX_INCLUDES = 2048              # Include/Import directives run (a file included twice counts twice)
+MAX_INCLUDED_BYTES = 64 << 20    # text read through them (64 MiB; pbrt text parses at about 1 MB/s)
+MAX_TEXTURE_PIXELS = 1 << 24     # 4096 x 4096 (64 MiB as RGBA8; the images buffer holds 128 MiB)
+MAX_IMAGE_PIXELS = 1 << 26       # 8192 x 8192: any image read (768 MiB as float32 RGB)
+MAX_SHADER_ARRAY_COMPONENTS = 4096  # scalars of one GLSL array (16 KiB of floats an invocation)
 
 
 @dataclass(frozen=True)
@@ -135,3 +153,57 @@ def check_packed(packed, limits: GlLimits, names, where=None):
     if packed.motion is not None and packed.motion.nbytes > limits.max_ssbo_bytes:
         raise _ssbo_error("the scene's 'motion' buffer", int(packed.motion.nbytes), limits, where)
     return plan
+
+
+# ---- input files: each check runs before the thing it bounds is read or allocated ----------
+
+def _over(what: str, name: str, limit: int, where) -> LimitError:
+    """`what` states the count; the error adds the limit's name and value."""
+    path, line = where if isinstance(where, tuple) else (where, None)
+    return LimitError(f"{what}, over the limit lift_gl.limits.{name} = {limit:,}", path, line)
+
+
+class IncludeBudget:
+    """Include/Import directives of one scene and the bytes they read, all files together
+    (a file included twice counts twice)."""
+
+    def __init__(self):
+        self.includes = 0
+        self.bytes = 0
+
+    def add(self, path, where=None) -> None:
+        """Count one inclusion of `path`, its size taken from the file system before it is read;
+        `where` is (file, line) of the directive."""
+        self.includes += 1
+        if self.includes > MAX_INCLUDES:
+            raise _over(f"including {path} makes {self.includes:,} inclusions in this scene", "MAX_INCLUDES",
+                        MAX_INCLUDES, where)
+        self.bytes += os.path.getsize(path)
+        if self.bytes > MAX_INCLUDED_BYTES:
+            raise _over(f"including {path} makes {self.bytes:,} bytes of included text", "MAX_INCLUDED_BYTES",
+                        MAX_INCLUDED_BYTES, where)
+
+
+def check_instance_count(count: int, where=None) -> None:
+    if count > MAX_INSTANCES:
+        raise _over(f"{count:,} instances", "MAX_INSTANCES", MAX_INSTANCES, where)
+
+
+def check_image_pixels(width: int, height: int, where=None, *, what: str = "an image",
+                       limit_name: str = "MAX_IMAGE_PIXELS") -> None:
+    """Refuse an image from the size its header claims, before its pixels are decoded;
+    textures and environment maps are held to limit_name = "MAX_TEXTURE_PIXELS"."""
+    limit = globals()[limit_name]  # looked up when called: tests lower it
+    if width * height > limit:
+        raise _over(f"{what} of {width:,}x{height:,} pixels ({width * height:,})", limit_name, limit, where)
+
+
+def image_too_large(pixels: int, where=None, *, what: str = "an image", limit_name: str = "MAX_IMAGE_PIXELS"):
+    """The error of check_image_pixels where only the pixel count is known."""
+    return _over(f"{what} of {pixels:,} pixels", limit_name, globals()[limit_name], where)
+
+
+def check_shader_array(components: int, where=None) -> None:
+    if components > MAX_SHADER_ARRAY_COMPONENTS:
+        raise _over(f"an array of {components:,} scalar components", "MAX_SHADER_ARRAY_COMPONENTS",
+                    MAX_SHADER_ARRAY_COMPONENTS, where)

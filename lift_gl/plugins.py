@@ -215,6 +215,9 @@ def load_manifest(folder: Path) -> Plugin:
     splats = data.get("splats", False)
     if not isinstance(splats, bool):
         fail(f"splats must be true or false, not {splats!r}", r"^\s*splats\s*=")
+    if not inside(Path(folder) / data["entry"], Path(folder)):
+        fail(f"entry {data['entry']!r} is outside the plugin's folder {Path(folder).resolve()}: a plugin's files "
+             "must be in its folder", r"^\s*entry\s*=")
     if not (Path(folder) / data["entry"]).is_file():
         fail(f"entry file {data['entry']!r} not found in {folder}", r"^\s*entry\s*=")
 
@@ -310,6 +313,19 @@ def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> Red
     return ReducedPass(function=function, **{k: table[k] for k in REDUCED_DEFAULTS if k in table})
 
 
+def inside(path: Path, folder: Path) -> bool:
+    """Whether `path`, links followed, is in `folder` (or below it)."""
+    try:
+        path.resolve().relative_to(folder.resolve())
+    except ValueError:
+        return False
+    return True
+
+
+class ShadowedPluginWarning(UserWarning):
+    """A plugin that another one of the same name hides (the message names both folders)."""
+
+
 def search_path(extra_dirs=()) -> list[Path]:
     dirs = [Path(d) for d in extra_dirs]
     env = os.environ.get("LIFT_GL_PLUGIN_PATH", "")
@@ -336,8 +352,18 @@ def discover(extra_dirs=(), broken: dict | None = None) -> dict[str, Plugin]:
                     if broken is not None:
                         broken[folder.name] = exc
                     continue
+                if plugin.name in found:
+                    _warn_shadowed(plugin, found[plugin.name])
                 found[plugin.name] = plugin
     return found
+
+
+def _warn_shadowed(plugin: Plugin, hidden: Plugin) -> None:
+    import warnings
+
+    kind = "the built-in" if BUILTIN_DIR in hidden.folder.parents else "the plugin"
+    warnings.warn(f"{plugin.manifest}: plugin '{plugin.name}' in {plugin.folder} replaces {kind} '{hidden.name}' "
+                  f"in {hidden.folder}", ShadowedPluginWarning, stacklevel=3)
 
 
 def find_plugin(name: str, extra_dirs=()) -> Plugin:

@@ -8,6 +8,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from .atomic import write_text
+
 
 def render_record(renderer, scene_path, out_path, warnings=()) -> dict:
     """`warnings`: image_checks.RenderWarning of the render (check_render)."""
@@ -38,5 +40,5 @@ def write_render_record(renderer, scene_path, out_path, warnings=()) -> Path:
     """Writes OUT.json beside OUT (e.g. cornell.png.json) and returns its path."""
     path = Path(f"{out_path}.json")
     record = render_record(renderer, scene_path, out_path, warnings)
-    path.write_text(json.dumps(record, indent=1, default=str) + "\n")
+    write_text(path, json.dumps(record, indent=1, default=str) + "\n")
     return path

@@ -15,9 +15,11 @@ from pathlib import Path
 import moderngl
 
 from .errors import ShaderError
+from .glsl_arrays import check_array_sizes
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SHADER_DIR = REPO_ROOT / "shaders"
+LIBRARY_DIR = SHADER_DIR / "lift"  # the GLSL library plugins call (docs/glsl-library.md)
 GLSL_VERSION = "#version 430"
 LINE_BLOCK = 100000
 
@@ -59,8 +61,14 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
     Every `#include` is expanded where it stands, also inside `#if` blocks (the assembler
     does not evaluate the preprocessor), so library files need include guards, as all of
     `shaders/lift/` has; an include cycle is an error.
+
+    A file outside shaders/ (a plugin's, a student's) may include only files inside
+    `include_dirs`, the folder of a file the host named (`main`, or an include of the
+    generated text) or the GLSL library shaders/lift/: never `../../etc/passwd`, nor a link
+    that leads out.
     """
     search = [Path(d) for d in include_dirs] + [SHADER_DIR]
+    allowed = [d.resolve() for d in include_dirs] + [LIBRARY_DIR]  # for files outside SHADER_DIR
     src = ShaderSource(text="")
     open_files: list[Path] = []  # the include chain being expanded, to catch cycles
     out: list[str] = [GLSL_VERSION, _defines_block(defines)]
@@ -82,6 +90,11 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
             if target is None:
                 raise ShaderError(f'#include "{m.group(1)}" not found (searched {", ".join(map(str, search))})',
                                   path, lineno)
+            if not path.is_absolute():  # the host's generated text: its includes are the host's choice
+                allowed.append(target.parent)
+            elif SHADER_DIR not in path.parents and not any(_within(target, d) for d in allowed):
+                raise ShaderError(f'#include "{m.group(1)}" is {target}, outside the plugin\'s folder and the GLSL '
+                                  f'library ({LIBRARY_DIR}): a plugin may include only those', path, lineno)
             if target in open_files:
                 raise ShaderError(f'#include "{m.group(1)}" includes itself (through '
                                   f'{" -> ".join(p.name for p in open_files)})', path, lineno)
@@ -91,12 +104,17 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
             out.append(f"#line {number * LINE_BLOCK + lineno + 1}")
 
     if isinstance(main, Path):
+        allowed.append(main.resolve().parent)
         open_files.append(main.resolve())
         add_file(main.read_text(), main.resolve())
     else:
         add_file(main, Path(main_name))
     src.text = "\n".join(out) + "\n"
     return src
+
+
+def _within(path: Path, folder: Path) -> bool:
+    return path == folder or folder in path.parents
 
 
 def _find(name: str, here: Path | None, search: list[Path]) -> Path | None:
@@ -143,6 +161,7 @@ def constant_zero_divisions(source: ShaderSource) -> list[tuple[Path, int]]:
 
 
 def compile_compute(ctx: moderngl.Context, source: ShaderSource) -> moderngl.ComputeShader:
+    check_array_sizes(source, SHADER_DIR)  # before the compiler, which a huge array hangs
     try:
         return ctx.compute_shader(source.text)
     except moderngl.Error as exc:
@@ -150,6 +169,8 @@ def compile_compute(ctx: moderngl.Context, source: ShaderSource) -> moderngl.Com
 
 
 def compile_program(ctx: moderngl.Context, vertex: ShaderSource, fragment: ShaderSource) -> moderngl.Program:
+    check_array_sizes(vertex, SHADER_DIR)
+    check_array_sizes(fragment, SHADER_DIR)
     try:
         return ctx.program(vertex_shader=vertex.text, fragment_shader=fragment.text)
     except moderngl.Error as exc:

@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import arg_types
+from .atomic import write_text
 from .errors import LiftError, ShaderError
 
 DEFAULT_SAMPLES = 1 << 20
@@ -60,15 +62,15 @@ def add_parser(subparsers) -> None:
                         "float NAME(Material m, vec3 wo, vec3 wi)")
     p.add_argument("--domain", choices=("square", "disk", "sphere", "hemisphere"),
                    help="[0,1]^2, the unit disk, unit directions, or directions with z >= 0")
-    p.add_argument("--samples", type=int, default=DEFAULT_SAMPLES, help=f"default {DEFAULT_SAMPLES} (2^20)")
+    p.add_argument("--samples", type=arg_types.positive_int, default=DEFAULT_SAMPLES, help=f"default {DEFAULT_SAMPLES} (2^20)")
     p.add_argument("--grid", metavar="AxB", type=_grid,
                    help="cells: x by y (square, disk: over [-1,1]^2), cos theta by phi (directions); default "
                         "32x32, 32x32, 32x64, 16x64 (equal-area cells); 48x96 with --bsdf")
-    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+    p.add_argument("--alpha", type=arg_types.probability, default=DEFAULT_ALPHA,
                    help=f"significance level: the chance that a correct sampler is rejected (default {DEFAULT_ALPHA})")
-    p.add_argument("--integral-tolerance", type=float, default=DEFAULT_INTEGRAL_TOLERANCE,
+    p.add_argument("--integral-tolerance", type=arg_types.positive, default=DEFAULT_INTEGRAL_TOLERANCE,
                    help=f"how far from 1 the pdf's integral may be (default {DEFAULT_INTEGRAL_TOLERANCE:g})")
-    p.add_argument("--seed", type=int, default=0, help="seed of the uniform numbers (default 0)")
+    p.add_argument("--seed", type=arg_types.seed, default=0, help="seed of the uniform numbers (default 0)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--out", metavar="DIR", help="write DIR/warptest.png and DIR/warptest.json")
     bsdf = p.add_argument_group("BSDF mode: directions over the whole sphere, for one outgoing direction")
@@ -156,6 +158,8 @@ def cmd_warptest(args) -> int:
             __import__(module)
         except ImportError:
             raise LiftError(f"warptest needs {module}: pip install 'lift-gl[report]'") from None
+    if args.out:
+        arg_types.check_output_folder(args.out)
     result = warptest(args.file, sampler=args.sampler, pdf=args.pdf, domain=args.domain, samples=args.samples,
                       grid=args.grid, alpha=args.alpha, integral_tolerance=args.integral_tolerance, seed=args.seed,
                       backend=args.backend, bsdf=args.bsdf, cos_theta_o=args.cos_theta_o, roughness=args.roughness,
@@ -166,7 +170,7 @@ def cmd_warptest(args) -> int:
 
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "warptest.json").write_text(json.dumps(result.to_json(), indent=2) + "\n")
+        write_text(out / "warptest.json", json.dumps(result.to_json(), indent=2) + "\n")
         plot_warptest(result, out / "warptest.png")
         print(f"wrote {out / 'warptest.png'} and {out / 'warptest.json'}")
     return 0 if result.passed else 1

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_path
+
 # The difference panel's colour scale: at least +-4 standard deviations, so that noise of a
 # passing test looks pale and a real misfit stands out.
 LEAST_RANGE = 4.0
@@ -69,7 +71,8 @@ def plot_warptest(result, path: Path) -> None:
                  f"{verdict}: chi2 = {result.statistic:.1f}, {result.dof} dof, p = {result.p_value:.3g}; "
                  f"pdf integral {result.pdf_integral:.5f}; {sum(result.outside.values())} outside" + rejected,
                  fontsize=10, color="black" if result.passed else "firebrick")
-    fig.savefig(path, dpi=80)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=80)
     plt.close(fig)
 
 

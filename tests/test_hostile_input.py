@@ -5,7 +5,9 @@ the driver's loop limit cuts short."""
 from __future__ import annotations
 
 import math
+import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +23,7 @@ from lift_gl.scene import Camera, Material, Mesh, Scene, Sphere
 from lift_gl.scene.loader import SceneWarning, load_scene
 from lift_gl.scene.mesh_io import MAX_MESH_ELEMENTS
 from lift_gl.scene.pack import pack_scene
+from lift_gl.scene import pbrt_loader
 from lift_gl.scene import primitives as prim
 
 FURNACE = REPO / "scenes" / "furnace.toml"
@@ -242,3 +245,335 @@ def test_paths_cut_short_by_the_drivers_loop_limit_are_counted_and_reported():
     assert r.stats.loop_limited == 0 and "WARNING" not in r.stats.summary()
     se = short_paths.std(ddof=1) / math.sqrt(short_paths.size)
     assert abs(short_paths.mean() - 65) < 4 * se + 1e-4  # the series 1 + 1 + ... for 64 bounces
+
+
+# ---------------------------------------------------------------- issue 32: limits on input
+def _pixel_film(tmp_path, film: int, kind: str = "triangle") -> Path:
+    scene = tmp_path / "film.toml"
+    scene.write_text(f'[film]\nsize = [{film}, {film}]\nfilter = "{kind}"\n\n[[objects]]\ntype = "sphere"\n')
+    return scene
+
+
+def test_a_huge_film_with_a_filter_costs_what_a_small_one_does(tmp_path):
+    """The filter's table is built from the render's size: a film of 1e12 x 1e12 pixels rendered
+    at 8x8 (125 billion film pixels a rendered pixel) is a box over the pixel with ramps too
+    narrow to see, as the limit of the film-pixel sum."""
+    from lift_gl.passes.pixel_filter import cdf_knots, KNOTS
+    from lift_gl.scene.model import PixelFilter
+
+    for kind, radius in (("triangle", 1.0), ("box", 0.5), ("gaussian", 2.0)):
+        (cdf, start, step), _ = cdf_knots(PixelFilter(kind, (radius, radius)), (10 ** 12, 10 ** 12), (8, 8))
+        positions = start + step * np.arange(KNOTS)
+        assert abs(start) < 1e-9 and abs(positions[-1] - 1.0) < 1e-9  # the pixel's own square
+        assert np.allclose(cdf, np.clip(positions, 0, 1), atol=5e-4)  # uniform over it, to the table's 1/4096
+    renderer = Renderer(load_scene(_pixel_film(tmp_path, 10 ** 12)), size=(8, 8))
+    assert np.isfinite(renderer.render(spp=1)).all()
+
+
+def _fan_out(tmp_path: Path, levels: int) -> Path:
+    (tmp_path / "main.pbrt").write_text('LookAt 0 0 5 0 0 0 0 1 0\nCamera "perspective"\nWorldBegin\n'
+                                         'Include "l1.pbrt"\n')
+    for i in range(1, levels + 1):
+        body = f'Include "l{i + 1}.pbrt"\nInclude "l{i + 1}.pbrt"\n' if i < levels else 'Shape "sphere"\n'
+        (tmp_path / f"l{i}.pbrt").write_text(body)
+    return tmp_path / "main.pbrt"
+
+
+def test_pbrt_include_fan_out_is_refused_at_the_include_over_the_total(tmp_path, monkeypatch):
+    """Each file including the next twice, 20 levels: 2^20 inclusions without a total."""
+    monkeypatch.setattr(limits, "MAX_INCLUDES", 100)
+    reads = []
+    real_tokenize = pbrt_loader.tokenize
+    monkeypatch.setattr(pbrt_loader, "tokenize", lambda text, path: reads.append(path) or real_tokenize(text, path))
+    with pytest.raises(LimitError, match=r"makes 101 inclusions in this scene, over the limit "
+                                         r"lift_gl\.limits\.MAX_INCLUDES = 100") as info:
+        load_scene(_fan_out(tmp_path, 20))
+    assert info.value.path.endswith(".pbrt") and info.value.line in (1, 2)  # the Include over the total
+    assert len(reads) == 101  # the main file and 100 inclusions: never 2^20
+
+
+def test_pbrt_includes_are_also_limited_in_bytes(tmp_path, monkeypatch):
+    monkeypatch.setattr(limits, "MAX_INCLUDED_BYTES", 1000)
+    (tmp_path / "big.pbrt").write_text("# " + "x" * 600 + "\n")
+    (tmp_path / "main.pbrt").write_text('WorldBegin\nInclude "big.pbrt"\nInclude "big.pbrt"\n')
+    with pytest.raises(LimitError, match=r"bytes of included text, over the limit lift_gl\.limits\."
+                                         r"MAX_INCLUDED_BYTES = 1,000") as info:
+        load_scene(tmp_path / "main.pbrt")
+    assert info.value.line == 3
+
+
+def test_200000_object_instances_are_refused_before_the_file_is_parsed(tmp_path, monkeypatch):
+    lines = ['LookAt 0 0 5 0 0 0 0 1 0', 'Camera "perspective"', 'WorldBegin', 'ObjectBegin "o"',
+             'Shape "trianglemesh" "integer indices" [0 1 2] "point P" [0 0 0 1 0 0 0 1 0]', 'ObjectEnd',
+             '# ObjectInstance "o" in a comment is not one', 'Attribute "ObjectInstance" "is a string"']
+    lines += [f'AttributeBegin Translate {i} 0 0 ObjectInstance "o" AttributeEnd' for i in range(200_000)]
+    scene = tmp_path / "many.pbrt"
+    scene.write_text("\n".join(lines) + "\n")
+    forbid(monkeypatch, "lift_gl.scene.pbrt_loader.tokenize")
+    with pytest.raises(LimitError, match=r"65,535 instances, over the limit lift_gl\.limits\.MAX_INSTANCES "
+                                         r"= 65,534") as info:
+        load_scene(scene)
+    assert info.value.path == str(scene) and info.value.line == 8 + 65_535  # the first one over
+
+
+def test_instances_are_counted_exactly_as_they_are_placed(tmp_path, monkeypatch):
+    """An object of two meshes placed 6 times is 12 instances: with a limit of 10 the sixth
+    placement is refused at its line (the text's count, 6 placements, was within it)."""
+    monkeypatch.setattr(limits, "MAX_INSTANCES", 10)
+    monkeypatch.setattr(pbrt_loader, "MAX_INSTANCES", 10)
+    tri = 'Shape "trianglemesh" "integer indices" [0 1 2] "point P" [0 0 0 1 0 0 0 1 0]'
+    lines = ['LookAt 0 0 5 0 0 0 0 1 0', 'Camera "perspective"', 'WorldBegin', 'ObjectBegin "o"', tri,
+             'Translate 0 0 1', tri, 'ObjectEnd'] + [f'Translate 1 0 0\nObjectInstance "o"' for _ in range(6)]
+    scene = tmp_path / "pairs.pbrt"
+    scene.write_text("\n".join(lines) + "\n")
+    with pytest.raises(LimitError, match=r"12 instances, over the limit lift_gl\.limits\.MAX_INSTANCES = 10") as info:
+        load_scene(scene)
+    assert info.value.line == 8 + 2 * 6
+
+
+def _png_claiming(path: Path, width: int, height: int) -> Path:
+    """A valid grey PNG of width x height zero pixels, compressed to almost nothing."""
+    import struct
+    import zlib
+
+    packer = zlib.compressobj(9)
+    row = bytes(width + 1)
+    data = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
+
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+                     + chunk(b"IDAT", data) + chunk(b"IEND", b""))
+    return path
+
+
+@pytest.mark.parametrize("side, claim", [(10_000, "10,000x10,000 pixels (100,000,000)"),
+                                         (30_000, "900,000,000 pixels")])  # over pillow's own limit too
+def test_texture_over_the_pixel_limit_is_refused_from_its_header(tmp_path, monkeypatch, side, claim):
+    _png_claiming(tmp_path / "bomb.png", side, side)
+    scene = tmp_path / "bomb.toml"
+    scene.write_text('[materials.m]\ntexture = "bomb.png"\n\n[[objects]]\ntype = "sphere"\nmaterial = "m"\n')
+    forbid(monkeypatch, "PIL.ImageFile.ImageFile.load")  # not a pixel decoded
+    with pytest.warns(SceneWarning, match=rf"bomb\.toml:2: cannot read texture .*bomb\.png \(a texture of "
+                                          rf"{re.escape(claim)}, over the limit lift_gl\.limits\.MAX_TEXTURE_PIXELS = "
+                                          rf"16,777,216\); using the material's constant colour"):
+        loaded = load_scene(scene)
+    assert loaded.textures == [] and loaded.materials[0].texture is None
+
+
+def test_a_jpeg_over_the_pixel_limit_is_decoded_smaller(tmp_path, monkeypatch):
+    from PIL import Image
+
+    Image.fromarray(np.full((64, 48, 3), 200, np.uint8)).save(tmp_path / "wood.jpg")
+    monkeypatch.setattr(limits, "MAX_TEXTURE_PIXELS", 1000)  # 48 x 64 = 3072: decoded at 1/2 is 24 x 32 = 768
+    scene = tmp_path / "jpg.toml"
+    scene.write_text('[materials.m]\ntexture = "wood.jpg"\n\n[[objects]]\ntype = "sphere"\nmaterial = "m"\n')
+    with pytest.warns(SceneWarning, match=r"jpg\.toml:2: texture .*wood\.jpg is 48x64 pixels, more than lift_gl\."
+                                          r"limits\.MAX_TEXTURE_PIXELS = 1,000; decoded at 24x32"):
+        loaded = load_scene(scene)
+    assert loaded.textures[0].pixels.shape == (32, 24, 4)
+
+
+@pytest.mark.parametrize("name, header", [
+    ("sky.hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n"),
+    ("sky.pfm", b"PF\n100000 100000\n-1.0\n"),
+])
+def test_environment_map_over_the_pixel_limit_is_refused_from_its_header(tmp_path, name, header):
+    (tmp_path / name).write_bytes(header + bytes(64))
+    scene = tmp_path / "env.toml"
+    scene.write_text(f'[environment]\nmap = "{name}"\n\n[[objects]]\ntype = "sphere"\n')
+    with pytest.raises(SceneError, match=r"100,000x100,000 pixels \(10,000,000,000\), over the limit "
+                                         r"lift_gl\.limits\.MAX_TEXTURE_PIXELS"):
+        load_scene(scene)
+
+
+def _plugin(root: Path, name: str, source: str, manifest_extra: str = "") -> Path:
+    folder = root / name
+    folder.mkdir(parents=True)
+    (folder / "plugin.toml").write_text(f'name = "{name}"\nentry = "{name}.glsl"\n{manifest_extra}')
+    (folder / f"{name}.glsl").write_text(source)
+    return folder
+
+
+HUGE_ARRAY = """vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
+    float samples[100000000];
+    samples[0] = 1.0;
+    return vec3(samples[0]);
+}
+"""
+
+
+def test_a_huge_shader_array_is_refused_before_the_compiler_sees_it(tmp_path, monkeypatch):
+    folder = _plugin(tmp_path, "huge", HUGE_ARRAY)
+    forbid(monkeypatch, "moderngl.Context.compute_shader")
+    with pytest.raises(LimitError, match=r"an array of 100,000,000 scalar components, over the limit "
+                                         r"lift_gl\.limits\.MAX_SHADER_ARRAY_COMPONENTS = 4,096") as info:
+        Renderer(load_scene(FURNACE), size=(8, 8), integrator=str(folder))
+    assert info.value.path == str((folder / "huge.glsl").resolve()) and info.value.line == 2
+
+
+def _own_source(tmp_path, body: str, defines=None):
+    from lift_gl import shaders
+
+    path = tmp_path / "mine.glsl"
+    path.write_text(body)
+    return shaders.assemble(path, defines)
+
+
+@pytest.mark.parametrize("body, defines, components", [
+    ("vec4 history[2000];\n", None, 8000),                              # vec4: 4 a element
+    ("float grid[64][128];\n", None, 8192),                             # both dimensions
+    ("#define N (1 << 13)\nfloat a[N];\n", None, 8192),                 # a #define, an expression
+    ("float a[COUNT];\n", {"COUNT": 5000}, 5000),                       # a parameter's define
+    ("#ifndef COUNT\n#define COUNT 1\n#endif\nfloat a[COUNT];\n", {"COUNT": 5000}, 5000),  # the host's wins
+    ("struct S { vec4 p; float w[10]; };\nS path[300];\n", None, 4200),  # a struct: its members
+    ("mat4[300] frames;\n", None, 4800),                                # the array-type syntax
+])
+def test_shader_arrays_are_counted_in_scalar_components(tmp_path, body, defines, components):
+    from lift_gl import shaders
+    from lift_gl.glsl_arrays import check_array_sizes
+
+    with pytest.raises(LimitError, match=rf"an array of {components:,} scalar components") as info:
+        check_array_sizes(_own_source(tmp_path, body, defines), shaders.SHADER_DIR)
+    assert info.value.path.endswith("mine.glsl") and info.value.line == body.count("\n")
+
+
+@pytest.mark.parametrize("body, defines", [
+    ("float a[4096];\nvec3 b[1365];\n", None),                                    # at the limit
+    ("#ifndef D\n#define D 64\n#elif D > 64\n#undef D\n#define D 64\n#endif\nuvec4 a[D * 4];\n",
+     {"D": 100000}),                                                              # bdpt's cap
+    ("#if 0\nfloat a[100000];\n#endif\n", None),                                  # dropped by #if
+    ("float a[100];\nvoid f(int i) { a[i] = 0.0; }\n// float b[100000];\n", None),  # an index; a comment
+])
+def test_shader_arrays_within_the_limit_or_dropped_are_accepted(tmp_path, body, defines):
+    from lift_gl import shaders
+    from lift_gl.glsl_arrays import check_array_sizes
+
+    check_array_sizes(_own_source(tmp_path, body, defines), shaders.SHADER_DIR)
+
+
+# ---------------------------------------------------------------- issue 32: plugin containment
+def test_a_manifest_entry_outside_the_plugin_folder_is_refused(tmp_path):
+    from lift_gl.errors import PluginError
+    from lift_gl.plugins import load_manifest
+
+    outside = tmp_path / "secret.glsl"
+    outside.write_text("vec3 radiance(Ray ray, Hit hit, inout Rng rng) { return vec3(1.0); }\n")
+    folder = tmp_path / "plugins" / "sneaky"
+    folder.mkdir(parents=True)
+    for entry in ("../../secret.glsl", str(outside), "link.glsl"):
+        (folder / "plugin.toml").write_text(f'name = "sneaky"\ndescription = "x"\nentry = "{entry}"\n')
+        if entry == "link.glsl":
+            (folder / "link.glsl").symlink_to(outside)
+        with pytest.raises(PluginError, match=r"is outside the plugin's folder") as info:
+            load_manifest(folder)
+        assert info.value.path == str(folder / "plugin.toml") and info.value.line == 3
+
+
+def test_a_plugin_include_outside_its_folder_and_the_library_is_refused(tmp_path):
+    from lift_gl import shaders
+    from lift_gl.errors import ShaderError
+
+    (tmp_path / "outside.glsl").write_text("float stolen() { return 1.0; }\n")
+    folder = tmp_path / "plugins" / "inc"
+    folder.mkdir(parents=True)
+    (folder / "link.glsl").symlink_to(tmp_path / "outside.glsl")
+    (folder / "helpers.glsl").write_text('#include "lift/rng.glsl"\nfloat helper() { return 1.0; }\n')
+    for include in ("../../outside.glsl", "link.glsl", "../../../../../../etc/hostname"):
+        (folder / "inc.glsl").write_text(f'#include "helpers.glsl"\n#include "{include}"\n')
+        with pytest.raises(ShaderError, match=r"outside the plugin's folder and the GLSL library") as info:
+            shaders.assemble('#include "inc.glsl"\n', include_dirs=[folder])
+        assert info.value.path == str((folder / "inc.glsl").resolve()) and info.value.line == 2
+    (folder / "inc.glsl").write_text('#include "helpers.glsl"\n#include "lift/sampling.glsl"\n')
+    shaders.assemble('#include "inc.glsl"\n', include_dirs=[folder])  # its own files and the library
+
+
+def test_a_plugin_that_shadows_a_built_in_is_reported_naming_both_folders(tmp_path):
+    from lift_gl.plugins import BUILTIN_DIR, ShadowedPluginWarning, discover
+
+    _plugin(tmp_path / "mine", "pt", "vec3 radiance(Ray ray, Hit hit, inout Rng rng) { return vec3(1.0); }\n")
+    with pytest.warns(ShadowedPluginWarning) as caught:
+        found = discover([tmp_path / "mine"])
+    assert found["pt"].folder == (tmp_path / "mine" / "pt").resolve()
+    message = next(str(w.message) for w in caught if w.category is ShadowedPluginWarning)
+    assert f"in {tmp_path / 'mine' / 'pt'}" in message and f"the built-in 'pt' in {BUILTIN_DIR / 'pt'}" in message
+
+
+# ---------------------------------------------------------------- issue 32: what refusing costs
+CHILD = """
+import json, time, warnings
+from lift_gl.errors import LiftError
+start = time.perf_counter()
+try:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", category=ResourceWarning)
+        {code}
+    outcome = "warned: " + str(caught[0].message) if caught else "done"
+except LiftError as exc:
+    outcome = "refused: " + str(exc)
+print(json.dumps({{"outcome": outcome, "seconds": time.perf_counter() - start}}))
+"""
+# Linux hands an exec'd process the peak of the process that forked it (ru_maxrss carries over
+# exec): a small launcher in between starts the case, so that its getrusage(RUSAGE_CHILDREN)
+# is the case's own peak, not the test runner's.
+LAUNCHER = """
+import json, resource, subprocess, sys
+result = subprocess.run([sys.executable, "-c", sys.argv[1]], capture_output=True, text=True)
+sys.stderr.write(result.stderr)
+report = json.loads(result.stdout.strip().splitlines()[-1]) if result.returncode == 0 else {}
+report["peak_mib"] = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+print(json.dumps(report))
+sys.exit(result.returncode)
+"""
+LOAD = "from lift_gl.scene.loader import load_scene; load_scene({path!r})"
+RENDER = ("from lift_gl.renderer import Renderer; from lift_gl.scene.loader import load_scene; "
+          "Renderer(load_scene({path!r}), size=(8, 8), integrator={integrator!r}).render(spp=1)")
+
+
+def _hostile_cases(tmp_path: Path) -> dict:
+    """name -> (code run in a child, the words its outcome must have)."""
+    cases = {}
+    for name, side in (("PNG texture 10000x10000 (97 KB)", 10_000), ("PNG bomb 30000x30000 (875 KB)", 30_000)):
+        folder = tmp_path / f"png{side}"
+        folder.mkdir()
+        _png_claiming(folder / "t.png", side, side)
+        (folder / "s.toml").write_text('[materials.m]\ntexture = "t.png"\n\n[[objects]]\ntype = "sphere"\n'
+                                       'material = "m"\n')
+        cases[name] = (LOAD.format(path=str(folder / "s.toml")), "warned: ", "MAX_TEXTURE_PIXELS")
+    (tmp_path / "sky.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 100000\n" + bytes(64))
+    (tmp_path / "env.toml").write_text('[environment]\nmap = "sky.hdr"\n\n[[objects]]\ntype = "sphere"\n')
+    cases[".hdr header claiming 100000x100000"] = (LOAD.format(path=str(tmp_path / "env.toml")), "refused: ",
+                                                   "MAX_TEXTURE_PIXELS")
+    fan = tmp_path / "fan"
+    fan.mkdir()
+    cases["pbrt Include fan-out, 2 a file, 20 levels"] = (LOAD.format(path=str(_fan_out(fan, 20))), "refused: ",
+                                                         "MAX_INCLUDES = 2,048")
+    lines = ['WorldBegin', 'ObjectBegin "o"', 'Shape "sphere"', 'ObjectEnd']
+    (tmp_path / "many.pbrt").write_text("\n".join(lines + ['ObjectInstance "o"'] * 200_000) + "\n")
+    cases["pbrt 200,000 ObjectInstance"] = (LOAD.format(path=str(tmp_path / "many.pbrt")), "refused: ",
+                                            "MAX_INSTANCES")
+    cases["TOML film 1e12 x 1e12, triangle filter, rendered 8x8"] = (
+        RENDER.format(path=str(_pixel_film(tmp_path, 10 ** 12)), integrator="pt"), "", "")
+    cases["plugin declaring float a[100000000]"] = (
+        RENDER.format(path=str(FURNACE), integrator=str(_plugin(tmp_path, "huge", HUGE_ARRAY))), "refused: ",
+        "MAX_SHADER_ARRAY_COMPONENTS")
+    return cases
+
+
+def test_the_largest_hostile_inputs_are_refused_well_under_a_gigabyte(tmp_path):
+    """Each case in a child process of its own, its peak resident memory from getrusage
+    (interpreter, numpy and, where a case renders, a GL context included). Times are printed,
+    not asserted (they depend on the machine's load)."""
+    import json
+    import subprocess
+    import sys
+
+    for name, (code, outcome, words) in _hostile_cases(tmp_path).items():
+        result = subprocess.run([sys.executable, "-c", LAUNCHER, CHILD.format(code=code)],
+                                cwd=REPO, capture_output=True, text=True, timeout=600)
+        assert result.returncode == 0, (name, result.stderr[-2000:])
+        report = json.loads(result.stdout.strip().splitlines()[-1])
+        print(f"{name}: {report['outcome'][:90]}... {report['seconds']:.1f} s, peak {report['peak_mib']:.0f} MiB")
+        assert report["outcome"].startswith(outcome) and words in report["outcome"], (name, report)
+        assert report["peak_mib"] < 1024, (name, report)

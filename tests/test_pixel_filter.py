@@ -257,3 +257,22 @@ def test_opencl_camera_rays_sample_the_filter(tmp_path):
     # per column over 32 rows x 1024 samples.
     se = np.sqrt(want * (1 - want) / (32 * 1024))
     assert np.all(np.abs(got - want) <= 4.5 * se + 2e-3), np.round(np.c_[got, want][12:20], 4)
+
+
+@pytest.mark.parametrize("kind, radius", [("triangle", 1.0), ("box", 0.5), ("gaussian", 2.0)])
+def test_many_film_pixels_a_pixel_use_the_sums_limit(kind, radius):
+    """Past MAX_FILM_CENTRES film pixels a rendered pixel the kernel is the filter averaged over
+    the pixel (the sum's limit), so a film of any size costs the same: at the switch the
+    sampled positions move by less than 0.0025 of a pixel, and the limit is reached."""
+    from lift_gl.passes.pixel_filter import KNOTS, MAX_FILM_CENTRES, cdf_knots
+
+    pixel_filter = PixelFilter(kind, (radius, radius))
+
+    def inverse(film_per_pixel):
+        (cdf, start, step), _ = cdf_knots(pixel_filter, (8 * film_per_pixel, 8), (8, 8))
+        u = np.linspace(0.0, 1.0, 1001)
+        return np.interp(u, cdf, start + step * np.arange(KNOTS))
+
+    summed, limit = inverse(MAX_FILM_CENTRES), inverse(MAX_FILM_CENTRES + 1)
+    assert np.abs(summed - limit).max() < 0.0025
+    assert np.abs(inverse(10 ** 11) - np.linspace(0.0, 1.0, 1001)).max() < 1e-3  # a box over the pixel

@@ -45,6 +45,7 @@ def _prefixed(pairs: list[str], plugin: str | None) -> dict:
 
 
 def add_parser(subparsers) -> None:
+    from ..arg_types import finite, natural_int, non_negative, positive, positive_int, seed
     from ..cli import _size  # here, not at import time: cli imports this module
 
     p = subparsers.add_parser("view", help="the interactive viewer (needs the 'viewer' extra)",
@@ -57,18 +58,18 @@ def add_parser(subparsers) -> None:
                    help="plugin parameter; PLUGIN.NAME=VALUE for one plugin (the split view's right side takes "
                    "only these)")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=seed, default=0)
     p.add_argument("--size", type=_size, default=(1280, 720), help="window size WxH (default 1280x720)")
-    p.add_argument("--scale", type=float, help="render resolution / window resolution "
+    p.add_argument("--scale", type=positive, help="render resolution / window resolution "
                    "(default 1; 0.25 on a CPU rasterizer such as llvmpipe)")
-    p.add_argument("--moving-scale", type=float, help="extra resolution factor while the camera moves "
+    p.add_argument("--moving-scale", type=positive, help="extra resolution factor while the camera moves "
                    "(default 1; 0.5 on llvmpipe)")
     p.add_argument("--render-size", type=_size, help="a fixed render resolution WxH, letterboxed in the window")
-    p.add_argument("--spp-per-frame", type=int, default=1, help="samples per pixel each frame (default 1)")
+    p.add_argument("--spp-per-frame", type=positive_int, default=1, help="samples per pixel each frame (default 1)")
     target = p.add_mutually_exclusive_group()
-    target.add_argument("--target-spp", type=int, default=0, help="freeze the image at this many spp")
-    target.add_argument("--target-time", type=float, default=0.0, help="freeze after this many seconds of rendering")
-    p.add_argument("--exposure", type=float, default=0.0, help="stops")
+    target.add_argument("--target-spp", type=natural_int, default=0, help="freeze the image at this many spp")
+    target.add_argument("--target-time", type=non_negative, default=0.0, help="freeze after this many seconds of rendering")
+    p.add_argument("--exposure", type=finite, default=0.0, help="stops")
     p.add_argument("--tonemap", default="aces", choices=("aces", "reinhard", "clamp"))
     p.add_argument("--gamma", type=_gamma, default=None, help="display gamma, or 'srgb' (default)")
     p.add_argument("--aov", choices=AOV_VIEWS, help="show this G-buffer channel or view of the accumulation")
@@ -86,7 +87,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--inspector", action="store_true", help="start with the pixel inspector on")
     p.add_argument("--window", choices=("pyglet", "glfw", "headless"), default="pyglet",
                    help="window backend; 'headless' draws offscreen through EGL (no display, no input)")
-    p.add_argument("--frames", type=int, help="render this many frames, then exit (scripted run)")
+    p.add_argument("--frames", type=positive_int, help="render this many frames, then exit (scripted run)")
     p.add_argument("--screenshot", help="with --frames: save the window, GUI included, to this PNG "
                    "(and its statistics to the same name with .json)")
     p.set_defaults(func=cmd_view)
@@ -106,6 +107,10 @@ def cmd_view(args) -> int:
             raise LiftError(f"{name} must be in (0, 1], not {value}")
     if args.noisy_split and args.denoise == "off":
         raise LiftError("--noisy-split needs --denoise final or every")
+    if args.screenshot is not None:
+        from ..arg_types import check_output_file
+
+        check_output_file(args.screenshot, "--screenshot", (".png",))
     if not Path(args.scene).is_file():
         raise LiftError("scene file not found", args.scene)
     try:

@@ -393,7 +393,9 @@ class ViewerWindow:
         report = dict(self.session.statistics(), **self.layout_report(), view=self.session.display.view,
                       exposure=self.session.display.exposure, operator=self.session.display.operator,
                       errors=list(self.session.errors.entries))
-        path.with_suffix(".json").write_text(json.dumps(report, indent=2) + "\n")
+        from ..atomic import write_text
+
+        write_text(path.with_suffix(".json"), json.dumps(report, indent=2) + "\n")
         print(f"{path}: {report['render_size'][0]}x{report['render_size'][1]}, {report['integrator']}, "
               f"{report['spp']} spp in {report['render_seconds']:.2f} s, dropped NaN/Inf samples: "
               f"{report['dropped_samples']}")

@@ -7,6 +7,7 @@ from ..errors import LiftError
 
 
 def add_parser(subparsers) -> None:
+    from ..arg_types import non_negative, positive, positive_int, probability, seed
     from ..cli import _size
     from .scenes import BUILTIN, DEFAULT_SCENES
     from .settings import GradeSettings
@@ -25,20 +26,20 @@ def add_parser(subparsers) -> None:
     p.add_argument("--scenes", help=f"comma-separated built-ins ({', '.join(BUILTIN)}) or scene files "
                                     f"(default {','.join(DEFAULT_SCENES)})")
     p.add_argument("--size", type=_size, help=f"WxH of every render (default {d.size[0]}x{d.size[1]})")
-    p.add_argument("--spp", type=int, help=f"samples per pixel of each seed (default {d.spp})")
-    p.add_argument("--seeds", type=int, help=f"independent renders per submission and scene (default {d.seeds})")
-    p.add_argument("--first-seed", type=int, help="the submissions' first seed (default 1: seeds 1..K)")
-    p.add_argument("--reference-seeds", type=int,
+    p.add_argument("--spp", type=positive_int, help=f"samples per pixel of each seed (default {d.spp})")
+    p.add_argument("--seeds", type=positive_int, help=f"independent renders per submission and scene (default {d.seeds})")
+    p.add_argument("--first-seed", type=seed, help="the submissions' first seed (default 1: seeds 1..K)")
+    p.add_argument("--reference-seeds", type=positive_int,
                    help=f"the reference's seeds, of the same spp (default {d.reference_seeds})")
-    p.add_argument("--timeout", type=float, help=f"seconds per submission and scene (default {d.timeout:g})")
-    p.add_argument("--alpha", type=float, help=f"chance that a correct submission fails (default {d.alpha:g})")
-    p.add_argument("--tolerance", type=float,
+    p.add_argument("--timeout", type=positive, help=f"seconds per submission and scene (default {d.timeout:g})")
+    p.add_argument("--alpha", type=probability, help=f"chance that a correct submission fails (default {d.alpha:g})")
+    p.add_argument("--tolerance", type=non_negative,
                    help=f"relative difference not called a bias (default {d.tolerance:g})")
-    p.add_argument("--block-tolerance", type=float,
+    p.add_argument("--block-tolerance", type=non_negative,
                    help=f"... and for one {d.block}x{d.block} block's mean (default {d.block_tolerance:g})")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="a plugin setting for every render, reference included (e.g. max_depth=8)")
-    p.add_argument("--jobs", type=int, help="submissions rendered at once (default 1)")
+    p.add_argument("--jobs", type=positive_int, help="submissions rendered at once (default 1)")
     p.add_argument("--cache-dir", type=Path, help="the reference cache (default ~/.cache/lift-gl/grade)")
     p.add_argument("--out", type=Path, required=True, help="output folder: grades.csv, report.md, pictures/")
     p.set_defaults(func=cmd_grade)
@@ -65,9 +66,11 @@ def settings_from_args(args):
 
 
 def cmd_grade(args) -> int:
+    from ..arg_types import check_output_folder
     from .grading import VERDICTS, grade
 
     settings = settings_from_args(args)
+    check_output_folder(args.out)
     grades = grade(args.submissions, settings, args.out)
     counts = {v: sum(g.verdict == v for g in grades) for v in VERDICTS}
     print(", ".join(f"{n} {v}" for v, n in counts.items()) + f"; wrote {args.out / 'grades.csv'} and report.md")

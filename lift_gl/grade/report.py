@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path, write_text
 from .grading import CSV_COLUMNS, Grade
 from .settings import GradeSettings
 
@@ -26,14 +27,15 @@ class Writer:
         self.out, self.settings = Path(out), settings
         self.out.mkdir(parents=True, exist_ok=True)
         self.csv_path = self.out / "grades.csv"
-        with open(self.csv_path, "w", newline="") as f:
-            csv.DictWriter(f, fieldnames=CSV_COLUMNS).writeheader()
+        self.written: list[dict] = []  # grades.csv is rewritten whole (atomically) as rows arrive
+        self.rows([])
 
     def rows(self, grades: list[Grade]) -> None:
-        with open(self.csv_path, "a", newline="") as f:
+        self.written += [g.row(self.settings) for g in grades]
+        with atomic_path(self.csv_path) as tmp, open(tmp, "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=CSV_COLUMNS)
-            for g in grades:
-                writer.writerow(g.row(self.settings))
+            writer.writeheader()
+            writer.writerows(self.written)
 
     def picture(self, grade: Grade, data: dict) -> str:
         """Three panels: the submission's mean, the reference's, and each block's z."""
@@ -73,13 +75,14 @@ class Writer:
         bias = f", {100 * data['bias']:+.2f}%" if math.isfinite(data["bias"]) else ""
         fig.suptitle(f"{data['title']} (z = {data['z']:+.1f}{bias})", fontsize=9)
         fig.tight_layout()
-        fig.savefig(path)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp)
         plt.close(fig)
         return str(relative)
 
     def finish(self, grades: list[Grade], references: dict, timings: dict, seconds: float, submissions) -> None:
-        (self.out / "report.md").write_text(render_report(grades, references, timings, seconds, self.settings,
-                                                          submissions))
+        write_text(self.out / "report.md", render_report(grades, references, timings, seconds, self.settings,
+                                                         submissions))
 
 
 def _cell(g: Grade) -> str:

@@ -30,14 +30,16 @@ from .gpu_clock import ClockReader, warm_up
 
 
 def add_parser(subparsers) -> None:
+    from ..arg_types import positive_int
+
     p = subparsers.add_parser("bench", help="frame time per pass, paths/s, rays/s and BVH build time, as a table and JSON",
                               description=__doc__.split("\n\n")[0])
     p.add_argument("scenes", nargs="+", metavar="SCENE")
     p.add_argument("--sizes", default="64x64,128x128,256x256", help="comma-separated WxH")
     p.add_argument("--integrator", default="pt")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
-    p.add_argument("--frames", type=int, default=16, help="timed frames per measurement (default 16)")
-    p.add_argument("--repeat", type=int, default=3, help="frame time: best of this many measurements (default 3)")
+    p.add_argument("--frames", type=positive_int, default=16, help="timed frames per measurement (default 16)")
+    p.add_argument("--repeat", type=positive_int, default=3, help="frame time: best of this many measurements (default 3)")
     p.add_argument("--denoisers", default="atrous", metavar="LIST",
                    help="comma-separated denoisers to time (atrous, onnx, oidn), or none (default atrous)")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR")
@@ -265,6 +267,8 @@ def table(results: list[dict]) -> str:
 
 
 def cmd_bench(args) -> int:
+    from ..arg_types import check_output_file
+    from ..atomic import write_text
     from ..cli import _settings, _size
     from ..errors import LiftError
     from ..gl.context import create_context
@@ -277,6 +281,8 @@ def cmd_bench(args) -> int:
         raise LiftError(f"--sizes: {exc}") from None
     if args.frames < 1 or args.repeat < 1:
         raise LiftError("--frames and --repeat must be at least 1")
+    if args.json_path:
+        check_output_file(args.json_path, "--json")
     params = _settings(args.set, args.integrator)
     denoisers = [] if args.denoisers.strip() == "none" else [d.strip() for d in args.denoisers.split(",")]
     from ..denoise import DENOISERS
@@ -307,7 +313,6 @@ def cmd_bench(args) -> int:
     print(f"\n{args.integrator}; per-pass times: CPU clock between ctx.finish() calls (GL timer queries in the JSON); "
           f"frame ms: best of {args.repeat} x {args.frames} pipelined frames")
     if args.json_path:
-        args.json_path.parent.mkdir(parents=True, exist_ok=True)
-        args.json_path.write_text(json.dumps({"machine": machine, "integrator": args.integrator, "params": params,
-                                              "results": results}, indent=1))
+        write_text(args.json_path, json.dumps({"machine": machine, "integrator": args.integrator, "params": params,
+                                               "results": results}, indent=1))
     return 0

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..arg_types import check_output_folder
+from ..atomic import atomic_path, write_text
 from ..consistency import BIAS_TOLERANCE
 from ..denoise import DENOISERS
 from ..errors import LiftError
@@ -30,6 +32,7 @@ DEFAULT_REF_SPP = 4096
 
 
 def add_parser(subparsers) -> None:
+    from ..arg_types import finite, non_negative, positive, positive_int, probability
     from ..cli import _size
 
     p = subparsers.add_parser("compare", help="error against render time of integrators: metrics.csv, plot, report.md",
@@ -43,29 +46,29 @@ def add_parser(subparsers) -> None:
     p.add_argument("--denoiser", default="atrous", choices=DENOISERS,
                    help="the denoiser of the modes other than off (default atrous)")
     budget = p.add_mutually_exclusive_group(required=True)
-    budget.add_argument("--time", type=float, dest="seconds", help="equal time: render time of every run, in seconds")
-    budget.add_argument("--spp", type=int, help="equal spp: samples per pixel of every run")
+    budget.add_argument("--time", type=positive, dest="seconds", help="equal time: render time of every run, in seconds")
+    budget.add_argument("--spp", type=positive_int, help="equal spp: samples per pixel of every run")
     ref = p.add_mutually_exclusive_group()
     ref.add_argument("--ref", type=Path, help="reference image (.exr .pfm .npy; larger by a whole factor is fine)")
-    ref.add_argument("--ref-spp", type=int, help=f"without --ref: spp of the pt reference (default {DEFAULT_REF_SPP}; cached)")
+    ref.add_argument("--ref-spp", type=positive_int, help=f"without --ref: spp of the pt reference (default {DEFAULT_REF_SPP}; cached)")
     p.add_argument("--size", type=_size, help="WxH (default: the scene's film size)")
-    p.add_argument("--seeds", type=int, default=3, help="independent runs per configuration (confidence intervals; default 3)")
+    p.add_argument("--seeds", type=positive_int, default=3, help="independent runs per configuration (confidence intervals; default 3)")
     p.add_argument("--set", action="append", default=[], metavar="PLUGIN.NAME=VALUE", help="setting for every run of a plugin")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--flip", action="store_true",
                    help="also FLIP (needs pip install 'lift-gl[flip]'; slow: about 1 s a checkpoint at 128x128 here)")
-    p.add_argument("--alpha", type=float, default=1e-3,
+    p.add_argument("--alpha", type=probability, default=1e-3,
                    help="bias test: chance that a configuration consistent with the reference is called biased "
                         "(default 0.001)")
-    p.add_argument("--tolerance", type=float, default=BIAS_TOLERANCE,
+    p.add_argument("--tolerance", type=non_negative, default=BIAS_TOLERANCE,
                    help=f"bias test: relative difference from the reference not called a bias (default {BIAS_TOLERANCE:g})")
-    p.add_argument("--target-rel-mse", type=float, help="relMSE for the verdict (default: the highest error of any run's end)")
-    p.add_argument("--target-dssim", type=float, help="DSSIM for the verdict (default: the highest error of any run's end)")
-    p.add_argument("--points-per-doubling", type=int, default=1, help="checkpoints per factor of 2 (default 1)")
+    p.add_argument("--target-rel-mse", type=positive, help="relMSE for the verdict (default: the highest error of any run's end)")
+    p.add_argument("--target-dssim", type=positive, help="DSSIM for the verdict (default: the highest error of any run's end)")
+    p.add_argument("--points-per-doubling", type=positive_int, default=1, help="checkpoints per factor of 2 (default 1)")
     p.add_argument("--measure-overhead", action="store_true",
                    help="after each run, time a plain render of the same spp and seed (the checkpoints' cost)")
-    p.add_argument("--exposure", type=float, default=0.0, help="stops, for the contact sheet")
+    p.add_argument("--exposure", type=finite, default=0.0, help="stops, for the contact sheet")
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.set_defaults(func=cmd_compare)
 
@@ -195,7 +198,7 @@ def _reference(session: Session, args):
 
 
 def _write_csv(path: Path, rows: list[dict]) -> None:
-    with open(path, "w", newline="") as f:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))
         writer.writeheader()
         for row in rows:
@@ -261,6 +264,7 @@ def cmd_compare(args) -> int:
     from .summary import at_time, common_time, curve, final_row, verdict
 
     _check_arguments(args)
+    check_output_folder(args.out)
     configs = _configurations(args)
     scene = load_scene(args.scene)
     size = tuple(args.size or scene.film_size)
@@ -317,9 +321,9 @@ def cmd_compare(args) -> int:
                          for label, f in finals.items()},
                "consistency": {label: bias_json(c) for label, c in consistency.items()},
                "verdicts": [v.as_json() for v in verdicts]}
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
-    (out / "report.md").write_text(report_md.render(summary, finals, verdicts, equal_time, t_equal, overhead, machine,
-                                                    consistency))
+    write_text(out / "summary.json", json.dumps(summary, indent=1, default=str))
+    write_text(out / "report.md", report_md.render(summary, finals, verdicts, equal_time, t_equal, overhead, machine,
+                                                   consistency))
     for v in verdicts:
         print(v.sentence().replace("**", ""))
     print(f"wrote {out / 'report.md'}, metrics.csv, convergence.png/.svg, contact_sheet.png")

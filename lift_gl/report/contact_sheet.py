@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..metrics import REL_MSE_EPS
 from ..tonemap import to_srgb8
 
@@ -73,5 +74,6 @@ def contact_sheet(reference: np.ndarray, entries: list[tuple[str, str, np.ndarra
             draw.text((x, y + 4), f"error maps,\nlog scale:\n{vmax * 1e-4:.1e} dark\nto {vmax:.1e} light",
                       fill="black", font=font)
     path = Path(path)
-    sheet.save(path, optimize=True)
+    with atomic_path(path) as tmp:
+        sheet.save(tmp, optimize=True)
     return path

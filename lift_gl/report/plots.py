@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
+
 PANELS = (("rel_mse", "relMSE"), ("dssim", "DSSIM (1/SSIM − 1)"))
 
 
@@ -65,7 +67,8 @@ def plot_convergence(curves: dict, path_stem: Path, title: str, targets: dict | 
     axes[0].legend(fontsize=8)
     fig.suptitle(title, fontsize=10)
     paths = [Path(f"{path_stem}.png"), Path(f"{path_stem}.svg")]
-    fig.savefig(paths[0], dpi=90)
-    fig.savefig(paths[1])
+    for path, dpi in zip(paths, (90, "figure")):
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi)
     plt.close(fig)
     return paths

@@ -36,9 +36,12 @@ def load_scene(path) -> Scene:
     if not path.is_file():
         raise SceneError("scene file not found", path)
     try:
-        scene = _load(path, path.suffix.lower())
-        from .validate import validate_scene
-        return validate_scene(scene)
+        # Arithmetic on hostile values (1e200 * 1e200) gives Inf or NaN silently: validation
+        # refuses what is not finite, with file and line, instead of numpy's warnings.
+        with np.errstate(all="ignore"):
+            scene = _load(path, path.suffix.lower())
+            from .validate import validate_scene
+            return validate_scene(scene)
     except LiftError:
         raise
     except RecursionError:

@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LiftError, SceneError
+from ..limits import MAX_INSTANCES, IncludeBudget, check_instance_count
 from . import primitives as prim
 from .loader import internal_error, warn_at
 from .mesh_io import load_mesh_file
@@ -335,6 +336,8 @@ class _State:
 
 
 IGNORED = {"Sampler", "Accelerator", "WorldEnd", "ColorSpace", "Option"}
+# ObjectInstance as a directive: strings and comments are matched first, and skipped
+_PLACEMENT = re.compile(r'"[^"\n]*"|#[^\n]*|\bObjectInstance\b')
 
 
 class _Builder:
@@ -353,6 +356,8 @@ class _Builder:
         self.material_ids: dict = {}
         self.warned: set[str] = set()
         self.including: list[Path] = []  # the Include chain, to refuse cycles
+        self.include_budget = IncludeBudget()  # inclusions and bytes, all files together
+        self.placements = 0  # ObjectInstance directives run
         self.camera_statement: Statement | None = None
         # ObjectBegin/End: the object being defined, and each object's prototype meshes
         # (indices into Scene.prototypes) and spheres (placed by every instance)
@@ -366,8 +371,11 @@ class _Builder:
             raise SceneError(f"Include cycle: {path} includes itself", *where)
         if not path.is_file():
             raise SceneError(f"included file not found: {path}", *where)
+        if included_at is not None:
+            self.include_budget.add(path, where)
         self.including.append(path.resolve())
         text = path.read_text(encoding="utf-8", errors="replace").removeprefix("\ufeff")  # a byte order mark
+        self._count_placements(text, path)
         for st in statements(tokenize(text, path), path):
             handler = getattr(self, "do_" + st.name, None)
             if st.name in IGNORED:
@@ -385,6 +393,18 @@ class _Builder:
             except Exception as exc:  # unforeseen: one line naming the directive, marked a bug
                 raise internal_error(exc, st.path, st.line) from exc
         self.including.pop()
+
+    def _count_placements(self, text: str, path: Path) -> None:
+        """Refuse a file whose ObjectInstance directives, with those run before it, pass
+        MAX_INSTANCES before it is parsed (200,000 of them take minutes to parse);
+        do_ObjectInstance counts the instances themselves."""
+        if self.placements + text.count("ObjectInstance") <= MAX_INSTANCES:  # an upper bound
+            return
+        placements = self.placements
+        for m in _PLACEMENT.finditer(text):
+            placements += m.group() == "ObjectInstance"
+            if placements > MAX_INSTANCES:
+                check_instance_count(placements, (path, text.count("\n", 0, m.start()) + 1))
 
     def _positional(self, st: Statement, count: int, kind=float) -> list:
         """The first `count` arguments, as pbrt writes them: bare or in one bracket."""
@@ -520,6 +540,8 @@ class _Builder:
             raise SceneError(f"ObjectInstance '{name}': the current transform is singular or not finite "
                              "(a zero Scale?)", st.path, st.line)
         meshes, spheres = self.objects[name]
+        self.placements += 1
+        check_instance_count(max(self.placements, len(self.scene.instances) + len(meshes)), (st.path, st.line))
         for k in meshes:
             self.scene.instances.append(Instance(k, m.copy(), name=name, source=f"{st.path}:{st.line}"))
         for sphere in spheres:

@@ -7,6 +7,10 @@ a scene with a lost texture still renders.
 
 `read_environment_image` reads a latitude-longitude map: EXR and PFM through
 lift_gl.image_io, Radiance .hdr (RGBE) here, anything pillow reads as 8-bit sRGB.
+
+Every image's size is read from its header and held to lift_gl.limits.MAX_TEXTURE_PIXELS
+before a pixel is decoded (a 300 KB PNG may claim 10000 x 10000 pixels): a JPEG over it is
+decoded at 1/2, 1/4 or 1/8 of its size, with a warning; any other image is refused.
 """
 from __future__ import annotations
 
@@ -15,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import LimitError, SceneError
+from ..limits import check_image_pixels, image_too_large
 from .loader import warn_at
 from .model import Scene, Texture
 
@@ -36,7 +41,7 @@ class TextureLibrary:
             return self.index[key]
         texture = None
         try:
-            texture = Texture(path.stem, _read_rgba8(path, srgb), srgb=srgb, source=str(path))
+            texture = Texture(path.stem, _read_rgba8(path, srgb, where), srgb=srgb, source=str(path))
         except FileNotFoundError:
             warn_at(*where, f"texture file not found: {path}; using the material's constant colour")
         except _Unreadable as e:
@@ -53,7 +58,7 @@ class _Unreadable(Exception):
     pass
 
 
-def _read_rgba8(path: Path, srgb: bool) -> np.ndarray:
+def _read_rgba8(path: Path, srgb: bool, where: tuple = (None, None)) -> np.ndarray:
     if not path.is_file():
         raise FileNotFoundError(path)
     ext = path.suffix.lower()
@@ -63,7 +68,7 @@ def _read_rgba8(path: Path, srgb: bool) -> np.ndarray:
         from ..tonemap import srgb_encode
         try:
             rgb = read_environment_image(path)
-        except SceneError as e:
+        except SceneError as e:  # unreadable, or over MAX_TEXTURE_PIXELS
             raise _Unreadable(e.message) from None
         rgb = np.clip(rgb, 0.0, 1.0)
         rgb = srgb_encode(rgb) if srgb else rgb
@@ -71,7 +76,7 @@ def _read_rgba8(path: Path, srgb: bool) -> np.ndarray:
         return np.round(rgba * 255).astype(np.uint8)
     from PIL import Image, UnidentifiedImageError
     try:
-        with Image.open(path) as img:
+        with _open_bounded(path, where) as img:
             img.load()
             if img.mode in ("I;16", "I;16B", "I;16L", "I"):
                 grey = (np.asarray(img, dtype=np.float64) / 65535.0 * 255).round().astype(np.uint8)
@@ -79,6 +84,44 @@ def _read_rgba8(path: Path, srgb: bool) -> np.ndarray:
             return np.asarray(img.convert("RGBA"), dtype=np.uint8)
     except (UnidentifiedImageError, OSError, ValueError) as e:
         raise _Unreadable(str(e)) from None
+    except LimitError as e:
+        raise _Unreadable(e.message) from None
+
+
+def _open_bounded(path: Path, where: tuple):
+    """pillow's lazy image (header read, no pixel decoded) within MAX_TEXTURE_PIXELS: a JPEG
+    over it set to decode at 1/2, 1/4 or 1/8 (warned at `where`); any other image over it is
+    a LimitError."""
+    import warnings
+
+    from PIL import Image
+
+    from .. import limits
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # ours is the lower limit
+        try:
+            img = Image.open(path)
+        except Image.DecompressionBombError as e:  # over pillow's own limit, 10x ours
+            claimed = re.search(r"\((\d+) pixels\)", str(e))
+            raise image_too_large(int(claimed.group(1)) if claimed else 0, what="a texture",
+                                  limit_name="MAX_TEXTURE_PIXELS") from None
+    width, height = img.size
+    if img.format == "JPEG" and width * height > limits.MAX_TEXTURE_PIXELS:
+        for scale in (2, 4, 8):  # the JPEG decoder's own reductions
+            reduced = (-(-width // scale), -(-height // scale))
+            if reduced[0] * reduced[1] <= limits.MAX_TEXTURE_PIXELS:
+                img.draft(img.mode, reduced)
+                warn_at(*(where if where[0] is not None else (path, None)),
+                        f"texture {path} is {width}x{height} pixels, more than lift_gl.limits.MAX_TEXTURE_PIXELS"
+                        f" = {limits.MAX_TEXTURE_PIXELS:,}; decoded at {img.size[0]}x{img.size[1]}")
+                break
+    try:
+        check_image_pixels(*img.size, what="a texture", limit_name="MAX_TEXTURE_PIXELS")
+    except LimitError:
+        img.close()
+        raise
+    return img
 
 
 def read_environment_image(path) -> np.ndarray:
@@ -88,12 +131,15 @@ def read_environment_image(path) -> np.ndarray:
         raise SceneError("environment map not found", path)
     ext = path.suffix.lower()
     if ext == ".hdr":
-        return _read_rgbe(path)
+        try:
+            return _read_rgbe(path)
+        except LimitError as e:
+            raise SceneError(f"cannot read environment map: {e.message}", path) from None
     if ext in (".exr", ".pfm"):
         from ..image_io import ImageError, read_image
         try:
-            return read_image(path)
-        except ImageError as e:
+            return read_image(path, limit_name="MAX_TEXTURE_PIXELS")
+        except (ImageError, LimitError) as e:
             raise SceneError(f"cannot read environment map: {e.message}", path) from None
     if ext in IMAGE_EXTENSIONS:
         from ..tonemap import srgb_decode
@@ -127,6 +173,7 @@ def _read_rgbe(path: Path) -> np.ndarray:
     if m is None:
         raise bad("unsupported resolution line (expected '-Y H +X W')")
     height, width = int(m.group(2)), int(m.group(4))
+    check_image_pixels(width, height, what="an environment map", limit_name="MAX_TEXTURE_PIXELS")
     flip_y, flip_x = m.group(1) == b"+", m.group(3) == b"-"
     buf = np.frombuffer(data, np.uint8, offset=end + 1)
     out = np.zeros((height, width, 4), np.uint8)
