@@ -361,6 +361,30 @@ def test_texture_over_the_pixel_limit_is_refused_from_its_header(tmp_path, monke
     assert loaded.textures == [] and loaded.materials[0].texture is None
 
 
+@pytest.mark.parametrize("side, claim", [(10_000, "10,000x10,000 pixels"), (30_000, "more pixels than pillow allows")])
+def test_gltf_texture_over_the_pixel_limit_is_refused_from_its_header(tmp_path, monkeypatch, side, claim):
+    import json
+
+    import trimesh
+    from PIL import Image
+
+    mesh = trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [0, 1, 0]], faces=[[0, 1, 2]], process=False)
+    mesh.visual = trimesh.visual.TextureVisuals(uv=[[0, 0], [1, 0], [0, 1]],
+                                                image=Image.fromarray(np.full((4, 4, 3), 200, np.uint8)))
+    for name, data in trimesh.Scene(mesh).export(file_type="gltf").items():
+        (tmp_path / name).write_bytes(data)
+    document = json.loads((tmp_path / "model.gltf").read_text())
+    document["images"] = [{"uri": "bomb.png", "mimeType": "image/png"}]
+    (tmp_path / "model.gltf").write_text(json.dumps(document))
+    _png_claiming(tmp_path / "bomb.png", side, side)
+    forbid(monkeypatch, "PIL.ImageFile.ImageFile.load")  # not a pixel decoded
+    with pytest.warns(SceneWarning, match=rf"model\.gltf: images\[0\]: texture .*bomb\.png has {claim}, over the "
+                                          r"limit lift_gl\.limits\.MAX_TEXTURE_PIXELS = 16,777,216") as caught:
+        scene = load_scene(tmp_path / "model.gltf")
+    assert scene.textures == [] and all(m.texture is None for m in scene.materials)
+    assert sum("MAX_TEXTURE_PIXELS" in str(w.message) for w in caught) == 1  # one warning, not two
+
+
 def test_a_jpeg_over_the_pixel_limit_is_decoded_smaller(tmp_path, monkeypatch):
     from PIL import Image
 

@@ -167,14 +167,43 @@ class _Gltf:
         self._missing_images()
 
     def _missing_images(self) -> None:
-        """trimesh drops an image file it cannot find without a word: say so."""
+        """trimesh drops an image file it cannot find without a word: say so; and an image file
+        over MAX_TEXTURE_PIXELS, from its header."""
         from urllib.parse import unquote
 
+        self.oversized: set[tuple[int, int]] = set()  # sizes of image files already warned about
         for i, image in enumerate(self.fields.objects(self.doc, "images", "glTF")):
             uri = image.get("uri")
             if isinstance(uri, str) and not uri.startswith("data:") and not (self.path.parent / unquote(uri)).is_file():
                 self.warn(f"images[{i}]: texture file not found: {self.path.parent / unquote(uri)}; the materials "
                           "using it get their constant factors")
+            elif isinstance(uri, str) and not uri.startswith("data:"):
+                self._check_image_size(i, self.path.parent / unquote(uri))
+
+    def _check_image_size(self, index: int, path: Path) -> None:
+        """An image file over MAX_TEXTURE_PIXELS, from its header: trimesh drops one over
+        pillow's own limit without a word, and _texture refuses the others."""
+        import warnings
+
+        from PIL import Image
+
+        from .. import limits
+
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                with Image.open(path) as img:
+                    width, height = img.size
+        except Image.DecompressionBombError:
+            width = height = None
+        except Exception:  # unreadable: trimesh's or _texture's to report
+            return
+        if width is None or width * height > limits.MAX_TEXTURE_PIXELS:
+            self.oversized.add((width, height))
+            size = "more pixels than pillow allows" if width is None else f"{width:,}x{height:,} pixels"
+            self.warn(f"images[{index}]: texture {path} has {size}, over the limit lift_gl.limits."
+                      f"MAX_TEXTURE_PIXELS = {limits.MAX_TEXTURE_PIXELS:,}; the materials using it get their "
+                      "constant factors")
 
     def warn(self, message: str) -> None:
         if message not in self.warned:
@@ -182,14 +211,19 @@ class _Gltf:
             warn_at(self.path, None, message)
 
     def load(self) -> Scene:
+        import warnings
+
         import trimesh
+        from PIL import Image
         try:
             data = self.path.read_bytes()
-            if data.startswith(b"\xef\xbb\xbf"):  # trimesh refuses a byte order mark: give it the text without
-                tm_scene = trimesh.load(io.BytesIO(data[3:]), file_type="gltf", force="scene", process=False,
-                                        resolver=trimesh.resolvers.FilePathResolver(str(self.path)))
-            else:
-                tm_scene = trimesh.load(str(self.path), force="scene", process=False)
+            with warnings.catch_warnings():  # images are held to MAX_TEXTURE_PIXELS, lower, in _texture
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                if data.startswith(b"\xef\xbb\xbf"):  # trimesh refuses a byte order mark: give it the text without
+                    tm_scene = trimesh.load(io.BytesIO(data[3:]), file_type="gltf", force="scene", process=False,
+                                            resolver=trimesh.resolvers.FilePathResolver(str(self.path)))
+                else:
+                    tm_scene = trimesh.load(str(self.path), force="scene", process=False)
         except Exception as e:  # trimesh raises many kinds; all mean "unreadable"
             raise SceneError(f"cannot read glTF file ({type(e).__name__}: {e})", self.path) from None
         for node_name in tm_scene.graph.nodes_geometry:
@@ -287,6 +321,16 @@ class _Gltf:
         if image is None:
             return None
         if id(image) not in self.textures:
+            from .. import limits
+
+            width, height = image.size  # trimesh's image is pillow's, not decoded yet
+            if width * height > limits.MAX_TEXTURE_PIXELS:
+                if (width, height) not in self.oversized:  # an embedded image: not warned yet
+                    self.warn(f"a texture of {width:,}x{height:,} pixels, over the limit lift_gl.limits."
+                              f"MAX_TEXTURE_PIXELS = {limits.MAX_TEXTURE_PIXELS:,}: the materials using it get "
+                              "their constant factors")
+                self.textures[id(image)] = None
+                return None
             rgba = np.asarray(image.convert("RGBA"), dtype=np.uint8)
             self.scene.textures.append(Texture(f"{self.path.stem}-texture{len(self.textures)}", rgba, srgb=True,
                                                source=str(self.path)))
