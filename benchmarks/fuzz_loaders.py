@@ -12,6 +12,7 @@ kept, and a new worker goes on with the remaining cases. Escaping inputs are sav
 to --results (markdown and JSON), exits 1 if anything escaped.
 
     nice -n 19 python benchmarks/fuzz_loaders.py [--cases 10000] [--seed 0] [--only NAME]
+    python benchmarks/fuzz_loaders.py --replay out/fuzz/FOLDER...   # saved inputs again
 """
 from __future__ import annotations
 
@@ -75,8 +76,7 @@ def worker(target_name: str, cases: int, seed: int, root: Path, out: Path) -> No
                       "signature": sig, "how": case.how[:300]}
             kept[sig] += 1
             if kept[sig] <= KEEP_PER_SIGNATURE:
-                record["saved"] = str(save_case(case, out / f"{_slug(target_name)}-{seed}-{number[0]}",
-                                                target.filename))
+                record["saved"] = str(save_case(case, out / f"{_slug(target_name)}-{seed}-{number[0]}", target))
         emit.write(json.dumps(record) + "\n")
 
     run()
@@ -206,6 +206,23 @@ def escapes_text(rows) -> str:
     return "\n".join(lines) or "None."
 
 
+def replay(folders: list[Path]) -> int:
+    """Each saved input (--out's folders) run again: its outcome, or how it escapes."""
+    from fuzz_harness import Escape, check_case, load_saved
+
+    escaped = 0
+    with tempfile.TemporaryDirectory(prefix="lift-gl-fuzz-") as tmp:
+        for folder in folders:
+            target, case = load_saved(folder)
+            try:
+                outcome = check_case(target, case, Path(tmp) / "root")
+                print(f"{folder}: {target.name}: {outcome.kind} {outcome.message}")
+            except Escape as escape:
+                escaped += 1
+                print(f"{folder}: {target.name}: ESCAPED {escape}")
+    return 1 if escaped else 0
+
+
 def machine() -> dict:
     """Where the run was made: CPU, cores, load, Python, the commit and whether the tree was clean."""
     import platform
@@ -229,6 +246,7 @@ def main() -> int:
     parser.add_argument("--out", default="out/fuzz", help="where escaping inputs are saved")
     parser.add_argument("--results", default=str(RESULTS), help="results file, without extension (.md, .json)")
     parser.add_argument("--stall", type=float, default=120.0, help="seconds of silence that count as a hang")
+    parser.add_argument("--replay", nargs="+", metavar="FOLDER", help="run saved inputs again and print their outcomes")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--root", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -236,6 +254,8 @@ def main() -> int:
     if args.worker:
         worker(args.worker, args.cases, args.seed, Path(args.root), out)
         return 0
+    if args.replay:
+        return replay([Path(f) for f in args.replay])
     from fuzz_harness import TARGETS
 
     wanted = [w.strip().lower() for w in args.only.split(",")] if args.only else None

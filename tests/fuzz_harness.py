@@ -30,6 +30,7 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import re
 import resource
 import shutil
 import signal
@@ -135,15 +136,45 @@ def write_case(case: Case, root: Path, filename: str, siblings=()) -> Path:
     return path
 
 
-def save_case(case: Case, folder: Path, filename: str) -> Path:
-    """Keep an escaping input: its files under `folder` (the main one as `filename`)."""
+def save_case(case: Case, folder: Path, target: "Target") -> Path:
+    """Keep an input: its files under `folder` ('../x' as 'up-x'), what was done in HOW.txt
+    and which target and main file in CASE.json (load_saved reads it back)."""
+    import json
+
     folder.mkdir(parents=True, exist_ok=True)
-    for name, content in {**case.files, case.name or filename: case.main}.items():
-        target = folder / name.replace("../", "up-")
-        if not (target.exists() or target.is_symlink()):
-            write_file(target, content)
+    main = case.name or target.filename
+    for name, content in {**case.files, main: case.main}.items():
+        path = folder / name.replace("../", "up-")
+        if not (path.exists() or path.is_symlink()):
+            write_file(path, content)
     (folder / "HOW.txt").write_text(case.how + "\n")
+    (folder / "CASE.json").write_text(json.dumps({"target": target.name, "main": main}) + "\n")
     return folder
+
+
+def load_saved(folder: Path) -> tuple["Target", Case]:
+    """The target and the case that save_case kept in `folder`."""
+    import json
+
+    if (folder / "CASE.json").exists():
+        info = json.loads((folder / "CASE.json").read_text())
+    else:  # kept before CASE.json: the target from the folder's name
+        slug = folder.name.rsplit("-", 2)[0]
+        target = next(t for t in TARGETS if re.sub(r"[^a-z0-9]+", "_", t.name.lower()).strip("_") == slug)
+        info = {"target": target.name, "main": target.filename}
+    files: dict[str, Content] = {}
+    main: Content = b""
+    for path in sorted(folder.iterdir()):
+        if path.name in ("HOW.txt", "CASE.json"):
+            continue
+        content: Content = (Link(os.readlink(path)) if path.is_symlink() else Folder() if path.is_dir()
+                            else Fifo() if path.is_fifo() else path.read_bytes())
+        if path.name == info["main"]:
+            main = content
+        else:
+            files["../" + path.name[3:] if path.name.startswith("up-") else path.name] = content
+    how = (folder / "HOW.txt").read_text().strip() if (folder / "HOW.txt").exists() else ""
+    return BY_NAME[info["target"]], Case(main, files, how, name=info["main"])
 
 
 # ---- the property ---------------------------------------------------------------------------

@@ -774,14 +774,7 @@ def gltf_parts(draw, binary: bool):
     return doc, bytes(blob), files
 
 
-def _json_text(doc, deep_at=None) -> str:
-    text = json.dumps(doc, default=_json_default)
-    return text
-
-
 def _json_default(o):
-    if isinstance(o, Deep):
-        return json.loads("[" * min(o.depth, 500) + "]" * min(o.depth, 500))
     if isinstance(o, Huge):
         return [o.item] * o.count
     raise TypeError(type(o))
@@ -1503,15 +1496,6 @@ def mitsuba_doc(draw):
             files["link-a.xml"], files["link-b.xml"] = Link("link-b.xml"), Link("link-a.xml")
         children.append(("include", {"filename": name}, []))
     return ("scene", {"version": draw(pick(["3.0.0"] * 6 + ["0.6.0", "2.0.0", "x", ""]))}, children), files
-
-
-def _xml_spots(node, out):
-    if isinstance(node, tuple):
-        tag, attrs, children = node
-        out.append(node)
-        for c in children:
-            _xml_spots(c, out)
-    return out
 
 
 @st.composite

@@ -143,3 +143,13 @@ def test_a_refusal_naming_file_and_line_is_not_an_escape(tmp_path):
         raise SceneError("bad value", path, 3)
     outcome = check_case(Target("fake", "scene.toml", refuse, _no_check, lambda: None), Case(b"x"), tmp_path)
     assert (outcome.kind, outcome.message) == ("refused", f"{tmp_path}/case/scene.toml:3: bad value")
+
+
+def test_a_saved_case_reads_back_the_same(tmp_path):
+    from fuzz_harness import Fifo, Folder, Link, load_saved, save_case
+
+    case = Case(b"[camera]\n", {"mesh.ply": b"ply\n", "loop.ply": Link("loop.ply"), "dir.png": Folder(),
+                                "pipe.exr": Fifo(), "../outside.glsl": b"x"}, "made up", name="scene.toml")
+    target, back = load_saved(save_case(case, tmp_path / "saved", BY_NAME["TOML scene"]))
+    assert target.name == "TOML scene"
+    assert (back.main, back.files, back.how, back.name) == (case.main, case.files, case.how, case.name)
