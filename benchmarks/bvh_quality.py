@@ -1,7 +1,7 @@
 """How good the SAH BVH of a scene is, and whether more bins or split triangles would help:
 triangle sizes against the scene, nodes, depth, leaf sizes, SAH cost (lift_gl.accel.bvh) and
 how much sibling boxes add up to over their parent's (overlap), for builds with several bin
-counts and $LIFT_GL_BVH_SPLITS settings (accel/presplit.py), with each build's CPU time,
+counts and split settings (accel/presplit.py resolve_splits), with each build's CPU time,
 peak memory (tracemalloc: numpy's arrays included) and GPU bytes of its tree and triangle rows.
 
     python benchmarks/bvh_quality.py SCENE|MESH.ply... [--bins 32,128,auto] [--splits off,auto] [--json FILE]
@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 import tracemalloc
@@ -42,7 +41,7 @@ def _triangles(path: str) -> np.ndarray:
     return np.concatenate([m.positions[m.indices] for m in scene.meshes]).astype(np.float32)
 
 
-def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("longest",)) -> dict:
+def scene_quality(path: str, bin_counts, split_values=("off",)) -> dict:
 
     from lift_gl.accel import cache as cache_mod
     from lift_gl.accel.presplit import resolve_splits
@@ -57,34 +56,21 @@ def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("lo
                                  "max": float(extent.max()), "over_1pct": int((extent > 0.01).sum()),
                                  "over_10pct": int((extent > 0.1).sum())},
            "builds": []}
-    for bins, splits, axes in ((b, s, a) for b in bin_counts for s in split_values for a in axes_values):
+    for bins, splits in ((b, s) for b in bin_counts for s in split_values):
         if True:
-            # what build_with calls; it bins along each node's longest centroid axis or all three
-            # as $LIFT_GL_BVH_AXES says, with as many bins as $LIFT_GL_BVH_BINS (accel/cache.py)
-            previous_axes = os.environ.get(cache_mod.AXES_ENV_VAR)
-            previous_bins = os.environ.get(cache_mod.BINS_ENV_VAR)
-            os.environ[cache_mod.AXES_ENV_VAR] = axes
-            os.environ[cache_mod.BINS_ENV_VAR] = str(bins)
-            try:
-                tracemalloc.start()
-                start = time.process_time()
-                b = cache_mod.build_with(tris, "sah", resolve_splits(splits))
-                cpu = time.process_time() - start
-                peak = tracemalloc.get_traced_memory()[1]
-                tracemalloc.stop()
-            finally:
-                for var, previous in ((cache_mod.AXES_ENV_VAR, previous_axes), (cache_mod.BINS_ENV_VAR, previous_bins)):
-                    if previous is None:
-                        os.environ.pop(var, None)
-                    else:
-                        os.environ[var] = previous
+            tracemalloc.start()
+            start = time.process_time()
+            b = cache_mod.build_with(tris, "sah", resolve_splits(splits), bins=bins)   # accel/cache.py
+            cpu = time.process_time() - start
+            peak = tracemalloc.get_traced_memory()[1]
+            tracemalloc.stop()
             leaves = b.count[b.count > 0]
             area = _areas(b)
             interior = np.nonzero(b.count == 0)[0]
             child = b.first[interior]
             overlap = (area[child] + area[child + 1]) / np.maximum(area[interior], 1e-30)
             rows = int(b.order.size)
-            out["builds"].append({"bins": bins, "splits": splits, "axes": axes, "cpu_s": cpu, "peak_mib": peak / 2**20,
+            out["builds"].append({"bins": bins, "splits": splits, "cpu_s": cpu, "peak_mib": peak / 2**20,
                                   "rows": rows, "rows_over_triangles": rows / max(len(tris), 1),
                                   "gpu_mib": (b.num_nodes * 32 + rows * ROW_BYTES) / 2**20,
                                   "nodes": b.num_nodes, "depth": b.depth,
@@ -98,10 +84,9 @@ def scene_quality(path: str, bin_counts, split_values=("off",), axes_values=("lo
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="+")
-    ap.add_argument("--bins", default="32,128", help="comma-separated $LIFT_GL_BVH_BINS values: counts (8 to 256) "
-                    "or auto (32, and 128 for the top nodes where that lowers the SAH cost)")
-    ap.add_argument("--splits", default="off", help="comma-separated $LIFT_GL_BVH_SPLITS values, e.g. off,auto")
-    ap.add_argument("--axes", default="longest", help="longest, all, or both: longest,all (accel/bvh.py all_axes)")
+    ap.add_argument("--bins", default="32,128", help="comma-separated bin counts (8 to 256) or auto (32, and 128 "
+                    "for the top nodes where that lowers the SAH cost)")
+    ap.add_argument("--splits", default="off", help="comma-separated split settings (accel/presplit.py), e.g. off,auto")
     ap.add_argument("--json", type=Path)
     args = ap.parse_args(argv)
     results = []
@@ -109,17 +94,16 @@ def main(argv=None) -> int:
         if not Path(p).exists():
             print(f"skipped (not here): {p}", file=sys.stderr)
             continue
-        results.append(scene_quality(p, [b.strip() for b in args.bins.split(",")], args.splits.split(","),
-                                     args.axes.split(",")))
-    print("| scene | triangles | tri extent / scene: median, p99 | tris > 1% / > 10% of it | bins | splits | axes "
+        results.append(scene_quality(p, [b.strip() for b in args.bins.split(",")], args.splits.split(",")))
+    print("| scene | triangles | tri extent / scene: median, p99 | tris > 1% / > 10% of it | bins | splits "
           "| rows / triangles | nodes | depth | tris/leaf | SAH cost | children/parent area (median, p90) "
           "| build CPU s | peak MiB | GPU MiB (nodes + rows) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         e = r["extent_over_scene"]
         for b in r["builds"]:
             print(f"| {r['scene']} | {r['triangles']:,} | {e['median']:.2g}, {e['p99']:.2g} | {e['over_1pct']:,} / "
-                  f"{e['over_10pct']:,} | {b['bins']} | {b['splits']} | {b.get('axes', 'longest')} | {b['rows_over_triangles']:.3f} | "
+                  f"{e['over_10pct']:,} | {b['bins']} | {b['splits']} | {b['rows_over_triangles']:.3f} | "
                   f"{b['nodes']:,} | {b['depth']} | {b['tris_per_leaf']:.2f} | "
                   f"{b['sah_cost']:.1f} | {b['children_over_parent_area_median']:.2f}, "
                   f"{b['children_over_parent_area_p90']:.2f} | {b['cpu_s']:.2f} | {b['peak_mib']:.0f} | "

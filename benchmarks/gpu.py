@@ -2,8 +2,7 @@
 
     python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt,pt:rr_depth=1]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
-                                     [--bvh-splits off,auto | --bvh-width 2,4 | --bvh-axes longest,all
-                                      [--split-rounds 2]]
+                                     [--option KEY=A,B | --bvh-width 2,4 | ... [--split-rounds 2]]
     python benchmarks/gpu.py table FILE.json... [--md FILE.md]
 
 `measure`, for each scene, integrator and size: lift-gl bench's numbers
@@ -26,16 +25,10 @@ between two ctx.finish() calls times each dispatch instead.
 measure two versions of the renderer, alternately, on the same machine:
     LIFT_GL_TREE=../base python benchmarks/gpu.py measure ... --label base --out base.json
 `table` prints the results of one or more such files side by side (ratios to the first).
-`--bvh-splits off,auto` measures every case with the BVH built under each $LIFT_GL_BVH_SPLITS
-value (accel/presplit.py), interleaved, and prints them side by side (docs/bvh.md);
-`--bvh-axes longest,all` for $LIFT_GL_BVH_AXES (the SAH builder's split planes along each
-node's longest axis or all three, accel/cache.py), `--bvh-bins 32,auto` for $LIFT_GL_BVH_BINS,
-`--bvh-stack-entries children,groups` for $LIFT_GL_BVH_STACK_ENTRIES (the 4-wide traversal's stack entries),
-`--carry-paths off,on` for $LIFT_GL_CARRY_PATHS (paths still under way when a frame's pixel queue
-runs out go on in the next frame, lift_gl/passes/carry.py),
-`--env VAR=a,b` for any other setting (`--env LIFT_GL_GBUFFER=raster,traced`), and
-`--bvh-width 2,4` does the same for $LIFT_GL_BVH_WIDTH (the binary or 4-wide tree,
-accel/wide.py).
+`--option KEY=A,B` measures every case under each value of one of the renderer's options
+(lift_gl/options.py, e.g. `--option gbuffer=raster,traced`), interleaved, and prints them side
+by side; `--bvh-width 2,4`, `--bvh-stack-entries children,groups`, `--bvh-stack shared,local`
+and `--carry-paths off,on` are the same for those options.
 """
 from __future__ import annotations
 
@@ -170,18 +163,20 @@ def bind_as_storage(renderer) -> None:
             renderer.buffers.buffers[name].bind_to_storage_buffer(binding)
 
 
-def ray_program(ctx, defines: dict, include_dirs=(), label: str = "gpu.py ray kinds"):
-    """The ray-kind shader, compiled as lift-gl's trace pass would run on this GL: its work-group
-    shape and BVH stack placement (trace_layout, lift_gl/passes/trace.py: on GPUs 8x4 with the
-    stack in shared memory). Returns (program, local size). A lift_gl older than trace_layout
-    ($LIFT_GL_TREE) ran its trace pass in 8x8 groups with local stacks, and so does this then."""
+def ray_program(ctx, defines: dict, include_dirs=(), label: str = "gpu.py ray kinds", stack: str | None = None):
+    """The ray-kind shader, compiled as lift-gl's plain trace programs run on this GL: their
+    work-group shape and BVH stack placement (lift_gl/options.py: on GPUs 8x4 with the stack in
+    shared memory; `stack` shared or local instead). Returns (program, local size)."""
     from lift_gl.shaders import assemble, compile_compute
     try:
+        from lift_gl.options import Device, Options, resolve, work_group
+    except ImportError:   # a lift_gl of before the options ($LIFT_GL_TREE)
         from lift_gl.passes.trace import trace_layout
-    except ImportError:
-        local, shared = (8, 8), False
-    else:
         local, shared = trace_layout(ctx)
+    else:
+        device = Device.of(ctx)
+        stack = stack or resolve(Options(), device).gbuffer_stack
+        local, shared = work_group(stack, device), stack == "shared"
     defines = dict(defines, LIFT_RAY_LOCAL_X=local[0], LIFT_RAY_LOCAL_Y=local[1])
     if shared:
         defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
@@ -235,6 +230,12 @@ def warm_gpu(ctx, program, size, local, uniforms: dict) -> tuple:
     return clock, warm_up(step, clock)
 
 
+def _gbuffer_stack(renderer):
+    """Where the renderer's plain programs keep their stack (its options' choice), or None."""
+    choices = getattr(renderer, "choices", None)
+    return getattr(choices, "gbuffer_stack", None)
+
+
 def ray_throughput(renderer, size, repeat: int = 8) -> dict:
     """Mrays/s of each ray kind (see the module docstring) for the renderer's scene and
     camera at `size`: the best of `repeat` dispatches (after one warm-up)."""
@@ -244,7 +245,7 @@ def ray_throughput(renderer, size, repeat: int = 8) -> dict:
 
     ctx = renderer.ctx
     defines = {k: v for k, v in renderer.defines.items() if k in RAY_SHADER_DEFINES}
-    program, local = ray_program(ctx, defines)
+    program, local = ray_program(ctx, defines, stack=_gbuffer_stack(renderer))
     w, h = size
     hits = ctx.buffer(reserve=32 * w * h)
     hits.bind_to_storage_buffer(10)
@@ -293,7 +294,7 @@ def ray_throughput_interleaved(renderers, size, repeat: int = 8) -> list[dict]:
     setups = []
     for r in renderers:
         defines = {k: v for k, v in r.defines.items() if k in RAY_SHADER_DEFINES}
-        program, local = ray_program(r.ctx, defines)
+        program, local = ray_program(r.ctx, defines, stack=_gbuffer_stack(r))
         extent = float(np.max(r.packed.bounds[1] - r.packed.bounds[0])) or 1.0
         uniforms = dict(r.scene_uniforms, **camera_uniforms(r.camera, size), u_eps=1e-4 * extent)
         setups.append((r, program, r.ctx.buffer(reserve=32 * w * h), uniforms))
@@ -371,8 +372,7 @@ def ab(args) -> int:
     lift/bvh.glsl with the BVH as LAYOUT: binary (the builder's nodes, what lift-gl's bvh.glsl
     reads), records (benchmarks/bvh_records.py, what the gpu-speed experiments read), or 4 / 4q
     (that binary tree collapsed to the 4-wide layout, float or 8-bit child boxes: accel/wide.py,
-    compiled with LIFT_BVH_WIDTH 4), and the NAMEs #defined (e.g. LIFT_MOLLER_TRUMBORE: the
-    same tree with its other triangle test; LIFT_BVH4_ANY_NEAREST: the 4-wide any-hit order).
+    compiled with LIFT_BVH_WIDTH 4), and the NAMEs #defined (a define of that TREE's bvh.glsl).
     Every version runs in the trace pass's work-group shape and stack placement (ray_program).
     Every version must find the same primary hits and block the same shadow rays."""
     from lift_gl.cli import _size
@@ -396,7 +396,7 @@ def ab(args) -> int:
     ctx = create_context(args.backend)
     cpu = is_software(ctx)
     query = ctx.query(time=True)
-    previous_width = os.environ.get(WIDTH_VAR)
+    from lift_gl.options import Options
     print(f"{describe(ctx)}; {len(variants)} versions, {args.reps} interleaved dispatches each per kind", flush=True)
     results = []
     record = {"gl": describe(ctx), "variants": [[v[0], v[2], sorted(v[3])] for v in variants], "reps": args.reps,
@@ -406,9 +406,7 @@ def ab(args) -> int:
         for size in [_size(s.strip()) for s in args.sizes.split(",")]:
             # the versions compared here read the binary tree (or records made from it): no
             # 4-wide collapse (accel/wide.py) for this renderer's scene
-            _set_splits("2", None, WIDTH_VAR)
-            r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
-            _set_splits(None, previous_width, WIDTH_VAR)
+            r = Renderer(scene, size=size, integrator="pt", backend=args.backend, options=Options(bvh_width="2"))
             defines = {k: v for k, v in r.defines.items() if k in ("HAS_SPHERES",)}
             progs, nodes = [], []
             for label, tree, layout, extra in variants:
@@ -534,35 +532,32 @@ def measure(args) -> int:
     print(f"machine: {machine_line(machine)}; {describe(ctx)}; lift_gl from {Path(lift_gl.__file__).parent.parent}",
           flush=True)
 
-    # --bvh-splits A,B: the same cases with the BVH built under each setting (accel/presplit.py),
-    # the settings interleaved case by case (A B, then B A: drift hits both alike), one record
-    # per setting and round, merged by best_of like repeated runs.
-    # --bvh-width 2,4 does the same with $LIFT_GL_BVH_WIDTH (accel/wide.py), --bvh-axes with
-    # $LIFT_GL_BVH_AXES (accel/cache.py), --bvh-stack-entries with $LIFT_GL_BVH_STACK_ENTRIES (accel/wide.py),
-    # --bvh-stack with $LIFT_GL_BVH_STACK (passes/trace.py trace_layout), --carry-paths with
-    # $LIFT_GL_CARRY_PATHS (passes/carry.py), --bvh-leaf with $LIFT_GL_BVH_LEAF (accel/cache.py),
-    # --env VAR=a,b with any other $LIFT_GL_* variable.
-    chosen = [(name, var, value) for name, var, value in (("splits", SPLITS_VAR, args.bvh_splits),
-                                                          ("width", WIDTH_VAR, args.bvh_width),
-                                                          ("axes", AXES_VAR, args.bvh_axes),
-                                                          ("bins", BINS_VAR, args.bvh_bins),
-                                                          ("entries", STACK_VAR, args.bvh_stack_entries),
-                                                          ("stack", PLACE_VAR, args.bvh_stack),
-                                                          ("carry", CARRY_VAR, args.carry_paths),
-                                                          ("leaf", LEAF_VAR, args.bvh_leaf),
-                                                          *_env_axis(args.env)) if value]
+    # --option KEY=A,B: the same cases under each value of one of the renderer's options
+    # (lift_gl/options.py), the values interleaved case by case (A B, then B A: drift hits both
+    # alike), one record per value and round, merged by best_of like repeated runs; --bvh-width
+    # and the others name an option.
+    from lift_gl.options import Options, parse_options
+
+    chosen = [(key, value) for key, value in (("bvh_width", args.bvh_width),
+                                              ("bvh_stack_entries", args.bvh_stack_entries),
+                                              ("bvh_stack", args.bvh_stack),
+                                              ("carry_paths", args.carry_paths),
+                                              *_option_axis(args.option)) if value]
     if len(chosen) > 1:
-        raise SystemExit("--bvh-splits, --bvh-width, --bvh-axes, --bvh-bins, --bvh-stack-entries, --bvh-stack, "
-                         "--carry-paths, --bvh-leaf, --env: one at a time")
-    axis, axis_var, values = chosen[0] if chosen else ("splits", SPLITS_VAR, "")
-    # a leaf setting holds a comma itself (MAX_LEAF,COST): its values are split at semicolons
-    splits = [v.strip() for v in values.split(";" if axis == "leaf" else ",") if v.strip()] or [None]
-    if axis == "leaf":
-        splits = ["" if v == "default" else v for v in splits]
+        raise SystemExit("--bvh-width, --bvh-stack-entries, --bvh-stack, --carry-paths, --option: one at a time")
+    axis, values = chosen[0] if chosen else ("", "")
+    splits = [v.strip() for v in values.split(",") if v.strip()] or [None]
+
+    def options_of(v):
+        return Options() if v is None else parse_options([f"{axis}={v}"])
+
+    for v in splits:
+        options_of(v)   # a bad value stops here, before any case
     rounds = args.split_rounds if splits[0] is not None else 1
     runs = {(v, k): {"label": " ".join(s for s in (args.label, f"{axis}={v or 'default'}" if v is not None else "") if s),
                      "machine": machine,
-                     "gl": describe(ctx), "max_depth": args.max_depth, f"bvh_{axis}": v, "round": k, "results": []}
+                     "gl": describe(ctx), "max_depth": args.max_depth, "option": {axis: v} if v is not None else {},
+                     "round": k, "results": []}
             for v in splits for k in range(rounds)}
 
     def out_path(v):
@@ -583,7 +578,6 @@ def measure(args) -> int:
         for k in range(rounds):
             yield from ((v, k) for v in (splits if k % 2 == 0 else splits[::-1]))
 
-    previous_splits = os.environ.get(axis_var)
     for path in args.scenes:
         start = time.perf_counter()
         scene = load_scene(path)
@@ -594,9 +588,9 @@ def measure(args) -> int:
                 # one renderer per setting, their dispatches interleaved (ray_throughput_interleaved)
                 renderers, setup = [], []
                 for v in splits:
-                    _set_splits(v, previous_splits, axis_var)
                     start = time.perf_counter()
-                    renderers.append(Renderer(scene, size=size, integrator="pt", backend=args.backend))
+                    renderers.append(Renderer(scene, size=size, integrator="pt", backend=args.backend,
+                                              options=options_of(v)))
                     setup.append(time.perf_counter() - start)
                 for v, r, setup_s, rays in zip(splits, renderers, setup,
                                                ray_throughput_interleaved(renderers, size, args.ray_repeat)):
@@ -614,9 +608,8 @@ def measure(args) -> int:
                 save()
             elif args.rays:
                 for v, k in orders():
-                    _set_splits(v, previous_splits, axis_var)
                     start = time.perf_counter()
-                    r = Renderer(scene, size=size, integrator="pt", backend=args.backend)
+                    r = Renderer(scene, size=size, integrator="pt", backend=args.backend, options=options_of(v))
                     setup_s = time.perf_counter() - start
                     rays = ray_throughput(r, size, args.ray_repeat)
                     runs[v, k]["results"].append({
@@ -632,11 +625,10 @@ def measure(args) -> int:
             for integrator in integrators:
                 plugin, settings = specs[integrator]
                 for v, k in orders():
-                    _set_splits(v, previous_splits, axis_var)
                     tag = f" [{axis}={v or 'default'}]" if v is not None else ""
                     try:
                         case = bench_case(scene, size, plugin, {"max_depth": args.max_depth, **settings}, args.frames,
-                                          args.repeat, args.backend)
+                                          args.repeat, args.backend, options=options_of(v))
                     except LiftError as exc:  # e.g. bdpt refuses an environment map
                         print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: not run: {str(exc).splitlines()[0]}",
                               flush=True)
@@ -649,223 +641,23 @@ def measure(args) -> int:
                     runs[v, k]["results"].append(case)
                     save()
                     print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame "
-                          f"({case.get('trace_way')}, tuned {case.get('wavefront_tuned_ms')}, carry {case.get('carry')} "
-                          f"{case.get('carry_tuned_ms')}); passes "
+                          f"(carry {case.get('carry')} {case.get('carry_tuned_ms')}); passes "
                           "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items())
                           + _clock_text(case), flush=True)
-    _set_splits(None, previous_splits, axis_var)
     save()
     records = [runs[v, 0] if rounds == 1 else best_of([runs[v, k] for k in range(rounds)]) for v in splits]
     print(render_tables(records))
     return 0
 
 
-WAVEFRONT_VARIANTS = "mega,wave32,wave8,wave4,wave32-noballot"
-
-
-def _wave_variant(label: str) -> dict | None:
-    """mega: the megakernel; waveN: the wavefront with N step dispatches before its tail;
-    waveNpK: its start kernel runs the first K path vertices (default 1) before compacting;
-    suffixes -noballot: one queue atomic an invocation instead of one a subgroup; -split: a
-    program for each of the start, step and tail modes."""
-    if label == "mega":
-        return None
-    body, *suffixes = label.split("-")
-    match = re.fullmatch(r"wave(\d+)(?:p(\d+))?", body)
-    if not match or not set(suffixes) <= {"noballot", "split"} or match[2] == "0":
-        raise SystemExit(f"--variants: {label!r} is not mega or waveN[pK][-noballot][-split] (K >= 1)")
-    return {"steps": int(match[1]), "prefix": int(match[2] or 1), "ballot": False if "noballot" in suffixes else None,
-            "split": "split" in suffixes}
-
-
-def wavefront_cmd(args) -> int:
-    """pt's trace pass as the megakernel and as wavefronts (lift_gl/passes/wavefront.py) on the
-    same renderer (same G-buffer and buffers), alternating round by round (order reversed every
-    other round): per variant the trace pass's GL timer query (all of its dispatches) and the
-    pipelined frame time, medians over rounds; the images against the megakernel's (same seed)."""
-    import lift_gl
-    from lift_gl.cli import _size
-    from lift_gl.gl.context import describe, is_software
-    from lift_gl.passes.trace import TracePass
-    from lift_gl.renderer import Renderer
-    from lift_gl.report.machine import describe_machine, machine_line
-    from lift_gl.scene.loader import load_scene
-
-    labels = [v.strip() for v in args.variants.split(",") if v.strip()]
-    options = {label: _wave_variant(label) for label in labels}
-    if labels[0] != "mega":
-        raise SystemExit("--variants: the first must be mega (the baseline of the ratios)")
-    os.environ["LIFT_GL_WAVEFRONT"] = "off"  # the renderer's own trace pass: the megakernel
-    record = {"variants": labels, "max_depth": args.max_depth, "frames": args.frames, "rounds": args.rounds,
-              "results": []}
-    for path in args.scenes:
-        scene = load_scene(path)
-        for size in [_size(s.strip()) for s in args.sizes.split(",")]:
-            r = Renderer(scene, size=size, integrator="pt", params={"max_depth": args.max_depth},
-                         backend=args.backend, timers=True)
-            if "gl" not in record:
-                record["gl"] = describe(r.ctx)
-                record["machine"] = describe_machine(r.ctx)
-                print(f"machine: {machine_line(record['machine'])}; {record['gl']}; lift_gl from "
-                      f"{Path(lift_gl.__file__).parent.parent}", flush=True)
-            cpu = is_software(r.ctx)
-            defines = r._plugin_defines(r.plugin, r.params)
-            passes = {"mega": r.trace}
-            for label in labels[1:]:
-                passes[label] = TracePass(r.ctx, size, r.plugin, defines, wavefront=True,
-                                          wavefront_options=options[label])
-                if passes[label].wavefront is None:
-                    raise SystemExit(f"{label}: no wavefront: {passes[label].wavefront_fallback}")
-            timers = r.timers
-
-            def frames_with(label, timed):
-                r.trace = passes[label]
-                r.timers = timers if timed else None
-                r.reset(seed=0)
-                r.render(spp=args.frames, readback=False)
-                if timed:
-                    return timers["trace"].mean_ms, timers["gbuffer"].mean_ms if "gbuffer" in timers else 0.0
-                return 1e3 * r.stats.render_seconds / args.frames
-
-            # the images: one frame each, same seed, against the megakernel's
-            images, dropped = {}, {}
-            for label in labels:
-                r.trace = passes[label]
-                r.timers = None
-                r.reset(seed=1)
-                images[label] = r.render(spp=1)
-                dropped[label] = r.stats.dropped_samples
-                frames_with(label, False)  # warm-up
-            trace_ms = {v: [] for v in labels}
-            frame_ms = {v: [] for v in labels}
-            gbuffer_ms = {v: [] for v in labels}
-            for k in range(args.rounds):
-                for label in (labels if k % 2 == 0 else labels[::-1]):
-                    frame_ms[label].append(frames_with(label, False))
-                    t, g = frames_with(label, True)
-                    trace_ms[label].append(t)
-                    gbuffer_ms[label].append(g)
-            profiles = {label: wavefront_profile(r, passes[label]) for label in args.profile if label in passes}
-            from gpu_pt_variants import binary_summary, program_binary  # benchmarks/: NVIDIA's assembly
-            binaries = {"mega": binary_summary(program_binary(passes["mega"].program))}
-            for label in labels[1:]:
-                for mode, prog in zip(("start", "step", "tail"), passes[label].wavefront.modes):
-                    binaries.setdefault(f"{label} {mode}", binary_summary(program_binary(prog)))
-            med = {v: (float(np.median(trace_ms[v])), float(np.median(frame_ms[v]))) for v in labels}
-            ref = images["mega"]
-            case = {"scene_name": scene_name(path), "scene": portable(path), "size": list(size),
-                    "triangles": scene.triangle_count, "cpu_clock": cpu,
-                    "trace_ms": trace_ms, "frame_ms": frame_ms, "gbuffer_ms": gbuffer_ms,
-                    "median_trace_ms": {v: m[0] for v, m in med.items()},
-                    "median_frame_ms": {v: m[1] for v, m in med.items()},
-                    "trace_speedup": {v: med["mega"][0] / med[v][0] for v in labels},
-                    "frame_speedup": {v: med["mega"][1] / med[v][1] for v in labels},
-                    "image_max_abs_diff": {v: float(np.abs(images[v] - ref).max()) for v in labels},
-                    "image_mean": {v: float(images[v].mean()) for v in labels},
-                    "image_equal": {v: bool(np.array_equal(images[v], ref)) for v in labels},
-                    "dropped_samples": dropped,
-                    "wavefront_bytes": {v: passes[v].wavefront.memory_bytes for v in labels[1:]},
-                    "slot_bytes": {v: passes[v].wavefront.slot_bytes for v in labels[1:]},
-                    "profile": profiles, "binaries": binaries}
-            record["results"].append(case)
-            print(f"{case['scene_name']} {size[0]}x{size[1]}: " + "; ".join(
-                f"{v} trace {med[v][0]:.3f} ms ({case['trace_speedup'][v]:.2f}x) frame {med[v][1]:.3f} ms "
-                f"({case['frame_speedup'][v]:.2f}x) max|diff| {case['image_max_abs_diff'][v]:.2g}"
-                for v in labels), flush=True)
-            r.trace = passes["mega"]
-            r.timers = timers
-            for label, rows in profiles.items():
-                print(f"  {label} dispatches (live paths: GPU ms): " + ", ".join(
-                    f"{row['what']}{row['step']} {row['paths']}: {row['ms']:.3f}" for row in rows
-                    if row["what"] != "args" and (row["paths"] or row["what"] == "start")), flush=True)
-            for label in labels[1:]:
-                passes[label].release()
-            r.release()
-            if args.out:
-                args.out.parent.mkdir(parents=True, exist_ok=True)
-                args.out.write_text(json.dumps(record, indent=1))
-    show_table(wavefront_table(record), args.md)
-    return 0
-
-
-def wavefront_profile(renderer, trace_pass) -> list[dict]:
-    """One frame of a wavefront with each dispatch alone: its GL timer query (the CPU clock on
-    llvmpipe) and the paths it ran (its queue's length; every pixel for the start kernel)."""
-    from lift_gl.gl.context import is_software
-    ctx, wave = renderer.ctx, trace_pass.wavefront
-    cpu = is_software(ctx)
-    query = ctx.query(time=True)
-    rows = []
-
-    def hook(what, s, k, go):
-        paths = wave.size[0] * wave.size[1]
-        if what in ("step", "tail"):
-            ctx.finish()
-            paths = int(np.frombuffer(wave.control.read(), np.uint32)[0])
-        ctx.finish()
-        start = time.perf_counter_ns()
-        with query:
-            go()
-        ctx.finish()
-        ns = (time.perf_counter_ns() - start) if cpu else query.elapsed
-        rows.append({"what": what, "sample": s, "step": k, "paths": paths, "ms": ns / 1e6})
-
-    renderer.trace = trace_pass
-    renderer.timers = None
-    renderer.reset(seed=0)
-    wave.run = lambda frame, samples: type(wave).run(wave, frame, samples, hook=hook)  # this frame only
-    try:
-        renderer.render(spp=1, readback=False)
-    finally:
-        del wave.run
-    return rows
-
-
-def wavefront_table(record: dict) -> str:
-    labels = record["variants"]
-    lines = [f"Machine: {record.get('gl', '?')}. pt, 1 spp, path length {record['max_depth']}; medians of "
-             f"{record['rounds']} alternating rounds of {record['frames']} frames; x = megakernel time / variant time.",
-             "", "| scene | size | " + " | ".join(f"{v} trace ms (x)" for v in labels) + " | "
-             + " | ".join(f"{v} frame ms (x)" for v in labels) + " | max abs diff vs mega | MiB |",
-             "|" + "---|" * (4 + 2 * len(labels))]
-    for c in record["results"]:
-        w, h = c["size"]
-        cells = [c["scene_name"], f"{w}x{h}"]
-        cells += [f"{c['median_trace_ms'][v]:.3f} ({c['trace_speedup'][v]:.2f})" for v in labels]
-        cells += [f"{c['median_frame_ms'][v]:.3f} ({c['frame_speedup'][v]:.2f})" for v in labels]
-        cells.append(", ".join(f"{c['image_max_abs_diff'][v]:.2g}" for v in labels[1:]))
-        mib = sorted({round(b / 2**20, 1) for b in c["wavefront_bytes"].values()})
-        cells.append(", ".join(f"{m:g}" for m in mib))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
-
-
-SPLITS_VAR, WIDTH_VAR, AXES_VAR, BINS_VAR, STACK_VAR = ("LIFT_GL_BVH_SPLITS", "LIFT_GL_BVH_WIDTH", "LIFT_GL_BVH_AXES",
-                                                        "LIFT_GL_BVH_BINS", "LIFT_GL_BVH_STACK_ENTRIES")
-PLACE_VAR = "LIFT_GL_BVH_STACK"
-CARRY_VAR = "LIFT_GL_CARRY_PATHS"
-LEAF_VAR = "LIFT_GL_BVH_LEAF"
-
-
-def _env_axis(text: str | None) -> list:
-    """--env VAR=a,b as an axis (name, variable, values): any $LIFT_GL_* setting the flags
-    above do not name."""
+def _option_axis(text: str | None) -> list:
+    """--option KEY=a,b as an axis (key, values)."""
     if not text:
         return []
-    var, sep, values = text.partition("=")
-    if not sep or not var.strip() or not values.strip():
-        raise SystemExit(f"--env: VAR=value,value, not {text!r}")
-    var = var.strip()
-    return [(var.lower().removeprefix("lift_gl_"), var, values)]
-
-
-def _set_splits(value, previous, var: str = SPLITS_VAR) -> None:
-    """$LIFT_GL_BVH_SPLITS (or `var`) for the next renderer (value None: as it was when the run began)."""
-    value = previous if value is None else value
-    if value is None:
-        os.environ.pop(var, None)
-    else:
-        os.environ[var] = value
+    key, sep, values = text.partition("=")
+    if not sep or not key.strip() or not values.strip():
+        raise SystemExit(f"--option: KEY=value,value, not {text!r}")
+    return [(key.strip(), values)]
 
 
 def _lowest_mhz(record: dict) -> int | None:
@@ -1008,22 +800,15 @@ def main(argv=None) -> int:
     m.add_argument("--backend", default="auto")
     m.add_argument("--label", default="")
     m.add_argument("--out", type=Path)
-    m.add_argument("--bvh-splits", help="comma-separated $LIFT_GL_BVH_SPLITS values (off,auto): every case "
-                   "measured under each, interleaved; --out FILE.json becomes FILE.splits-VALUE.json per value")
-    m.add_argument("--bvh-width", help="comma-separated $LIFT_GL_BVH_WIDTH values (2,4,4q): as --bvh-splits, "
-                   "--out FILE.json becoming FILE.width-VALUE.json")
-    m.add_argument("--bvh-axes", help="comma-separated $LIFT_GL_BVH_AXES values (longest,all): as --bvh-splits")
-    m.add_argument("--bvh-bins", help="comma-separated $LIFT_GL_BVH_BINS values (e.g. 32,128): as --bvh-splits")
-    m.add_argument("--bvh-stack-entries", help="comma-separated $LIFT_GL_BVH_STACK_ENTRIES values (children,groups): "
-                   "as --bvh-splits")
-    m.add_argument("--bvh-stack", help="comma-separated $LIFT_GL_BVH_STACK values (shared,local,auto: where the trace "
-                   "pass keeps its stack): as --bvh-splits")
-    m.add_argument("--carry-paths", help="comma-separated $LIFT_GL_CARRY_PATHS values (off,on: paths under way when "
-                   "a frame's pixel queue runs out go on in the next frame): as --bvh-splits")
-    m.add_argument("--bvh-leaf", help="semicolon-separated $LIFT_GL_BVH_LEAF values (MAX_LEAF or MAX_LEAF,COST: the SAH "
-                   "builder's largest leaf and a split's cost in triangle tests; 'default' for unset): as --bvh-splits")
-    m.add_argument("--env", help="VAR=a,b: any environment setting (e.g. LIFT_GL_GBUFFER=raster,traced): as --bvh-splits")
-    m.add_argument("--split-rounds", type=int, default=2, help="with --bvh-splits or --bvh-width: rounds, in alternating order")
+    m.add_argument("--option", help="KEY=a,b: every case measured under each value of the renderer's option KEY "
+                   "(lift_gl/options.py), interleaved; --out FILE.json becomes FILE.KEY-VALUE.json per value")
+    m.add_argument("--bvh-width", help="comma-separated bvh_width values (2,4,4q): as --option bvh_width=...")
+    m.add_argument("--bvh-stack-entries", help="comma-separated bvh_stack_entries values (children,groups): as --option")
+    m.add_argument("--bvh-stack", help="comma-separated bvh_stack values (shared,local,auto: where the trace pass "
+                   "keeps its stack): as --option")
+    m.add_argument("--carry-paths", help="comma-separated carry_paths values (off,on: paths under way when a frame's "
+                   "pixel queue runs out go on in the next frame): as --option")
+    m.add_argument("--split-rounds", type=int, default=2, help="with --option: rounds, in alternating order")
     m.set_defaults(func=measure)
     v = sub.add_parser("ab", help="versions of bvh.glsl against each other, interleaved in one process")
     v.add_argument("scenes", nargs="+")
@@ -1034,20 +819,6 @@ def main(argv=None) -> int:
     v.add_argument("--out", type=Path)
     v.add_argument("--md", type=Path)
     v.set_defaults(func=ab)
-    wf = sub.add_parser("wavefront", help="pt's trace pass as megakernel and wavefronts, interleaved in one process")
-    wf.add_argument("scenes", nargs="+")
-    wf.add_argument("--sizes", default="1920x1080")
-    wf.add_argument("--variants", default=WAVEFRONT_VARIANTS,
-                    help="comma-separated: mega first, then waveN[pK][-noballot][-split]")
-    wf.add_argument("--max-depth", type=int, default=32)
-    wf.add_argument("--frames", type=int, default=8)
-    wf.add_argument("--rounds", type=int, default=5)
-    wf.add_argument("--backend", default="auto")
-    wf.add_argument("--profile", default="", type=lambda s: [v for v in s.split(",") if v],
-                    help="comma-separated variants: also one frame with each dispatch timed alone")
-    wf.add_argument("--out", type=Path)
-    wf.add_argument("--md", type=Path)
-    wf.set_defaults(func=wavefront_cmd)
     t = sub.add_parser("table")
     t.add_argument("files", nargs="+")
     t.add_argument("--md", type=Path)

@@ -169,9 +169,8 @@ def bdpt_unpacked(text: str) -> str:
 
 
 def define(name: str):
-    """The program with `name` #defined (e.g. LIFT_MOLLER_TRUMBORE: lift/bvh.glsl's other
-    triangle test; the image may move by the rays through shared edges); "NAME VALUE" replaces
-    a definition of NAME the renderer made."""
+    """The program with `name` #defined (e.g. LIFT_COHERENT_SAMPLING); "NAME VALUE" replaces a
+    definition of NAME the renderer made."""
     def edit(text):
         text = undefine(name.split()[0])(text)
         return _after_version(text, f"#define {name}")
@@ -761,9 +760,6 @@ VARIANTS = {
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
     "bdpt_unpacked": (bdpt_unpacked, {}, False),
-    "mt": (define("LIFT_MOLLER_TRUMBORE"), {}, False),
-    "wt_fp64": (define("LIFT_WATERTIGHT_FP64"), {}, False),
-    # the 4-wide tree's any-hit child orders (lift/bvh.glsl): the same shadow rays blocked
     "shared1": (shared_depth(1), {}, True),
     "shared2": (shared_depth(2), {}, True),
     "shared4": (shared_depth(4), {}, True),
@@ -794,9 +790,6 @@ VARIANTS = {
     "pad8k": (pad_shared(8192), {}, True),
     "pad16k": (pad_shared(16384), {}, True),
     "pad32k": (pad_shared(32768), {}, True),
-    "any_nearest": (define("LIFT_BVH4_ANY_NEAREST"), {}, True),
-    "any_leaves": (define("LIFT_BVH4_ANY_LEAVES_FIRST"), {}, True),
-    "any_both": (compose(define("LIFT_BVH4_ANY_NEAREST"), define("LIFT_BVH4_ANY_LEAVES_FIRST")), {}, True),
     "bdpt_shared2": (bdpt_shared_vertices(2), {}, False),
     "bdpt_shared4": (bdpt_shared_vertices(4), {}, False),
     "bdpt_shared8": (bdpt_shared_vertices(8), {}, False),
@@ -950,7 +943,7 @@ def stack_too_short(source: str, packed) -> str | None:
 
 
 def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None, integrator="pt", trees=None,
-              settings=None):
+              settings=None, options=None):
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import frame_jitter, view_projection, near_far
     from lift_gl.passes.common import set_uniforms
@@ -960,11 +953,12 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     from lift_gl.scene.loader import load_scene
 
     scene = load_scene(path)
-    r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth, **(settings or {})}, ctx=ctx)
+    r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth, **(settings or {})}, ctx=ctx,
+                 options=options)
     if base_tree is not None and r.packed.bvh_width != 2 \
             and "LIFT_BVH_WIDTH" not in (Path(base_tree) / "shaders" / "lift" / "bvh.glsl").read_text():
         raise SystemExit(f"{base_tree} traverses only the binary BVH and this scene's is {r.packed.bvh_width}-wide: "
-                         "run with LIFT_GL_BVH_WIDTH=2 (lift_gl/accel/wide.py)")
+                         "run with --option bvh_width=2 (lift_gl/options.py)")
     r.render(spp=2)  # warm-up; leaves a G-buffer for the variants
     CURRENT_PARAMS.clear()
     CURRENT_PARAMS.update(r.params)
@@ -1180,6 +1174,9 @@ def main(argv=None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="plugin setting of every variant, e.g. rr_depth=1 (repeatable)")
     ap.add_argument("--backend", default="auto")
+    from lift_gl.options import add_option_argument, from_args
+
+    add_option_argument(ap)   # the renderer's options (lift_gl/options.py), e.g. --option carry_paths=on
     args = ap.parse_args(argv)
     from lift_gl.report.configurations import parse_spec
     settings = parse_spec(":".join([args.integrator, *args.set]))[1]
@@ -1197,7 +1194,7 @@ def main(argv=None) -> int:
     for path in args.scenes:
         start = time.perf_counter()
         res = run_scene(ctx, path, _size(args.size), args.max_depth, names, args.reps, args.dump_binaries, args.base_tree,
-                        args.integrator, trees, settings)
+                        args.integrator, trees, settings, from_args(args))
         record["results"].append(res)
         print(f"{res['scene']} ({time.perf_counter() - start:.0f} s): " + ", ".join(
             f"{n} {v['median_ms']:.3f}" for n, v in res["variants"].items())

@@ -6,7 +6,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from . import arg_types, scaffold, warptest
+from . import arg_types, options, scaffold, warptest
 from .app.command import add_parser as add_view_parser
 from .denoise import DENOISERS
 from .errors import LiftError
@@ -59,7 +59,9 @@ def _add_render(sub):
     p.add_argument("--plugins", action="append", default=[], metavar="DIR", help="more plugin folders")
     p.add_argument("--all-features", action="store_true",
                    help="compile every shader feature, not only those the scene uses (for comparisons)")
-    p.add_argument("--explain", action="store_true", help="print the passes and compiled features, and why")
+    p.add_argument("--explain", action="store_true",
+                   help="print the passes, compiled features and options' choices, and why")
+    options.add_option_argument(p)
     p.add_argument("--out", help="output file: .png (sRGB), .exr .pfm .npy (linear float32); with "
                    "--camera-path a folder (frame_0000.png, ...) or a pattern such as pan_{frame:04d}.png")
     seq = p.add_argument_group("image sequences (docs/temporal.md)")
@@ -111,7 +113,7 @@ def cmd_render(args) -> int:
                         params=_settings(args.set, args.integrator), plugin_dirs=args.plugins,
                         features=SceneFeatures.everything() if args.all_features else None,
                         temporal=temporal, clamp_sigma=args.clamp_sigma,
-                        denoise=args.denoise, denoiser=args.denoiser, **extra)
+                        denoise=args.denoise, denoiser=args.denoiser, options=options.from_args(args), **extra)
     if args.explain:
         print(renderer.explain())
         if args.out is None:

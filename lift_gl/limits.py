@@ -18,8 +18,9 @@
   source before the GL compiler sees it (MAX_SHADER_ARRAY_COMPONENTS; lift_gl/glsl_arrays.py:
   llvmpipe's compiler needs minutes and gigabytes for 65,536 floats).
 
-$LIFT_GL_MAX_SSBO_BYTES lowers the per-buffer limit below the GL's: tests force a split with
-it, and it shows on a GPU with 2 GiB buffers how a scene is split on llvmpipe.
+The option max_buffer_bytes (lift_gl/options.py; GlLimits.query's argument) lowers the
+per-buffer limit below the GL's: tests force a split with it, and it shows on a GPU with 2 GiB
+buffers how a scene is split on llvmpipe.
 """
 from __future__ import annotations
 
@@ -30,7 +31,6 @@ from .errors import LimitError
 from .scene.instances import MAX_INSTANCES
 from .scene.split import HEAP_ARRAYS, MAX_HEAP_CHUNKS, ROW_BYTES, plan_buffers
 
-MAX_SSBO_ENV_VAR = "LIFT_GL_MAX_SSBO_BYTES"
 
 # Bytes per film pixel: trace frame and accumulation sum + compensation (RGBA32F each),
 # G-buffer visibility (RGBA32UI), normal/depth (RGBA32F), albedo (RGBA16F), depth (32 bit),
@@ -61,7 +61,8 @@ class GlLimits:
     max_ssbo_bytes: int
 
     @classmethod
-    def query(cls, ctx) -> "GlLimits":
+    def query(cls, ctx, max_buffer_bytes: int | None = None) -> "GlLimits":
+        """The context's limits; `max_buffer_bytes` lowers the per-buffer one (None: the GL's)."""
         info = ctx.info
         viewport = info.get("GL_MAX_VIEWPORT_DIMS", (1 << 14, 1 << 14))
         return cls(renderer=str(info.get("GL_RENDERER", "?")),
@@ -69,21 +70,17 @@ class GlLimits:
                    max_framebuffer=(int(info.get("GL_MAX_FRAMEBUFFER_WIDTH", 1 << 14)),
                                     int(info.get("GL_MAX_FRAMEBUFFER_HEIGHT", 1 << 14))),
                    max_viewport=(int(viewport[0]), int(viewport[1])),
-                   max_ssbo_bytes=_lowered(int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27))))
+                   max_ssbo_bytes=_lowered(int(info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)),
+                                           max_buffer_bytes))
 
 
-def _lowered(gl_max: int) -> int:
-    """The GL's per-buffer limit, or $LIFT_GL_MAX_SSBO_BYTES where that is lower."""
-    text = os.environ.get(MAX_SSBO_ENV_VAR, "").strip()
-    if not text:
+def _lowered(gl_max: int, value: int | None) -> int:
+    """The GL's per-buffer limit, or `value` where that is lower."""
+    if value is None:
         return gl_max
-    try:
-        value = int(text)
-    except ValueError:
-        raise LimitError(f"${MAX_SSBO_ENV_VAR} must be a whole number of bytes, not {text!r}") from None
-    if value < ROW_BYTES:
-        raise LimitError(f"${MAX_SSBO_ENV_VAR} = {value} is below one row ({ROW_BYTES} bytes)")
-    return min(gl_max, value)
+    if int(value) < ROW_BYTES:
+        raise LimitError(f"max_buffer_bytes = {value} is below one row ({ROW_BYTES} bytes)")
+    return min(gl_max, int(value))
 
 
 def _mib(n: int) -> str:

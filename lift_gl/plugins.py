@@ -11,9 +11,6 @@ documentation and parameter table (`lift-gl plugins` prints it):
     splats = false             # optional: true gives the shader splat(pixel_pos, value), which
                                # adds to any pixel of this frame (light tracing, BDPT's t = 1)
     biased = "why"             # optional: the plugin does not converge to the true image, and why
-    bvh_stack = "children"     # optional: the 4-wide BVH traversal's stack entries for this
-                               # plugin ("children", "groups" or "auto", the default; a set
-                               # $LIFT_GL_BVH_STACK_ENTRIES overrides it: accel/wide.stack_defines)
     [params.max_depth]
     type = "int"  default = 16  min = 0  max = 1000  help = "longest path, in bounces"
     define = "MY_MAX_DEPTH"    # optional, int parameters: also a compile-time constant
@@ -28,6 +25,11 @@ documentation and parameter table (`lift-gl plugins` prints it):
 
 Plugins are found in the built-in `plugins/` folder, in folders named by `--plugins`, and in
 the folders of the `LIFT_GL_PLUGIN_PATH` environment variable (separated by `os.pathsep`).
+
+How the host runs a plugin (the BVH's layout and stack, coherent sampling, ...) is not the
+manifest's business: those are the renderer's options (lift_gl/options.py, `--option`). A
+manifest that still has the keys of older versions (`bvh_stack`, parameters named
+`coherent_sampling` or `coherent_interleave`) loads, with a warning that they do nothing.
 """
 from __future__ import annotations
 
@@ -35,10 +37,10 @@ import math
 import os
 import re
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .accel.wide import STACKS
 from .errors import PluginError, read_utf8
 from .glsl_names import name_conflict
 
@@ -48,9 +50,11 @@ GLSL_TYPES = {"int": "int", "float": "float", "bool": "bool", "color": "vec3"}
 LANGUAGES = ("glsl", "opencl")
 PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced",
-                  "bvh_stack"}
-BVH_STACKS = ("auto", *STACKS)   # a manifest's bvh_stack: accel/wide.py's stack entries, or auto
+_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced"}
+# Keys and parameters of older manifests that are the host's options now (lift_gl/options.py):
+# read past with a warning, never applied.
+_RETIRED_KEYS = {"bvh_stack": "bvh_stack_entries"}
+_RETIRED_PARAMS = ("coherent_sampling", "coherent_interleave")
 _PARAM_KEYS = {"type", "default", "min", "max", "help", "define"}
 _REDUCED_KEYS = {"function": None, "scale": "int", "normal_power": "float", "depth_sigma": "float"}
 _HOST_DEFINE_PREFIXES = ("HAS_", "LIFT_", "PRIMARY_", "GL_")  # features, host switches, GLSL's own
@@ -129,7 +133,6 @@ class Plugin:
     splats: bool = False  # the host gives the shader a splat buffer (lift/splat.glsl)
     biased: str = ""  # why the plugin does not converge to the true image ("": it does)
     reduced: ReducedPass | None = None
-    bvh_stack: str = "auto"  # the BVH traversal's stack entries this plugin asks for (accel/wide.stack_defines)
 
     @property
     def manifest(self) -> Path:
@@ -147,28 +150,14 @@ class Plugin:
         return {name: p.default for name, p in self.params.items()}
 
 
-# A bool parameter of this name is the host's too: on, it compiles the trace pass with
-# COHERENT_DEFINE, coherent sampling (lift_gl/passes/common.py coherent_sampling_source), and
-# an int parameter INTERLEAVE_PARAM, where the plugin has one, with INTERLEAVE_DEFINE.
-# (`coherent` alone is a GLSL keyword.)
-COHERENT_PARAM = "coherent_sampling"
-COHERENT_DEFINE = "LIFT_COHERENT_SAMPLING"
-INTERLEAVE_PARAM = "coherent_interleave"
-INTERLEAVE_DEFINE = "LIFT_COHERENT_INTERLEAVE"
+class PluginWarning(UserWarning):
+    """Something in a manifest was read past; the message names file:line."""
 
 
 def param_defines(plugin: Plugin, values: dict) -> dict:
     """The compile-time constants of the plugin's parameters that have a `define`, for these
-    values: the shader is specialised to them (and recompiled when one changes); and the
-    host's COHERENT_DEFINE (and INTERLEAVE_DEFINE) where the plugin's `coherent_sampling` is on."""
-    defines = {p.define: int(values.get(name, p.default)) for name, p in plugin.params.items() if p.define}
-    coherent = plugin.params.get(COHERENT_PARAM)
-    if coherent is not None and coherent.type == "bool" and values.get(COHERENT_PARAM, coherent.default):
-        defines[COHERENT_DEFINE] = 1
-        interleave = plugin.params.get(INTERLEAVE_PARAM)
-        if interleave is not None and interleave.type == "int":
-            defines[INTERLEAVE_DEFINE] = max(1, int(values.get(INTERLEAVE_PARAM, interleave.default)))
-    return defines
+    values: the shader is specialised to them (and recompiled when one changes)."""
+    return {p.define: int(values.get(name, p.default)) for name, p in plugin.params.items() if p.define}
 
 
 def _line_of(text: str, pattern: str) -> int | None:
@@ -197,8 +186,15 @@ def load_manifest(folder: Path) -> Plugin:
     def fail(message, key_pattern=None):
         raise PluginError(message, path, _line_of(text, key_pattern) if key_pattern else None)
 
+    def warn(message, key_pattern):
+        line = _line_of(text, key_pattern)
+        warnings.warn(f"{path}:{line}: {message}" if line else f"{path}: {message}", PluginWarning, stacklevel=3)
+
     for key in data:
-        if key not in _MANIFEST_KEYS:
+        if key in _RETIRED_KEYS:
+            warn(f"{key} is ignored: it is the host's option {_RETIRED_KEYS[key]} now "
+                 f"(--option {_RETIRED_KEYS[key]}=...)", rf"^\s*{key}\s*=")
+        elif key not in _MANIFEST_KEYS:
             fail(f"unknown key {key!r} (known: {', '.join(sorted(_MANIFEST_KEYS))})", rf"^\s*{re.escape(key)}\s*=")
     for key in ("name", "entry"):
         if not isinstance(data.get(key), str) or not data[key]:
@@ -226,6 +222,9 @@ def load_manifest(folder: Path) -> Plugin:
         fail("'params' must be tables: write [params.NAME]", r"^\s*params\s*=")
     for pname, spec in (data.get("params") or {}).items():
         header = rf"^\s*\[params\.{re.escape(pname)}\]"
+        if pname in _RETIRED_PARAMS:
+            warn(f"parameter {pname} no longer switches anything: coherent sampling is the host's option "
+                 f"(--option {pname}=...)", header)
         if not _IDENT.match(pname):
             fail(f"parameter name {pname!r} must be an identifier", header)
         conflict = name_conflict(pname)   # it becomes a uniform of this name
@@ -268,9 +267,6 @@ def load_manifest(folder: Path) -> Plugin:
         except PluginError as exc:
             fail(exc.message, header)
         params[pname] = param
-    bvh_stack = data.get("bvh_stack", "auto")
-    if not isinstance(bvh_stack, str) or bvh_stack not in BVH_STACKS:
-        fail(f"bvh_stack {bvh_stack!r} is not one of {', '.join(BVH_STACKS)}", r"^\s*bvh_stack\s*=")
     biased = data.get("biased", "")
     if not isinstance(biased, str):
         fail("'biased' must be a string saying why the plugin is biased", r"^\s*biased\s*=")
@@ -278,8 +274,7 @@ def load_manifest(folder: Path) -> Plugin:
         fail("description must be a string", r"^\s*description\s*=")
     return Plugin(name=name, description=data.get("description", ""), language=language,
                   entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
-                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail),
-                  bvh_stack=bvh_stack)
+                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail))
 
 
 def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> ReducedPass | None:

@@ -2,7 +2,8 @@
 took and how large its error is estimated to be (no reference needed), so that a folder of
 renders can be plotted as error against time; and what lift_gl.image_checks found wrong with
 it (`warnings`, empty when nothing; `dropped_fraction`, the share of samples dropped as
-NaN/Inf)."""
+NaN/Inf); and how its frames ran (`options`: each option's value, what was asked, and why:
+lift_gl/options.py)."""
 from __future__ import annotations
 
 import json
@@ -33,6 +34,7 @@ def render_record(renderer, scene_path, out_path, warnings=()) -> dict:
     from .gl.context import describe
 
     record["device"] = describe(renderer.ctx)
+    record["options"] = renderer.choices.record()
     return record
 
 

@@ -25,27 +25,27 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .accel.cache import bins_for_one_build
-from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, paired_defines as bvh_paired_defines, \
-    resolve_slot_order, resolve_width, stack_defines as bvh_stack_defines
+from .accel.wide import STACK_DEFINES as BVH_STACK_DEFINES, stack_defines as bvh_stack_defines
 from .denoise import BIASED as DENOISER_BIASED
 from .denoise import DENOISERS, MODES as DENOISE_MODES
 from .error_estimate import ErrorEstimate, estimate_error
 from .errors import DenoiserError, LiftError
 from .gl.context import create_context, describe, is_software
+from .options import Device, Options, ResolvedOptions, TreeShape, Workload, resolve
 from .passes.accumulate import AccumulatePass, half_sign
 from .passes.camera import camera_uniforms, frame_jitter
 from .passes.pixel_filter import filter_uniforms, filtered_jitter
 from .passes.denoise import DenoisePass
 from .limits import GlLimits, check_film, check_packed, check_triangle_count
-from .passes.common import (SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS, STAT_LOOP_LIMITED, STAT_RAYS_HIGH,
-                            STAT_RAYS_LOW, GpuTimer, SceneBuffers)
-from .passes.gbuffer import GBufferPass, TracedGBufferPass, traced_gbuffer_wanted
+from .passes.common import (COHERENT_DEFINE, INTERLEAVE_DEFINE, SCENE_BINDINGS, STAT_DROPPED, STAT_DROPPED_SPLATS,
+                            STAT_LOOP_LIMITED, STAT_RAYS_HIGH, STAT_RAYS_LOW, GpuTimer, SceneBuffers, coherent_defines)
+from .passes.gbuffer import GBufferPass, TracedGBufferPass
 from .passes.reduced_trace import ReducedTracePass, block_offset
 from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
-from .passes.trace import TracePass, param_uniforms
+from .passes.trace import TracePass, param_uniforms, plugin_path_steps
 from .passes.upsample import UpsamplePass
-from .plugins import COHERENT_DEFINE, INTERLEAVE_DEFINE, Plugin, find_plugin, load_manifest, param_defines
+from .plugins import Plugin, find_plugin, load_manifest, param_defines
 from .scene.features import SceneFeatures
 from .scene.instances import flatten_instances, only_instances_moved
 from .scene.model import PixelFilter, Scene
@@ -115,14 +115,14 @@ class Renderer:
                  samples_per_frame: int | None = None, plugin_dirs=(), features: SceneFeatures | None = None,
                  timers: bool = False, count_rays: bool = False, ctx=None, temporal: str = "reset",
                  min_blend: float = DEFAULT_MIN_BLEND, clamp_sigma: float = 0.0, denoise: str = "off",
-                 denoiser: str = "atrous", denoiser_options: dict | None = None,
-                 uniform_blocks: bool | None = None):
+                 denoiser: str = "atrous", denoiser_options: dict | None = None, options: Options | None = None):
         """temporal: "reset" (a moved camera or object restarts accumulation) or "reproject"
         (the history is reprojected; min_blend: the least weight a moving frame gets;
         clamp_sigma > 0: clamp the history to the frame's neighbourhood, BIASED).
         denoise: "off", "every" (each frame) or "final" (end of each render()), with `denoiser`
         ("atrous", "onnx", "oidn", "glsl"; lift_gl.denoise): BIASED, labelled as such.
-        uniform_blocks: small scene arrays in uniform blocks (default: on CPU rasterizers)."""
+        options: how frames run (lift_gl/options.py: BVH layout, stack, pixel queue, coherent
+        sampling, ...), "auto" ones resolved for this device (`choices`, printed by explain())."""
         if temporal not in MODES:
             raise ValueError(f"temporal must be one of {', '.join(MODES)}, not {temporal!r}")
         history_cap(min_blend, 1)  # validates min_blend
@@ -145,8 +145,11 @@ class Renderer:
         self.seed = int(seed)
         # A window hands in its own context (the viewer); otherwise a headless one.
         self.ctx = ctx if ctx is not None else create_context(backend)
+        self.options = options if options is not None else Options()
+        self.device = Device.of(self.ctx)
         # Hostile sizes are refused here, before any GPU (or BVH) memory is allocated.
-        self.limits = GlLimits.query(self.ctx)
+        buffer_bytes = self.options.max_buffer_bytes
+        self.limits = GlLimits.query(self.ctx, None if buffer_bytes == "auto" else buffer_bytes)
         check_film(self.size, self.limits, scene.path if size is None else None)
         check_triangle_count(scene.triangle_count, self.limits, scene.path)
         self.plugin = find_plugin(integrator, plugin_dirs)
@@ -158,12 +161,12 @@ class Renderer:
         self._fixed_features = features  # None: follow the scene (also after edits)
         self.features = features or SceneFeatures.of(scene)
         self.count_rays = count_rays
-        self.packed = pack_scene(scene, bvh_width=self._bvh_width(self.features), bvh_slot_order=self._slot_order())
+        self.packed = pack_scene(scene, **self._bvh_layout(self.features))
+        self.choices = self._resolve(self.plugin, self.features, self.packed)
         check_packed(self.packed, self.limits, SCENE_BINDINGS, scene.path)
         # On a CPU rasterizer the small scene arrays go in uniform blocks, which llvmpipe reads
-        # faster than storage buffers (docs/cpu-speed.md); uniform_blocks=False keeps them all SSBOs.
-        if uniform_blocks is None:
-            uniform_blocks = is_software(self.ctx)
+        # faster than storage buffers (docs/cpu-speed.md; the option uniform_blocks).
+        uniform_blocks = self.choices["uniform_blocks"] == "on"
         block_bytes = int(self.ctx.info.get("GL_MAX_UNIFORM_BLOCK_SIZE", 0)) if uniform_blocks else 0
         self.buffers = SceneBuffers(self.ctx, self.packed, motion=self.features.motion, uniform_block_bytes=block_bytes,
                                     max_buffer_bytes=self.limits.max_ssbo_bytes,  # a big scene is split
@@ -183,17 +186,20 @@ class Renderer:
         self.reload_error: LiftError | None = None  # why the last reload failed, until one succeeds
         self.watcher = FileWatcher(self._watched_files())
 
-    def _bvh_width(self, features) -> str:
-        """The BVH layout for this device and plugin (accel/wide.py resolve_width): OpenCL
-        plugins and shaders compiled with motion or instances read the binary tree."""
-        layout = resolve_width(None, software=is_software(self.ctx))   # refuses a bad setting
-        if self.plugin.language == "opencl" or features.motion or features.instances:
-            return "2"
-        return layout
+    def _resolve(self, plugin: Plugin, features: SceneFeatures, packed=None) -> ResolvedOptions:
+        """The options' choices for this device, plugin and scene (lift_gl/options.py); before
+        the scene is packed (packed None) those that depend on its tree are provisional."""
+        work = Workload(language=plugin.language, path_steps=plugin_path_steps(plugin, features.defines()),
+                        splats=plugin.splats, motion=features.motion, instances=features.instances,
+                        motion_vectors=self.temporal == "reproject", triangles=self.scene.triangle_count,
+                        tree=TreeShape.of(packed) if packed is not None else None)
+        return resolve(self.options, self.device, work)
 
-    def _slot_order(self) -> str:
-        """The 4-wide nodes' order of children for this device (accel/wide.py resolve_slot_order)."""
-        return resolve_slot_order(None, software=is_software(self.ctx))
+    def _bvh_layout(self, features: SceneFeatures) -> dict:
+        """pack_scene's BVH settings: the options' choices for this device, plugin and features."""
+        choices = self._resolve(self.plugin, features)
+        return {"bvh_width": choices["bvh_width"], "bvh_slot_order": choices["bvh_slot_order"],
+                "bvh_builder": choices["bvh_builder"]}
 
     def _shader_defines(self) -> dict:
         # features, arrays in uniform blocks (CPU rasterizers), a big scene's split (scene/split.py)
@@ -202,8 +208,9 @@ class Renderer:
             defines["LIFT_BVH_WIDTH"] = self.packed.bvh_width
             if self.packed.bvh_quantized:
                 defines["LIFT_BVH_QUANTIZED"] = True
-            defines.update(self._bvh_stack_defines(self.plugin))
-            defines.update(bvh_paired_defines(is_software(self.ctx), self.packed.bvh_levels))
+            defines.update(self._bvh_stack_defines())
+            if self.choices["trace_paired"] == "on":
+                defines["LIFT_TRACE_PAIRED"] = True
         if self.count_rays:  # compiled in only when asked: one more atomic per pixel and frame
             defines["LIFT_COUNT_RAYS"] = True
         return defines
@@ -229,9 +236,9 @@ class Renderer:
 
     def _new_gbuffer(self, motion_vectors: bool = False):
         """The raster G-buffer, or on GPUs with few raster units its ray-cast equivalent
-        (passes/gbuffer.py: traced_gbuffer_wanted); motion vectors only come from the raster."""
-        if not motion_vectors and traced_gbuffer_wanted(self.ctx):
-            return TracedGBufferPass(self.ctx, self.size, self.defines)
+        (passes/gbuffer.py; the option gbuffer); motion vectors only come from the raster."""
+        if not motion_vectors and self.choices["gbuffer"] == "traced":
+            return TracedGBufferPass(self.ctx, self.size, self.defines, stack=self.choices.gbuffer_stack)
         p = self.packed
         return GBufferPass(self.ctx, self.size, self.defines, p.num_world_triangles, p.num_spheres,
                            motion_vectors=motion_vectors, instance_draws=p.instance_draws, raster_rows=p.raster_rows)
@@ -373,8 +380,8 @@ class Renderer:
         elif geometry or emission_changed:
             # a live edit waits for this build: one SAH build, without the second one with
             # finer bins at the top (which can double it for 1.5% of trace time)
-            packed = pack_scene(scene, bvh_width=self._bvh_width(self._fixed_features or SceneFeatures.of(scene)),
-                                bvh_bins=bins_for_one_build(), bvh_slot_order=self._slot_order())
+            packed = pack_scene(scene, bvh_bins=bins_for_one_build(),
+                                **self._bvh_layout(self._fixed_features or SceneFeatures.of(scene)))
         else:
             packed = dataclasses.replace(self.packed, materials=materials)
         self.scene = dataclasses.replace(scene, camera=self.scene.camera)
@@ -392,6 +399,7 @@ class Renderer:
         if features != self.features:
             same_look = False
         self.features = features
+        self.choices = self._resolve(self.plugin, features, packed)   # the new tree may want another stack
         defines = self._shader_defines()  # features, and arrays that moved into or out of uniform blocks
         if defines != self.defines:
             same_look = False  # new passes: their history starts empty
@@ -419,29 +427,33 @@ class Renderer:
         self.reset()
 
     # ---- hot reload ----
-    def _bvh_stack_defines(self, plugin: Plugin) -> dict:
-        """The 4-wide traversal's stack for this tree, device and plugin (accel/wide.stack_defines)."""
+    def _bvh_stack_defines(self, choices: ResolvedOptions | None = None) -> dict:
+        """The 4-wide traversal's stack for this tree, device and plugin (the option
+        bvh_stack_entries; accel/wide.stack_defines)."""
         p = self.packed
-        return bvh_stack_defines(p.bvh_stack, p.bvh_levels, p.bvh_nodes.shape[0], software=is_software(self.ctx),
-                                 preferred=plugin.bvh_stack)
+        return bvh_stack_defines(p.bvh_stack, p.bvh_levels, (choices or self.choices)["bvh_stack_entries"])
 
-    def _plugin_defines(self, plugin: Plugin, params: dict) -> dict:
-        """The scene's defines and the plugin's compile-time parameters (`define` in its manifest);
-        its bvh_stack, which a reloaded manifest may have changed, sizes the trace pass's stack."""
+    def _plugin_defines(self, plugin: Plugin, params: dict, choices: ResolvedOptions | None = None) -> dict:
+        """The scene's defines, the plugin's compile-time parameters (`define` in its manifest)
+        and coherent sampling; the stack for this plugin (`choices`: a reloaded plugin's)."""
+        choices = choices or self.choices
         defines = dict(self.defines)
         if self.packed.bvh_width != 2:
             for key in BVH_STACK_DEFINES:
                 defines.pop(key, None)
-            defines.update(self._bvh_stack_defines(plugin))
+            defines.update(self._bvh_stack_defines(choices))
+        if plugin.language == "glsl":
+            defines.update(coherent_defines(choices["coherent_sampling"], choices["coherent_interleave"] or 1))
         return dict(defines, **param_defines(plugin, params))
 
-    def _create_trace(self, plugin: Plugin, params: dict):
-        defines = self._plugin_defines(plugin, params)
+    def _create_trace(self, plugin: Plugin, params: dict, choices: ResolvedOptions | None = None):
+        choices = choices or self.choices
+        defines = self._plugin_defines(plugin, params, choices)
         if plugin.language == "opencl":
             from .passes.trace_cl import OpenCLTracePass  # pyopencl only when such a plugin runs
 
             return OpenCLTracePass(self.ctx, self.size, plugin, defines, self.buffers)
-        return TracePass(self.ctx, self.size, plugin, defines)
+        return TracePass(self.ctx, self.size, plugin, defines, choices)
 
     def _watched_files(self) -> set:
         """The plugin's own files and every file its program included (the library's too)."""
@@ -461,12 +473,14 @@ class Renderer:
         try:
             plugin = load_manifest(self.plugin.folder)
             params = self._params_after_reload(plugin)
-            trace = self._create_trace(plugin, params)
+            choices = self._resolve(plugin, self.features, self.packed)   # its path steps or splats may have changed
+            trace = self._create_trace(plugin, params, choices)
         except LiftError as exc:
             self.reload_error = exc
             raise
         self.trace.release()
         self.plugin, self.params, self.trace, self.reload_error = plugin, params, trace, None
+        self.choices = choices
         if plugin.primary == "gbuffer" and self.gbuffer is None:
             self.gbuffer = self._new_gbuffer()
         elif plugin.primary == "camera" and self.gbuffer is not None and self.reproject is None:
@@ -529,7 +543,7 @@ class Renderer:
             lines.append(f"coherent sampling: the pixels of each {w}x{h} tile{spread} share their random numbers "
                          "(the tiles move every frame; a plugin may draw some of its own: bdpt's light subpaths): "
                          "unbiased per pixel, the noise correlated in blocks"
-                         + ("; the denoiser keeps such blocks (docs/gpu.md, Thirteenth session)"
+                         + ("; the denoiser keeps such blocks (docs/denoiser.md)"
                             if self.denoise_pass is not None else ""))
         if self.clamp_sigma > 0 and self.reproject is not None:
             lines.append(f"BIASED: temporal neighbourhood clamp (+-{self.clamp_sigma:g} sigma) on moving frames")
@@ -537,7 +551,7 @@ class Renderer:
             lines.append(f"BIASED: denoise={self.denoise_mode} ({self.denoiser}): {DENOISER_BIASED}")
         lines.append("passes:")
         reasons = {"gbuffer": "the plugin takes its first hit from the raster G-buffer (primary = \"gbuffer\")"
-                              + ("; ray cast, one camera ray a pixel: this GPU's raster units are few ($LIFT_GL_GBUFFER)"
+                              + ("; ray cast, one camera ray a pixel (the option gbuffer)"
                                  if isinstance(self.gbuffer, TracedGBufferPass) else ""),
                    "trace": f"runs {self.plugin.entry}" + self._trace_device(),
                    "reduced": f"runs {self.plugin.reduced.function}() for 1 pixel in "
@@ -577,6 +591,8 @@ class Renderer:
             lines.append("scene arrays in uniform blocks, which a CPU rasterizer reads faster than storage "
                          f"buffers (docs/cpu-speed.md): {', '.join(sorted(self.buffers.in_uniform_block))}")
         lines += self._explain_memory()
+        lines.append("options (--option KEY=VALUE; lift_gl/options.py):")
+        lines += self.choices.explain()
         return "\n".join(lines)
 
     def _denoise_reason(self) -> str:
@@ -620,9 +636,7 @@ class Renderer:
                       if "LIFT_BVH_SHARED_DEPTH" in d else "")
         paired = ("a path vertex's shadow ray and next ray traced in one loop" if d.get("LIFT_TRACE_PAIRED")
                   else "shadow and next rays traced apart")
-        return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}{shared} "
-                "($LIFT_GL_BVH_STACK_ENTRIES, a manifest's bvh_stack choose); "
-                f"{paired} ($LIFT_GL_TRACE_PAIRED)"]
+        return [f"BVH stack: {d['LIFT_BVH_STACK_SIZE']} {what}{shared}; {paired}"]
 
     def _explain_memory(self) -> list[str]:
         """The scene's storage buffers, each with its size, and how a big scene was split."""
@@ -630,8 +644,7 @@ class Renderer:
         buffers = self.buffers.memory()
         total = sum(size for _, _, size in buffers)
         lines = [f"BVH: {p.bvh_nodes.shape[0]:,} {'binary' if p.bvh_width == 2 else f'{p.bvh_width}-wide'}{' quantized' if p.bvh_quantized else ''} nodes, "
-                 f"depth {p.bvh_depth} (binary), built by {p.bvh_builder} "
-                 f"(lift_gl/accel; $LIFT_GL_BVH_BUILDER and $LIFT_GL_BVH_WIDTH choose)",
+                 f"depth {p.bvh_depth} (binary), built by {p.bvh_builder} (lift_gl/accel)",
                  *self._explain_stack(),
                  *self._explain_instances(),
                  f"GPU memory, scene storage buffers: {total / (1 << 20):,.1f} MiB in {len(buffers)} buffers "
@@ -643,26 +656,17 @@ class Renderer:
 
     def _trace_device(self) -> str:
         if self.plugin.language != "opencl":
-            wave = getattr(self.trace, "wavefront", None)
-            if wave is not None:
-                timing = (" or the megakernel, whichever is faster on the first frames"
-                          if getattr(self.trace, "tuning", None) is not None else "")
-                return (f" as a wavefront ($LIFT_GL_WAVEFRONT){timing}: a dispatch per path vertex over the live "
-                        f"paths, {wave.memory_bytes / 2**20:.1f} MiB of path slots and queues")
-            why = getattr(self.trace, "wavefront_fallback", None)
-            queue = ("its lanes taking their next pixel from a queue as their paths end ($LIFT_GL_PIXEL_QUEUE)"
+            queue = ("its lanes taking their next pixel from a queue as their paths end"
                      if getattr(self.trace, "pixel_queue", None) is not None else "")
             carry = getattr(self.trace, "carry", None)
             if getattr(self.trace, "carry_tuning", None) is not None:
                 queue += ("; paths under way when the queue runs out may go on in the next frame, if that is "
-                          "faster on a render's first frames ($LIFT_GL_CARRY_PATHS)")
+                          "faster on a render's first frames")
             elif carry is not None:
                 queue += (f"; paths under way when the queue runs out go on in the next frame "
-                          f"($LIFT_GL_CARRY_PATHS, {carry.buffer.size / 2**20:.1f} MiB for them)")
+                          f"({carry.buffer.size / 2**20:.1f} MiB for them)")
             elif getattr(self.trace, "carry_fallback", None):
                 queue += f"; paths are not carried into the next frame: {self.trace.carry_fallback}"
-            if why:
-                return f" (megakernel although $LIFT_GL_WAVEFRONT asked for a wavefront: {why}{'; ' + queue if queue else ''})"
             return f" (megakernel, {queue})" if queue else ""
         from .opencl import describe_device
 

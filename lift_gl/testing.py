@@ -71,15 +71,17 @@ def cornell_scene():
 
 
 def render_seeds(scene, integrator: str, seeds, spp: int, size=(32, 32), params: dict | None = None,
-                 plugin_dirs=(), check_dropped: bool = True) -> np.ndarray:
+                 plugin_dirs=(), check_dropped: bool = True, options=None) -> np.ndarray:
     """One independent render per seed: float64 (K, H, W, 3).
 
     One renderer (one compile) serves every seed. With `check_dropped`, a render that dropped
-    a NaN/Inf sample fails: a correct estimator produces none.
+    a NaN/Inf sample fails: a correct estimator produces none. `options`: the renderer's
+    (lift_gl/options.py Options; None: the defaults).
     """
     from .renderer import Renderer
 
-    renderer = Renderer(scene, size=size, integrator=integrator, params=params, plugin_dirs=plugin_dirs)
+    renderer = Renderer(scene, size=size, integrator=integrator, params=params, plugin_dirs=plugin_dirs,
+                        options=options)
     images = []
     try:
         for seed in seeds:

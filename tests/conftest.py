@@ -17,6 +17,16 @@ def shared_dir() -> Path:
     return SHARED
 
 
+@pytest.fixture
+def as_if_gpu(monkeypatch):
+    """Renderers made in the test resolve their options as on a GPU (lift_gl/options.py
+    Device.of), whatever GL runs them: the GPUs' choices (shared stacks, the pixel queue, ...)
+    render on llvmpipe too."""
+    from lift_gl.options import Device
+
+    monkeypatch.setattr(Device, "of", classmethod(lambda cls, ctx: cls(software=False, renderer="a GPU (emulated)")))
+
+
 def skip_without_shared(scene_path) -> None:
     """Skip a test of a shipped scene whose files lie in ../shared where that folder is absent
     (a user's own clone); CI has it."""

@@ -62,18 +62,21 @@ def test_bench_case_makes_the_carry_choice_before_its_timed_frames(monkeypatch):
     warm-up renders (16 frames) are too short to start."""
     from lift_gl.passes import trace
 
-    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
-    monkeypatch.setenv("LIFT_GL_CARRY_PATHS", "faster")
+    from lift_gl.options import Options
+
     monkeypatch.setattr(trace, "TUNING_DELAY_S", 0.0)
-    result = bench_case(sphere_filling_the_view(), (16, 16), frames=3, repeat=1)
+    result = bench_case(sphere_filling_the_view(), (16, 16), frames=3, repeat=1,
+                        options=Options(pixel_queue="on", carry_paths="faster"))
     assert set(result["carry_tuned_ms"]) == {"carry", "plain"}
     assert isinstance(result["carry"], bool)
+    assert result["options"]["carry_paths"] == {"value": "faster", "asked": "faster"}
 
 
 def test_bench_command_writes_json_and_table(capsys, tmp_path):
     out = tmp_path / "bench.json"
     scene = REPO / "scenes" / "cornell.toml"
-    assert main(["bench", str(scene), "--sizes", "16x16,24x16", "--frames", "2", "--repeat", "1", "--json", str(out)]) == 0
+    assert main(["bench", str(scene), "--sizes", "16x16,24x16", "--frames", "2", "--repeat", "1", "--json", str(out),
+                 "--option", "bvh_width=4"]) == 0
     stdout = capsys.readouterr().out
     assert "| scene | size | triangles | BVH build s | gbuffer ms | trace ms | accumulate ms |" in stdout
     assert "| cornell | 24x16 |" in stdout and "machine:" in stdout
@@ -83,6 +86,11 @@ def test_bench_command_writes_json_and_table(capsys, tmp_path):
     assert [r["size"] for r in data["results"]] == [[16, 16], [24, 16]]
     assert data["results"][0]["triangles"] > 0 and data["results"][0]["bvh_build_seconds"] > 0
     assert "cores" in data["machine"] and "gl" in data["machine"]
+    # the options it ran with: the one asked for, and every other one's choice for this device
+    assert data["options"] == {"bvh_width": "4"}
+    assert data["results"][0]["options"]["bvh_width"] == {"value": "4", "asked": "4"}
+    assert data["results"][0]["bvh"]["width"] == 4 and not data["results"][0]["bvh"]["quantized"]
+    assert data["results"][0]["options"]["bvh_slot_order"]["asked"] == "auto"
 
 
 def test_timed_runs_go_on_until_one_reads_at_full_clock(monkeypatch):

@@ -8,14 +8,13 @@ import pytest
 
 from conftest import REPO
 from lift_gl.errors import LiftError
-from lift_gl.passes.trace import BVH_STACK_ENV_VAR
+from lift_gl.options import Options
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 
 
-def _render(monkeypatch, stack, scene, integrator, spp):
-    monkeypatch.setenv(BVH_STACK_ENV_VAR, stack)
-    r = Renderer(scene, size=(40, 32), integrator=integrator, seed=5)
+def _render(stack, scene, integrator, spp):
+    r = Renderer(scene, size=(40, 32), integrator=integrator, seed=5, options=Options(bvh_stack=stack))
     try:
         shared = "#define LIFT_BVH_SHARED_STACK" in r.trace.source.text
         return r.render(spp=spp), shared, r.trace.local_size
@@ -30,10 +29,10 @@ def _render(monkeypatch, stack, scene, integrator, spp):
     ("motion_blur.toml", "drt"),     # moving boxes: the motion-blended node boxes
     ("cornell.toml", "bdpt"),        # light subpaths and splats
 ])
-def test_shared_stack_renders_the_same_image(monkeypatch, scene_name, integrator):
+def test_shared_stack_renders_the_same_image(scene_name, integrator):
     scene = load_scene(REPO / "scenes" / scene_name)
-    local, shared_a, shape_a = _render(monkeypatch, "local", scene, integrator, 4)
-    shared, shared_b, shape_b = _render(monkeypatch, "shared", scene, integrator, 4)
+    local, shared_a, shape_a = _render("local", scene, integrator, 4)
+    shared, shared_b, shape_b = _render("shared", scene, integrator, 4)
     assert (shared_a, shape_a) == (False, (8, 8)) and (shared_b, shape_b) == (True, (8, 4))
     assert np.isfinite(local).all() and local.max() > 0
     if integrator == "bdpt":
@@ -43,27 +42,26 @@ def test_shared_stack_renders_the_same_image(monkeypatch, scene_name, integrator
         np.testing.assert_array_equal(shared, local)
 
 
-def test_bad_stack_setting_is_refused(monkeypatch):
-    monkeypatch.setenv(BVH_STACK_ENV_VAR, "registers")
-    with pytest.raises(LiftError, match=BVH_STACK_ENV_VAR):
-        Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+def test_bad_stack_setting_is_refused():
+    with pytest.raises(LiftError, match="option bvh_stack: 'registers' is not allowed; use shared, local, auto"):
+        Options(bvh_stack="registers")
 
 
 @pytest.mark.parametrize("vertices", [2, 40])  # some light vertices in shared memory; all of them (max_depth 6)
-def test_bdpt_light_vertices_in_shared_memory_render_the_same_image(monkeypatch, vertices):
+def test_bdpt_light_vertices_in_shared_memory_render_the_same_image(vertices):
     """BDPT_SHARED_VERTICES (plugins/bdpt/bdpt_vertex.glsl): the first light vertices kept in a
     shared array beside the BVH stack, the rest in the local one, give the all-local image."""
     from lift_gl.passes.trace import TracePass
 
-    monkeypatch.setenv(BVH_STACK_ENV_VAR, "shared")
     # all of them on a textured scene (four words a vertex), some on the glass-and-gold box
     scene = load_scene(REPO / ("tests/data/cornell_textured.toml" if vertices == 40 else "scenes/cornell.toml"))
     images = []
     for define in ({}, {"BDPT_SHARED_VERTICES": vertices}):
-        r = Renderer(scene, size=(32, 24), integrator="bdpt", seed=5, params={"max_depth": 6})
+        r = Renderer(scene, size=(32, 24), integrator="bdpt", seed=5, params={"max_depth": 6},
+                     options=Options(bvh_stack="shared"))
         if define:
             r.trace.release()
-            r.trace = TracePass(r.ctx, r.size, r.plugin, dict(r.defines, BDPT_MAX_DEPTH=6, **define))
+            r.trace = TracePass(r.ctx, r.size, r.plugin, dict(r.defines, BDPT_MAX_DEPTH=6, **define), r.choices)
             assert f"#define BDPT_SHARED_VERTICES {vertices}" in r.trace.source.text
         images.append(r.render(spp=3))
         r.release()

@@ -4,7 +4,7 @@ run out is parked and finished in the next frame's dispatch, its sample added th
 late image. The estimate must not change: the same samples (each pixel's random numbers are its
 own), so the same image up to the order of float additions, and every pixel exactly its number
 of samples once a render has ended. On this machine's CPU rasterizer lanes rarely see the queue
-run out while a path is under way, so the tests use $LIFT_GL_CARRY_PATHS=always: every new path
+run out while a path is under way, so the tests use the option carry_paths=always: every new path
 parks after its first vertex, which puts every pixel's sample through the mechanism."""
 from __future__ import annotations
 
@@ -14,18 +14,16 @@ import numpy as np
 import pytest
 
 from lift_gl import load_scene
-from lift_gl.errors import LiftError
-from lift_gl.passes.carry import carry_mode
+from lift_gl.options import Device, Options, Workload, resolve
 from lift_gl.renderer import Renderer
 
 REPO = Path(__file__).resolve().parent.parent
 SIZE = (40, 24)
 
 
-def _renderer(monkeypatch, carry: str, scene="cornell.toml", params=None) -> Renderer:
-    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
-    monkeypatch.setenv("LIFT_GL_CARRY_PATHS", carry)
-    return Renderer(load_scene(REPO / "scenes" / scene), size=SIZE, integrator="pt", params=params)
+def _renderer(monkeypatch, carry: str, scene="cornell.toml", coherent="off") -> Renderer:
+    return Renderer(load_scene(REPO / "scenes" / scene), size=SIZE, integrator="pt",
+                    options=Options(pixel_queue="on", carry_paths=carry, coherent_sampling=coherent))
 
 
 def _parked(r: Renderer) -> int:
@@ -34,14 +32,14 @@ def _parked(r: Renderer) -> int:
     return int(counts[r.trace.carry.side])
 
 
-@pytest.mark.parametrize("scene, params", [
-    ("cornell.toml", None), ("showcase.toml", None),
-    ("cornell.toml", {"coherent_sampling": True}),   # a parked path keeps its tile's numbers as the grid moves
+@pytest.mark.parametrize("scene, coherent", [
+    ("cornell.toml", "off"), ("showcase.toml", "off"),
+    ("cornell.toml", "on"),   # a parked path keeps its tile's numbers as the grid moves
 ])
-def test_carried_paths_give_the_same_samples(monkeypatch, scene, params):
+def test_carried_paths_give_the_same_samples(monkeypatch, scene, coherent):
     images, totals = {}, {}
     for carry in ("off", "always"):
-        r = _renderer(monkeypatch, carry, scene, params)
+        r = _renderer(monkeypatch, carry, scene, coherent)
         try:
             assert (r.trace.carry is not None) == (carry == "always")
             if carry == "always":
@@ -74,21 +72,24 @@ def test_a_parking_frame_counts_its_late_samples_in_the_next(monkeypatch):
         r.release()
 
 
-def test_carry_settings(monkeypatch):
-    monkeypatch.delenv("LIFT_GL_CARRY_PATHS", raising=False)
-    # auto: timed on GPUs (slower on two of four scenes there, docs/gpu.md), off on CPU rasterizers
-    assert carry_mode() == "faster" and carry_mode(gpu=False) == "off"
-    assert carry_mode("on") == "on" and carry_mode("always") == "always" and carry_mode("faster") == "faster"
-    with pytest.raises(LiftError, match="LIFT_GL_CARRY_PATHS"):
-        carry_mode("sometimes")
+def test_carry_settings():
+    # auto: timed on GPUs (slower on two of four scenes there, docs/gpu.md), off on CPU rasterizers;
+    # only the queued megakernel carries
+    queued = Workload(path_steps=True)
+    gpu, cpu = Device(software=False), Device(software=True)
+    assert resolve(Options(), gpu, queued)["carry_paths"] == "faster"
+    assert resolve(Options(), cpu, queued)["carry_paths"] == "off"
+    for asked in ("on", "always", "faster"):
+        assert resolve(Options(carry_paths=asked), cpu, queued)["carry_paths"] == "off"   # no queue on a CPU
+        assert resolve(Options(carry_paths=asked, pixel_queue="on"), cpu, queued)["carry_paths"] == asked
+    assert resolve(Options(carry_paths="on"), gpu, Workload(path_steps=False))["carry_paths"] == "off"
 
 
 def test_without_the_pixel_queue_nothing_is_carried(monkeypatch):
     """The plain megakernel (CPU rasterizers' default) has no queue to run out: carrying asked
     for changes nothing, and render() runs as before."""
-    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "off")
-    monkeypatch.setenv("LIFT_GL_CARRY_PATHS", "on")
-    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt")
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=SIZE, integrator="pt",
+                 options=Options(pixel_queue="off", carry_paths="on"))
     try:
         assert r.trace.carry is None and "#define LIFT_CARRY_PATHS" not in r.trace.source.text
         r.render(spp=2)
@@ -98,7 +99,7 @@ def test_without_the_pixel_queue_nothing_is_carried(monkeypatch):
 
 
 def _tuning_renderer(monkeypatch, scene="cornell.toml") -> Renderer:
-    """$LIFT_GL_CARRY_PATHS=faster with the carrying megakernel parking every new path after its
+    """carry_paths=faster with the carrying megakernel parking every new path after its
     first vertex (as `always`: on this CPU rasterizer lanes rarely see the queue run out), and
     frames timed from the first (no wait for a clock to rise)."""
     from lift_gl.passes import trace

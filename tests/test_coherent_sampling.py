@@ -1,35 +1,31 @@
-"""Coherent sampling (pt's `coherent_sampling`; lift_gl/passes/common.py coherent_sampling_source): the
+"""Coherent sampling (the option coherent_sampling; lift_gl/passes/common.py coherent_sampling_source): the
 pixels of a work group's tile draw the same random numbers, so that a GPU warp's rays stay
 together. Each pixel's estimate keeps its distribution: the same expectation (checked against
 the independent sampler per block and over the whole image, and against the furnace's
 analytic value) and the same variance per pixel; what changes is that the noise of a tile's
 pixels is correlated, and only inside the tile; the tiles move from frame to frame, so no grid
-stays in the accumulated noise. The pixel queue and the wavefront give the plain megakernel's
-image with it as without it."""
+stays in the accumulated noise. The pixel queue gives the plain megakernel's image with it as
+without it."""
 from __future__ import annotations
-
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from scipy import stats
 
 from conftest import REPO
-from lift_gl.passes.common import tile_dispatch_size
-from lift_gl.plugins import COHERENT_DEFINE, COHERENT_PARAM, INTERLEAVE_DEFINE, INTERLEAVE_PARAM, param_defines
-from lift_gl.passes.trace import PIXEL_QUEUE_ENV_VAR
-from lift_gl.passes.wavefront import WAVEFRONT_ENV_VAR
+from lift_gl.options import Options
+from lift_gl.passes.common import COHERENT_DEFINE, INTERLEAVE_DEFINE, coherent_defines, tile_dispatch_size
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 from lift_gl.testing import assert_mean_is, assert_same_expectation, cornell_scene, furnace_scene, render_seeds
 
-ON = {COHERENT_PARAM: True}
+ON = Options(coherent_sampling="on")
 ALBEDO = 0.8  # the furnace's every pixel converges to albedo x sky radiance (1)
 
 
 def _tile(size=(32, 32)) -> tuple[int, int]:
     """The trace pass's work-group shape on this machine: the tile whose pixels share numbers."""
-    r = Renderer(furnace_scene(size=size), size=size, integrator="pt", params=ON)
+    r = Renderer(furnace_scene(size=size), size=size, integrator="pt", options=ON)
     try:
         return tuple(r.trace.local_size)
     finally:
@@ -41,7 +37,7 @@ def test_coherent_sampling_keeps_each_pixels_expectation(integrator):
     # independent renders (seeds) of the Cornell box, coherent against independent sampling:
     # Welch's t per 8x8 block and for the whole image (a tile's correlation only makes a
     # block's mean noisier from render to render, which the test measures)
-    coherent = render_seeds(cornell_scene(), integrator, range(16), spp=4, params=ON)
+    coherent = render_seeds(cornell_scene(), integrator, range(16), spp=4, options=ON)
     independent = render_seeds(cornell_scene(), integrator, range(100, 116), spp=4)
     assert not np.array_equal(coherent[0], independent[0])
     assert_same_expectation(coherent, independent, block=8)
@@ -49,14 +45,15 @@ def test_coherent_sampling_keeps_each_pixels_expectation(integrator):
 
 def test_coherent_furnace_converges_to_the_albedo():
     # each render's image mean is one estimate; renders are independent, pixels are not
-    images = render_seeds(furnace_scene(ALBEDO), "pt", range(24), spp=2, params=ON)
+    images = render_seeds(furnace_scene(ALBEDO), "pt", range(24), spp=2, options=ON)
     assert_mean_is(images.mean(axis=(1, 2, 3)), ALBEDO)
 
 
 def _residuals(coherent: bool, seeds, size=(64, 64), spp=1, interleave=1) -> np.ndarray:
     """(K, H, W) the furnace's luminance error (its exact value is known) after spp frames."""
     images = render_seeds(furnace_scene(ALBEDO, size=size), "pt", seeds, spp=spp, size=size,
-                          params={COHERENT_PARAM: coherent, INTERLEAVE_PARAM: interleave})
+                          options=Options(coherent_sampling="on" if coherent else "off",
+                                          coherent_interleave=interleave))
     return images.mean(axis=-1) - ALBEDO
 
 
@@ -107,7 +104,7 @@ def test_interleaved_tiles_keep_neighbours_independent():
     assert _lag_correlation(residual, 2) > 0.7, _lag_correlation(residual, 2)
     # and the expectation is unchanged (the Cornell box, against independent sampling)
     coherent = render_seeds(cornell_scene(), "pt", range(200, 216), spp=4,
-                            params=dict(ON, **{INTERLEAVE_PARAM: 2}))
+                            options=Options(coherent_sampling="on", coherent_interleave=2))
     independent = render_seeds(cornell_scene(), "pt", range(300, 316), spp=4)
     assert_same_expectation(coherent, independent, block=8)
 
@@ -145,7 +142,7 @@ def test_bdpt_keeps_each_pixels_variance_with_its_own_light_subpaths():
 
     def luminance(coherent, first):
         return render_seeds(cornell_scene(), "bdpt", [first + s for s in seeds], spp=1, size=size,
-                            params={COHERENT_PARAM: coherent}).mean(axis=-1)
+                            options=Options(coherent_sampling="on" if coherent else "off")).mean(axis=-1)
 
     _assert_same_variance_per_tile(luminance(True, 0), luminance(False, 1000))
 
@@ -155,21 +152,20 @@ def test_drt_coherent_sampling_keeps_each_pixels_expectation_and_variance():
     # positions too; everything it draws is the pixel's (tile's) own, so the estimate per pixel
     # keeps its distribution
     size = (48, 48)
-    coherent = render_seeds(cornell_scene(), "drt", range(48), spp=1, size=size, params=ON)
+    coherent = render_seeds(cornell_scene(), "drt", range(48), spp=1, size=size, options=ON)
     independent = render_seeds(cornell_scene(), "drt", range(1000, 1048), spp=1, size=size)
     assert not np.array_equal(coherent[0], independent[0])
     assert_same_expectation(coherent, independent, block=8)
     _assert_same_variance_per_tile(coherent.mean(axis=-1), independent.mean(axis=-1))
 
 
-def _render(monkeypatch, scene_name, queue="off", wavefront="off", spp=4, spf=1, interleave=1):
-    monkeypatch.setenv(PIXEL_QUEUE_ENV_VAR, queue)
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, wavefront)
+def _render(scene_name, queue="off", spp=4, spf=1, interleave=1):
     r = Renderer(load_scene(REPO / "scenes" / scene_name), size=(37, 29), integrator="pt", seed=3,
-                 params=dict(ON, **{INTERLEAVE_PARAM: interleave}), samples_per_frame=spf)
+                 options=Options(coherent_sampling="on", coherent_interleave=interleave, pixel_queue=queue),
+                 samples_per_frame=spf)
     try:
         image = r.render(spp=spp)
-        return image, r.trace.pixel_queue is not None, r.trace.wavefront is not None
+        return image, r.trace.pixel_queue is not None
     finally:
         r.release()
 
@@ -177,30 +173,20 @@ def _render(monkeypatch, scene_name, queue="off", wavefront="off", spp=4, spf=1,
 @pytest.mark.parametrize("scene_name, spf, interleave", [
     ("cornell.toml", 1, 1), ("showcase.toml", 1, 1), ("cornell.toml", 2, 1), ("cornell.toml", 1, 2),
     ("showcase.toml", 2, 3)])
-def test_pixel_queue_and_wavefront_keep_the_coherent_image(monkeypatch, scene_name, spf, interleave):
+def test_pixel_queue_keeps_the_coherent_image(scene_name, spf, interleave):
     # 37x29: the moving tiles (and blocks of interleaved tiles) overhang the image on every side
     kw = {"spf": spf, "interleave": interleave}
-    plain, had_queue, had_wave = _render(monkeypatch, scene_name, **kw)
-    queued, has_queue, _ = _render(monkeypatch, scene_name, queue="on", **kw)
-    wave, _, has_wave = _render(monkeypatch, scene_name, wavefront="on", **kw)
-    assert (had_queue, had_wave, has_queue, has_wave) == (False, False, True, True)
+    plain, had_queue = _render(scene_name, **kw)
+    queued, has_queue = _render(scene_name, queue="on", **kw)
+    assert (had_queue, has_queue) == (False, True)
     assert np.isfinite(plain).all() and plain.max() > 0
     np.testing.assert_array_equal(queued, plain)
-    np.testing.assert_array_equal(wave, plain)
 
 
-def test_only_a_bool_parameter_of_that_name_turns_it_on():
-    def plugin(params):
-        return SimpleNamespace(params={name: SimpleNamespace(type=t, default=False, define="")
-                                       for name, t in params.items()})
-
-    assert param_defines(plugin({COHERENT_PARAM: "bool"}), {COHERENT_PARAM: True}) == {COHERENT_DEFINE: 1}
-    assert param_defines(plugin({COHERENT_PARAM: "bool"}), {}) == {}   # off by default
-    both = plugin({COHERENT_PARAM: "bool", INTERLEAVE_PARAM: "int"})
-    assert param_defines(both, {COHERENT_PARAM: True, INTERLEAVE_PARAM: 4}) == {COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: 4}
-    assert param_defines(both, {INTERLEAVE_PARAM: 4}) == {}   # only with coherent sampling on
-    for params in ({COHERENT_PARAM: "int"}, {"coherent_other": "bool"}):
-        assert param_defines(plugin(params), {name: True for name in params}) == {}
+def test_the_options_compile_it_in_only_when_on():
+    assert coherent_defines("on", 1) == {COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: 1}
+    assert coherent_defines("on", 4) == {COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: 4}
+    assert coherent_defines("off", 4) == {}
     # whole blocks over the image moved by up to a block less a pixel: 9 x 13 tiles of 8x4,
     # interleaved by 2 five by seven blocks of 2 x 2 tiles
     assert tile_dispatch_size({COHERENT_DEFINE: 1}, (64, 48), (8, 4)) == (72, 52)
@@ -208,27 +194,45 @@ def test_only_a_bool_parameter_of_that_name_turns_it_on():
     assert tile_dispatch_size({}, (64, 48), (8, 4)) == (64, 48)
 
 
-def test_switching_it_recompiles_and_off_is_the_program_without_it():
-    scene = cornell_scene()
-    r = Renderer(scene, size=(32, 32), integrator="pt", seed=4)
+def test_a_manifest_of_an_older_version_loads_with_a_warning(tmp_path):
+    """A plugin whose manifest still declares coherent_sampling (and bvh_stack) loads: the
+    parameter is a plain uniform, which no longer switches the host's coherent sampling."""
+    import shutil
+
+    from lift_gl.plugins import PluginWarning, load_manifest
+
+    folder = tmp_path / "old_pt"
+    shutil.copytree(REPO / "plugins" / "pt", folder)
+    manifest = folder / "plugin.toml"
+    manifest.write_text(manifest.read_text().replace('primary = "gbuffer"', 'primary = "gbuffer"\nbvh_stack = "children"')
+                        + '\n[params.coherent_sampling]\ntype = "bool"\ndefault = true\n')
+    with pytest.warns(PluginWarning) as caught:
+        plugin = load_manifest(folder)
+    messages = [str(w.message) for w in caught]
+    assert any("bvh_stack is ignored" in m and f"{manifest}:" in m for m in messages), messages
+    assert any("parameter coherent_sampling no longer switches anything" in m for m in messages), messages
+    r = Renderer(cornell_scene(), size=(16, 16), integrator=str(folder))
     try:
-        off_source = r.trace.source.text
-        off = r.render(spp=2)
-        assert "coherent sampling" not in r.explain()
-        r.set_params(**ON)   # a compile-time switch: a new trace program
-        assert COHERENT_DEFINE in r.trace.defines and r.trace.source.text != off_source
-        assert "coherent sampling: the pixels of each" in r.explain()
-        on = r.render(spp=2)
-        r.set_params(**{INTERLEAVE_PARAM: 2})
-        assert "its pixels 2 apart in a" in r.explain() and INTERLEAVE_DEFINE in r.trace.defines
-        r.set_params(**{INTERLEAVE_PARAM: 1})
-        r.set_params(**{COHERENT_PARAM: False})
-        assert COHERENT_DEFINE not in r.trace.defines and r.trace.source.text == off_source
-        np.testing.assert_array_equal(r.render(spp=2), off)
+        assert COHERENT_DEFINE not in r.trace.defines and r.params["coherent_sampling"] is True
     finally:
         r.release()
-    fresh = Renderer(scene, size=(32, 32), integrator="pt", seed=4, params=ON)
+
+
+def _source_with(options: Options, scene) -> tuple:
+    r = Renderer(scene, size=(32, 32), integrator="pt", seed=4, options=options)
     try:
-        np.testing.assert_array_equal(fresh.render(spp=2), on)
+        return r.trace.source.text, r.trace.defines, r.explain(), r.render(spp=2)
     finally:
-        fresh.release()
+        r.release()
+
+
+def test_off_is_the_program_without_it():
+    scene = cornell_scene()
+    off_source, off_defines, off_explain, off = _source_with(Options(), scene)
+    on_source, on_defines, on_explain, on = _source_with(ON, scene)
+    assert "coherent sampling: the pixels" not in off_explain and COHERENT_DEFINE not in off_defines
+    assert COHERENT_DEFINE in on_defines and on_source != off_source
+    assert "coherent sampling: the pixels of each" in on_explain
+    _, defines, explain, _ = _source_with(Options(coherent_sampling="on", coherent_interleave=2), scene)
+    assert "its pixels 2 apart in a" in explain and defines[INTERLEAVE_DEFINE] == 2
+    assert not np.array_equal(on, off)

@@ -2,7 +2,7 @@
 
 - Scene arrays in uniform blocks read the same data as storage buffers: the same seed renders
   the same image, bit for bit, whichever way each array travels (the reference is the
-  storage-buffer path, uniform_blocks=False).
+  storage-buffer path, the option uniform_blocks=off).
 - The host's vertex-at-a-time loop over several samples per frame gives the image of the plain
   loop over samples.
 """
@@ -15,6 +15,7 @@ import trimesh
 
 from conftest import REPO
 from lift_gl import load_scene
+from lift_gl.options import Options
 from lift_gl.passes.common import UNIFORM_ARRAYS
 from lift_gl.renderer import Renderer
 from lift_gl.scene.model import Mesh
@@ -23,7 +24,7 @@ CORNELL = REPO / "scenes" / "cornell.toml"  # glass, metal, diffuse, an area lig
 
 
 def _render(scene, uniform_blocks, spp=4, size=(32, 32), **kw):
-    r = Renderer(scene, size=size, uniform_blocks=uniform_blocks, **kw)
+    r = Renderer(scene, size=size, options=Options(uniform_blocks="on" if uniform_blocks else "off"), **kw)
     try:
         return r.render(spp=spp), set(r.buffers.in_uniform_block), dict(r.defines)
     finally:
@@ -66,7 +67,7 @@ def test_an_edit_that_changes_array_lengths_recompiles_with_the_new_lengths():
     mesh twice) rebuilds the passes; either way the renderer then renders what a fresh
     renderer renders."""
     scene = load_scene(CORNELL)
-    r = Renderer(scene, size=(24, 24), uniform_blocks=True)
+    r = Renderer(scene, size=(24, 24), options=Options(uniform_blocks="on"))
     before = dict(r.defines)
     light = next(m for m in scene.meshes if scene.materials[m.material].is_emissive)
     twin = dataclasses.replace(light, name="twin", positions=light.positions + [0.3, -0.01, 0.0])

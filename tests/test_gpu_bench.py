@@ -57,37 +57,35 @@ def test_results_keep_no_machine_paths(path, expect):
     assert gpu.portable(path) == expect
 
 
-def test_ray_kinds_run_in_the_trace_pass_layout(monkeypatch):
-    """The ray-kind shader takes the trace pass's work-group shape and stack placement
-    (trace_layout), and finds the same hits either way (here: llvmpipe, both forced)."""
-    from lift_gl.passes.trace import trace_layout
+def test_ray_kinds_run_in_the_trace_pass_layout():
+    """The ray-kind shader takes the plain trace programs' work-group shape and stack placement
+    (the option bvh_stack), and finds the same hits either way (here: llvmpipe, both forced)."""
+    from lift_gl.options import Options
     from lift_gl.renderer import Renderer
     from lift_gl.testing import cornell_scene
 
     size = (40, 24)
-    r = Renderer(cornell_scene(), size=size, integrator="pt")
     hits = {}
     for mode in ("shared", "local"):
-        monkeypatch.setenv("LIFT_GL_BVH_STACK", mode)
-        program, local = gpu.ray_program(r.ctx, {"HAS_SPHERES": True})
+        r = Renderer(cornell_scene(), size=size, integrator="pt", options=Options(bvh_stack=mode))
+        program, local = gpu.ray_program(r.ctx, {"HAS_SPHERES": True}, stack=r.choices.gbuffer_stack)
         program.release()
-        assert local == trace_layout(r.ctx)[0] == ((8, 4) if mode == "shared" else (8, 8))
+        assert local == ((8, 4) if mode == "shared" else (8, 8))
         rays = gpu.ray_throughput(r, size, repeat=1)
         hits[mode] = [rays[k]["hits"] for k in gpu.RAY_KINDS]
-    r.release()
+        r.release()
     assert hits["shared"] == hits["local"] and hits["shared"][0] > 0.5 * size[0] * size[1]
 
 
 def test_ab_compares_defines_on_the_wide_tree(tmp_path, monkeypatch, shared_dir):  # the dragon's mesh
     """`gpu.py ab` with 4-wide layouts: the binary tree and its 4-wide collapses (float and
-    8-bit boxes, with and without an any-hit order #defined) find the same primary hits and
-    block the same shadow rays."""
+    8-bit boxes) find the same primary hits and block the same shadow rays."""
     repo = Path(__file__).resolve().parent.parent
     monkeypatch.syspath_prepend(str(repo / "benchmarks"))   # ab's bvh_records, as when run as a script
     out = tmp_path / "ab.json"
     assert gpu.main(["ab", str(repo / "scenes" / "covered_dragon.toml"), "--sizes", "40x24", "--reps", "1",
                      "--variant", f"bin={repo}:binary", "--variant", f"w4={repo}:4",
-                     "--variant", f"near={repo}:4q:LIFT_BVH4_ANY_NEAREST,LIFT_BVH4_ANY_LEAVES_FIRST",
+                     "--variant", f"w4q={repo}:4q",
                      "--out", str(out)]) == 0
     import json
     case = json.loads(out.read_text())["results"][0]
@@ -112,24 +110,23 @@ def test_measure_takes_plugin_settings_as_compare_does(tmp_path):
     assert lift["rays_per_path"] < 0.8 * cases["pt"]["rays_per_path"]
 
 
-def test_measure_env_axis_sets_the_variable_case_by_case(tmp_path, monkeypatch):
-    """`--env VAR=a,b`: each case measured under each value, one file per value, and the
-    variable as it was afterwards: the records name the binary and the 4-wide tree."""
-    monkeypatch.delenv("LIFT_GL_BVH_WIDTH", raising=False)
+def test_measure_option_axis_sets_the_option_case_by_case(tmp_path):
+    """`--option KEY=a,b`: each case measured under each value, one file per value: the records
+    name the binary and the 4-wide tree, and the options each case ran with."""
     out = tmp_path / "m.json"
     assert gpu.main(["measure", "scenes/cornell.toml", "--sizes", "32x24", "--no-rays", "--frames", "2",
                      "--repeat", "1", "--max-depth", "4", "--split-rounds", "1", "--integrators", "pt",
-                     "--env", "LIFT_GL_BVH_WIDTH=2,4", "--out", str(out)]) == 0
+                     "--option", "bvh_width=2,4", "--out", str(out)]) == 0
     import json
-    import os
     nodes = {}
     for width in ("2", "4"):
         record = json.loads((tmp_path / f"m.bvh_width-{width}.json").read_text())
-        assert record["bvh_bvh_width"] == width
+        assert record["option"] == {"bvh_width": width}
         [case] = record["results"]
         nodes[width] = case["bvh"]["nodes"]
-        assert case["bvh"]["width"] == int(width)
+        assert case["bvh"]["width"] == int(width) and case["options"]["bvh_width"]["value"] == width
     assert nodes["2"] > nodes["4"] > 0
-    assert "LIFT_GL_BVH_WIDTH" not in os.environ
-    with pytest.raises(SystemExit, match="--env"):
-        gpu.main(["measure", "scenes/cornell.toml", "--env", "LIFT_GL_BVH_WIDTH"])
+    with pytest.raises(SystemExit, match="--option"):
+        gpu.main(["measure", "scenes/cornell.toml", "--option", "bvh_width"])
+    with pytest.raises(Exception, match="bvh_width"):
+        gpu.main(["measure", "scenes/cornell.toml", "--option", "bvh_width=3"])

@@ -109,18 +109,3 @@ def test_bench_records_the_clock_field(tmp_path):
     assert clock_note({"sm_clock": {"frames_mhz": [1755, 1980], "warm_up": {"max_sm_mhz": 1980}}}) == \
         ", SM clock 1755 MHz (max 1980)"
 
-
-def test_bench_times_frames_only_after_the_trace_pass_has_chosen_its_way(monkeypatch):
-    """With $LIFT_GL_WAVEFRONT faster the trace pass's first 2 x TUNING_FRAMES frames time its two ways, each between
-    two finishes: lift-gl bench renders them before its timed frames, so even 2 timed frames
-    come after the choice (wavefront_tuned_ms is set)."""
-    import lift_gl.gl.context as context
-    from conftest import REPO
-    from lift_gl.passes.wavefront import WAVEFRONT_ENV_VAR
-    from lift_gl.report.bench import bench_case
-    from lift_gl.scene.loader import load_scene
-
-    monkeypatch.setattr(context, "is_software", lambda ctx: False)   # wavefront_mode's view only
-    monkeypatch.setenv(WAVEFRONT_ENV_VAR, "faster")
-    case = bench_case(load_scene(REPO / "scenes" / "cornell.toml"), (32, 32), frames=2, repeat=1, denoisers=())
-    assert case["wavefront_tuned_ms"] is not None and set(case["wavefront_tuned_ms"]) == {"megakernel", "wavefront"}

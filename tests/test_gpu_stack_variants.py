@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 from lift_gl import load_scene
+from lift_gl.options import Options
 from lift_gl.renderer import Renderer
 
 REPO = Path(__file__).resolve().parent.parent
@@ -23,10 +24,9 @@ def _stack(source):
             int(depth.group(1)) if depth else None)
 
 
-def test_stack_variants_and_the_too_short_ones(monkeypatch, shared_dir):  # the dragon mesh is in ../shared
-    monkeypatch.setenv("LIFT_GL_BVH_WIDTH", "4")
-    monkeypatch.setenv("LIFT_GL_BVH_STACK_ENTRIES", "groups")
-    r = Renderer(load_scene(REPO / "scenes" / "covered_dragon.toml"), size=(8, 8), integrator="pt")
+def test_stack_variants_and_the_too_short_ones(shared_dir):  # the dragon mesh is in ../shared
+    r = Renderer(load_scene(REPO / "scenes" / "covered_dragon.toml"), size=(8, 8), integrator="pt",
+                 options=Options(bvh_width="4", bvh_stack_entries="groups"))
     try:
         base, packed = r.trace.source.text, r.packed
         assert 8 < packed.bvh_levels <= 16 < packed.bvh_stack <= 48    # the 100k dragon: 15 levels, 43 pushes
@@ -73,15 +73,15 @@ def test_settings_reach_every_variant():
     assert counts["rr1"] < 0.8 * counts["default"]
 
 
-def test_noshadow_unblocks_shadow_rays_in_the_paired_loop(monkeypatch):
+def test_noshadow_unblocks_shadow_rays_in_the_paired_loop():
     """noshadow must reach the shadow rays that trace_shadow_and_next traces with the next ray
     (LIFT_TRACE_PAIRED, forced on here): with every shadow ray unblocked the box's shadowed
     floor gets light, so the image is brighter than the base's."""
     from lift_gl.gl.context import create_context
 
-    monkeypatch.setenv("LIFT_GL_TRACE_PAIRED", "on")
     ctx = create_context("auto")
-    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (32, 24), 4, ["base", "noshadow"], 1, None)
+    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (32, 24), 4, ["base", "noshadow"], 1, None,
+                             options=Options(trace_paired="on"))
     assert res["variants"]["noshadow"]["mean_rgb"] > 1.02 * res["variants"]["base"]["mean_rgb"]
 
 
@@ -90,25 +90,25 @@ def test_queue_spread_takes_every_pixel_once_and_an_unwritten_pixel_shows(monkey
     skips pixels is caught, as the harness fills the frame with NaN before each image."""
     from lift_gl.gl.context import create_context
 
-    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
     monkeypatch.setitem(variants.VARIANTS, "skips", (lambda text: variants._sub(
         text, "uint item = atomicAdd(lift_queue_next, 1u);", "uint item = 2u * atomicAdd(lift_queue_next, 1u);"), {}, True))
     ctx = create_context("auto")
     res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 4,
-                             ["base", "queue_spread4", "queue_spread64", "skips"], 1, None)
+                             ["base", "queue_spread4", "queue_spread64", "skips"], 1, None,
+                             options=Options(pixel_queue="on"))
     v = res["variants"]
     assert v["queue_spread4"]["max_abs_diff_vs_first"] == 0 and v["queue_spread64"]["max_abs_diff_vs_first"] == 0
     assert not v["skips"]["finite"]
 
 
-def test_tree_variant_of_this_checkout_is_the_base_program(monkeypatch):
+def test_tree_variant_of_this_checkout_is_the_base_program():
     """`tree` (another checkout's plugin built as this renderer builds its own) must use the
     megakernel's own defines: built from this very checkout it is the base program, pixel queue
     on or off. (It took the renderer's defines before, which lack the pixel queue: on the H100
     pt's old code then ran 0.54-0.94x, a false A/B.)"""
     for queue in ("off", "on"):
-        monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", queue)
-        r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+        r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt",
+                     options=Options(pixel_queue=queue))
         try:
             assert ("#define LIFT_PIXEL_QUEUE" in r.trace.source.text) == (queue == "on")
             assert variants.tree_plugin_source(r, REPO) == r.trace.source.text, queue
@@ -116,17 +116,16 @@ def test_tree_variant_of_this_checkout_is_the_base_program(monkeypatch):
             r.release()
 
 
-def test_live_state_variants_keep_the_image(monkeypatch):
+def test_live_state_variants_keep_the_image():
     """The tenth session's register-pressure variants (state moved to shared memory, the
     camera ray made again, floats added to what lives across the traversal) change the program,
     not the image, with the pixel queue on (their edits are in its loop)."""
     from lift_gl.gl.context import create_context
 
-    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
-    monkeypatch.setenv("LIFT_GL_TRACE_PAIRED", "on")
+    options = Options(pixel_queue="on", trace_paired="on")
     names = ["base", "regen_primary", "sum_shared", "pending_shared", "slim", "live_plus8"]
     base_text = None
-    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+    r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt", options=options)
     try:
         base_text = r.trace.source.text
         for name in names[1:]:
@@ -134,21 +133,20 @@ def test_live_state_variants_keep_the_image(monkeypatch):
     finally:
         r.release()
     ctx = create_context("auto")
-    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 4, names, 1, None)
+    res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 4, names, 1, None, options=options)
     v = res["variants"]
     for name in names[1:]:
         assert v[name]["finite"] and v[name]["max_abs_diff_vs_first"] == 0, name
 
 
-def test_const_params_makes_the_plugin_settings_constants(monkeypatch):
+def test_const_params_makes_the_plugin_settings_constants():
     """const_params turns pt's parameter uniforms into constants of this run's values, and the
     image stays the same (the queue on, as on GPUs)."""
     from lift_gl.gl.context import create_context
 
-    monkeypatch.setenv("LIFT_GL_PIXEL_QUEUE", "on")
     ctx = create_context("auto")
     res = variants.run_scene(ctx, str(REPO / "scenes" / "cornell.toml"), (40, 24), 5, ["base", "const_params"], 1, None,
-                             settings={"rr_depth": 2})
+                             settings={"rr_depth": 2}, options=Options(pixel_queue="on"))
     assert res["variants"]["const_params"]["max_abs_diff_vs_first"] == 0
     edited = variants.const_params("uniform int max_depth;  // x\\nuniform int rr_depth;  // y\\n")
     assert "const int max_depth = 5;" in edited and "const int rr_depth = 2;" in edited

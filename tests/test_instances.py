@@ -118,24 +118,23 @@ void main() {
 """
 
 
-def test_split_heap_renders_the_same_image(monkeypatch):
+def test_split_heap_renders_the_same_image():
     """The BLAS live in the heap with the world's arrays: a scene split into several buffers
     renders bit for bit the image of the whole one; also the G-buffer's normal AOV."""
-    from lift_gl import limits
+    from lift_gl.options import Options
     from lift_gl.scene.split import HEAP_ARRAYS
 
     scene = instanced_scene()
 
-    def images():
-        with Renderer(scene, size=(40, 32), integrator="pt", seed=3) as r:
+    def images(options=None):
+        with Renderer(scene, size=(40, 32), integrator="pt", seed=3, options=options) as r:
             return r.render(spp=4), r.aov("normal"), r.buffers.plan
 
     whole, whole_normal, plan = images()
     assert not plan.split
     packed = pack_scene(scene)
     heap_bytes = sum(getattr(packed, n).nbytes for n in HEAP_ARRAYS)
-    monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(heap_bytes // 4))  # 4 to 8 chunks (powers of two rows)
-    split, split_normal, plan = images()
+    split, split_normal, plan = images(Options(max_buffer_bytes=heap_bytes // 4))  # 4 to 8 chunks (powers of two rows)
     assert plan.split and plan.chunks >= 3
     np.testing.assert_array_equal(split, whole)
     np.testing.assert_array_equal(split_normal, whole_normal)

@@ -43,24 +43,22 @@ def brute_force(tris: np.ndarray, o: np.ndarray, d: np.ndarray):
     return t_best, tri_best
 
 
-@pytest.mark.parametrize("refine", [False, True])
 @pytest.mark.parametrize("n", [1, 2, 3, 5, 17, 1000, 20000])
-def test_invariants(n, refine):
+def test_invariants(n):
     tris = soup(n, seed=n, degenerate=n >= 17)
-    b = build_lbvh(tris, refine=refine, cluster=8)
+    b = build_lbvh(tris)
     check_invariants(b, tris[b.order])
     assert b.count.max() <= MAX_LEAF
     assert b.nodes[0, 0:3].tolist() == tris.reshape(-1, 3).min(axis=0).tolist()
     assert b.nodes[0, 4:7].tolist() == tris.reshape(-1, 3).max(axis=0).tolist()
 
 
-@pytest.mark.parametrize("refine", [False, True])
-def test_closest_hits_equal_brute_force(refine):
+def test_closest_hits_equal_brute_force():
     """Every ray's closest hit through the LBVH is the one a test of all triangles finds: the
     same distance and, where no other triangle is as near, the same triangle."""
     tris = soup(1500, seed=7)
     o, d = random_rays(800, seed=8)
-    b = build_lbvh(tris, refine=refine, cluster=8)
+    b = build_lbvh(tris)
     t, tri = intersect_numpy(b, tris[b.order], o, d)
     t_ref, tri_ref = brute_force(tris, o, d)
     hit = np.isfinite(t_ref)
@@ -98,39 +96,17 @@ def test_points_in_one_morton_cell():
     check_invariants(b, tris[b.order])
 
 
-def test_refinement_lowers_sah_cost():
-    """On a surface (where Morton order is weakest: a torus, tilted), rebuilding the top with
-    SAH gives a cheaper tree than the plain LBVH, and the SAH build is the cheapest of all
-    (the reason to keep it for small scenes)."""
-    trimesh = pytest.importorskip("trimesh")
-    def cost(b):
-        e = np.maximum(b.bmax.astype(np.float64) - b.bmin, 0)
-        area = e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
-        per = np.where(b.count > 0, b.count, 2.0)
-        return (area * per).sum() / area[0]
-
-    mesh = trimesh.creation.torus(1.0, 0.3, major_sections=120, minor_sections=60)
-    mesh.apply_transform(trimesh.transformations.rotation_matrix(0.7, [1, 1, 0]))
-    tris = np.asarray(mesh.vertices, np.float32)[mesh.faces]
-    plain, refined, sah = build_lbvh(tris), build_lbvh(tris, refine=True), build_bvh(tris)
-    assert cost(refined) < cost(plain)
-    assert cost(sah) < cost(refined)
-
-
-def test_builder_selection_and_cache(tmp_path, monkeypatch):
+def test_builder_selection_and_cache(tmp_path):
     tris = soup(500, seed=2)
-    monkeypatch.setenv(cache_mod.BUILDER_ENV_VAR, "lbvh")
-    assert cache_mod.resolve_builder(None, 10) == "lbvh"
-    b = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+    assert cache_mod.resolve_builder("lbvh", 10) == "lbvh"
+    b = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="lbvh")
     np.testing.assert_array_equal(b.nodes, build_lbvh(tris).nodes)
     assert cache_mod.cache_path(tris, tmp_path, "lbvh").is_file()
     assert not cache_mod.cache_path(tris, tmp_path, "sah").exists()   # builders keep their own files
-    again = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path)
+    again = cache_mod.build_bvh_cached(tris, cache_dir=tmp_path, builder="lbvh")
     np.testing.assert_array_equal(again.nodes, b.nodes)
-    monkeypatch.setenv(cache_mod.BUILDER_ENV_VAR, "octree")
     with pytest.raises(ValueError, match="octree"):
-        cache_mod.resolve_builder(None, 10)
-    monkeypatch.delenv(cache_mod.BUILDER_ENV_VAR)
+        cache_mod.resolve_builder("octree", 10)
     assert cache_mod.resolve_builder(None, 10) == "sah"
     assert cache_mod.resolve_builder(None, cache_mod.AUTO_LBVH_TRIANGLES) == "lbvh"
 
@@ -148,11 +124,12 @@ def test_gl_traversal_of_an_lbvh_renders_what_the_sah_tree_renders(monkeypatch, 
                   materials=[Material("m", base_color=np.array([0.7, 0.6, 0.5]))],
                   meshes=[Mesh("torus", np.asarray(torus.vertices, np.float64), np.asarray(torus.faces, np.int32), 0)],
                   environment=Environment(radiance=np.array([1.0, 1.0, 1.0])), max_depth=4)
+    from lift_gl.options import Options
+
     monkeypatch.setenv(cache_mod.ENV_VAR, str(tmp_path))
     images = {}
     for builder in ("sah", "lbvh"):
-        monkeypatch.setenv(cache_mod.BUILDER_ENV_VAR, builder)
-        r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+        r = Renderer(scene, size=(40, 32), integrator="pt", seed=5, options=Options(bvh_builder=builder))
         assert r.packed.bvh_builder == builder
         images[builder] = r.render(spp=4)
         r.release()

@@ -57,7 +57,6 @@ def test_plugin_path_env_and_dirs(tmp_path, monkeypatch):
     (GOOD + "extra = 3\n", 7, "unknown keys"),
     (GOOD.replace("default = 1.0", "default = 1.0.0"), 9, "malformed"),
     (GOOD.replace("default = 1.0", "default = 20.0"), 7, "outside"),
-    (GOOD.replace('primary = "camera"', 'primary = "camera"\nbvh_stack = "pairs"'), 6, "bvh_stack"),
 ])
 def test_bad_manifest_names_file_and_line(tmp_path, bad, line, words):
     folder = make_plugin(tmp_path, manifest=bad)

@@ -14,6 +14,17 @@ from lift_gl.accel import presplit as ps
 from lift_gl.accel.bvh import build_bvh, check_invariants, intersect_numpy, sah_cost
 from test_bvh import MISMATCH_BOUND, disagreements, random_rays, soup, trimesh_closest
 
+
+def _renderers_split_with(monkeypatch, splits) -> None:
+    """Renderers made from here on pack their scene with these split settings (pack_scene's
+    bvh_splits; the renderer's own choice is auto)."""
+    import functools
+
+    import lift_gl.renderer as renderer_mod
+    from lift_gl.scene.pack import pack_scene
+
+    monkeypatch.setattr(renderer_mod, "pack_scene", functools.partial(pack_scene, bvh_splits=splits))
+
 FORCED = ps.SplitSettings(budget=1.0, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
 
 
@@ -89,7 +100,7 @@ def test_auto_keeps_scenes_without_large_triangles_and_splits_slivers():
     small = soup(3000, seed=2, size=0.004, degenerate=False)   # nothing spans 1% of the cube
     b = cache_mod.build_with(small, "sah", ps.AUTO)
     assert b.order.size == len(small)
-    # the plain SAH build (split planes per $LIFT_GL_BVH_AXES, as build_with makes them)
+    # the plain SAH build (as build_with makes it)
     np.testing.assert_array_equal(b.nodes.view(np.uint32), cache_mod.build_with(small, "sah").nodes.view(np.uint32))
     tris = slivers(length=0.4)   # 15-25% of the scene's diagonal
     auto = cache_mod.build_with(tris, "sah", ps.AUTO)
@@ -112,23 +123,18 @@ def test_cache_keys_on_split_settings(tmp_path):
     assert cache_mod._load(cache_mod.cache_path(tris, tmp_path, "sah", ps.AUTO), len(tris) + 1) is None
 
 
-def test_resolve_splits(monkeypatch):
-    monkeypatch.delenv(ps.ENV_VAR, raising=False)
-    assert ps.resolve_splits(None) == ps.AUTO
-    monkeypatch.setenv(ps.ENV_VAR, "off")
-    assert ps.resolve_splits(None) == ps.OFF
-    monkeypatch.setenv(ps.ENV_VAR, "0.5")
-    assert ps.resolve_splits(None) == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0, min_over_median=0.0,
-                                                       min_splits=0.0, sliver_budget=0.0)
-    monkeypatch.setenv(ps.ENV_VAR, "budget=1:sliver_ratio=16:min_triangles=10")
-    assert ps.resolve_splits(None) == ps.SplitSettings(budget=1.0, sliver_ratio=16.0, min_triangles=10)
-    monkeypatch.setenv(ps.ENV_VAR, "auto-no-slivers")
-    assert ps.resolve_splits(None) == ps.AUTO_NO_SLIVERS and ps.AUTO_NO_SLIVERS.key() != ps.AUTO.key()
+def test_resolve_splits():
+    assert ps.resolve_splits(None) == ps.AUTO == ps.resolve_splits("auto")
+    assert ps.resolve_splits("off") == ps.OFF
+    assert ps.resolve_splits("0.5") == ps.SplitSettings(budget=0.5, max_extent=np.inf, min_triangles=0,
+                                                        min_over_median=0.0, min_splits=0.0, sliver_budget=0.0)
+    assert ps.resolve_splits("budget=1:sliver_ratio=16:min_triangles=10") == \
+        ps.SplitSettings(budget=1.0, sliver_ratio=16.0, min_triangles=10)
+    assert ps.resolve_splits("auto-no-slivers") == ps.AUTO_NO_SLIVERS and ps.AUTO_NO_SLIVERS.key() != ps.AUTO.key()
     assert ps.AUTO.slivers and not ps.AUTO_NO_SLIVERS.slivers
     for bad in ("lots", "budget=x", "budgte=1", "budget=-1", "auto=1", "budget=1:", "slivers=1"):
-        monkeypatch.setenv(ps.ENV_VAR, bad)
-        with pytest.raises(ValueError, match=r"\$LIFT_GL_BVH_SPLITS"):
-            ps.resolve_splits(None)
+        with pytest.raises(ValueError, match="bad BVH split setting"):
+            ps.resolve_splits(bad)
 
 
 def test_auto_keeps_the_sliver_split_within_its_tolerance(monkeypatch):
@@ -239,15 +245,15 @@ def test_packed_copies_keep_ids_and_lights():
     ("pt", "normal", "raster"),
 ])
 def test_renders_the_same_image_with_and_without_splits(monkeypatch, integrator, aov, gbuffer):
+    from lift_gl.options import Options
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
 
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    monkeypatch.setenv("LIFT_GL_GBUFFER", gbuffer)
 
     def render(splits):
-        monkeypatch.setenv(ps.ENV_VAR, splits)
-        r = Renderer(scene, size=(40, 32), integrator=integrator, seed=3)
+        _renderers_split_with(monkeypatch, splits)
+        r = Renderer(scene, size=(40, 32), integrator=integrator, seed=3, options=Options(gbuffer=gbuffer))
         try:
             assert (r.packed.raster_rows is not None) == (splits != "off")
             return r.aov(aov) if aov else r.render(spp=4)
@@ -298,7 +304,7 @@ def test_sliver_splits_render_the_same_image(monkeypatch):
     slivers = "budget=0.02:min_extent=0:max_extent=1:min_over_median=0:min_triangles=0:min_splits=0:sliver_budget=40"
 
     def render(splits):
-        monkeypatch.setenv(ps.ENV_VAR, splits)
+        _renderers_split_with(monkeypatch, splits)
         r = Renderer(scene, size=(40, 32), integrator="pt", seed=3)
         try:
             return r.render(spp=4), r.packed
@@ -321,8 +327,7 @@ def test_scene_edit_with_splits_matches_a_fresh_renderer(monkeypatch):
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
 
-    monkeypatch.setenv(ps.ENV_VAR, "3")
-    monkeypatch.setenv("LIFT_GL_GBUFFER", "raster")
+    _renderers_split_with(monkeypatch, "3")
     scene = load_scene(REPO / "scenes" / "cornell.toml")
     extra = [dataclasses.replace(m, positions=m.positions * 0.3 + [0.1, 0.2, 0.1]) for m in scene.meshes[:4]]
     bigger = dataclasses.replace(scene, meshes=[*scene.meshes, *extra])

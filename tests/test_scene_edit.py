@@ -166,13 +166,11 @@ def test_twice_the_radiance_is_twice_the_image():
 
 def test_a_live_geometry_edit_builds_the_bvh_once(monkeypatch):
     """The viewer waits for an edit's BVH: it is built with SAH_BINS bins, without the second
-    build with finer bins at the top that a scene's load tries ($LIFT_GL_BVH_BINS auto);
-    bins set explicitly are kept."""
+    build with finer bins at the top that a scene's load tries (bins auto)."""
     import dataclasses
 
     import lift_gl.renderer as renderer_mod
     from lift_gl.accel.bvh import SAH_BINS
-    from lift_gl.accel.cache import BINS_ENV_VAR
 
     asked = []
     real = renderer_mod.pack_scene
@@ -185,15 +183,11 @@ def test_a_live_geometry_edit_builds_the_bvh_once(monkeypatch):
     scene = load_scene(CORNELL)
     moved = dataclasses.replace(scene, meshes=[dataclasses.replace(m, positions=m.positions + [0.0, 0.01, 0.0])
                                                if k == 0 else m for k, m in enumerate(scene.meshes)])
-    for env, expected in ((None, SAH_BINS), ("64", 64)):
-        if env is None:
-            monkeypatch.delenv(BINS_ENV_VAR, raising=False)
-        else:
-            monkeypatch.setenv(BINS_ENV_VAR, env)
-        r = Renderer(scene, size=(16, 16), seed=1)
-        try:
-            asked.clear()
-            r.update_scene(moved)
-            assert asked == [expected]
-        finally:
-            r.release()
+    r = Renderer(scene, size=(16, 16), seed=1)
+    try:
+        assert asked == [None]   # the load: auto
+        asked.clear()
+        r.update_scene(moved)
+        assert asked == [SAH_BINS]
+    finally:
+        r.release()

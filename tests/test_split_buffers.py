@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import REPO
-from lift_gl import limits
+from lift_gl.options import Options
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 from lift_gl.scene.pack import pack_scene
@@ -52,12 +52,12 @@ def test_heap_holds_every_array_exactly():
     ("cornell.toml", "drt", None),       # camera rays (no G-buffer): every hit from the heap
     ("cornell.toml", "pt", "normal"),    # the G-buffer's vertex shader reads the heap
 ])
-def test_split_scene_renders_the_same_image(monkeypatch, scene_name, integrator, aov):
+def test_split_scene_renders_the_same_image(scene_name, integrator, aov):
     scene = _small_showcase() if scene_name == "showcase.toml" else load_scene(REPO / "scenes" / scene_name)
     size = (40, 32)
 
-    def render():
-        r = Renderer(scene, size=size, integrator=integrator, seed=3)
+    def render(options=None):
+        r = Renderer(scene, size=size, integrator=integrator, seed=3, options=options)
         try:
             image = r.aov(aov) if aov else r.render(spp=4)
             return image, r.buffers.plan, r.explain()
@@ -66,15 +66,14 @@ def test_split_scene_renders_the_same_image(monkeypatch, scene_name, integrator,
 
     whole, plan, _ = render()
     assert not plan.split
-    monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(_small_limit(pack_scene(scene))))
-    split, plan, explain = render()
+    split, plan, explain = render(Options(max_buffer_bytes=_small_limit(pack_scene(scene))))
     assert plan.split and plan.chunks >= 4, plan
     assert "heap[3]" in explain and "split into" in explain
     assert np.isfinite(whole).all() and whole.max() > 0
     np.testing.assert_array_equal(split, whole)
 
 
-def test_scene_edit_moves_between_split_and_whole(monkeypatch):
+def test_scene_edit_moves_between_split_and_whole():
     """The viewer's live edits re-pack the scene: when the heap's chunk count changes the
     shaders are recompiled, and the image is the one a fresh renderer gives."""
     import dataclasses
@@ -82,8 +81,8 @@ def test_scene_edit_moves_between_split_and_whole(monkeypatch):
     scene = load_scene(REPO / "scenes" / "cornell.toml")
     packed = pack_scene(scene)
     # just enough for the largest array: whole now, split once triangles are added
-    monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(max(getattr(packed, n).nbytes for n in HEAP_ARRAYS)))
-    r = Renderer(scene, size=(32, 32), seed=1)
+    limit = Options(max_buffer_bytes=max(getattr(packed, n).nbytes for n in HEAP_ARRAYS))
+    r = Renderer(scene, size=(32, 32), seed=1, options=limit)
     before = r.buffers.plan.chunks
     assert before == 0
     extra = [dataclasses.replace(m, positions=m.positions * 0.3 + [0.1, 0.2, 0.1]) for m in scene.meshes[:4]]

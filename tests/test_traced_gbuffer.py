@@ -8,7 +8,8 @@ import pytest
 
 from conftest import REPO
 from lift_gl.errors import LiftError
-from lift_gl.passes.gbuffer import GBUFFER_ENV_VAR, GBufferPass, TracedGBufferPass
+from lift_gl.options import Device, Options, Workload, parse_options, resolve
+from lift_gl.passes.gbuffer import GBufferPass, TracedGBufferPass
 from lift_gl.renderer import Renderer
 from lift_gl.passes.camera import frame_jitter
 from lift_gl.passes.pixel_filter import filtered_jitter
@@ -22,9 +23,8 @@ def _visibility(gbuffer) -> np.ndarray:
     return np.frombuffer(gbuffer.visibility.read(), np.uint32).reshape(h, w, 4).copy()
 
 
-def _render(monkeypatch, mode, scene, **kw):
-    monkeypatch.setenv(GBUFFER_ENV_VAR, mode)
-    r = Renderer(scene, size=SIZE, integrator="pt", seed=2, **kw)
+def _render(mode, scene, **kw):
+    r = Renderer(scene, size=SIZE, integrator="pt", seed=2, options=Options(gbuffer=mode), **kw)
     try:
         image = r.render(spp=2)
         w, h = SIZE
@@ -40,10 +40,10 @@ def _render(monkeypatch, mode, scene, **kw):
 
 
 @pytest.mark.parametrize("scene_name", ["cornell.toml", "showcase.toml", "instances.toml"])  # triangles; spheres and textures; instances
-def test_traced_gbuffer_matches_the_raster(monkeypatch, scene_name):
+def test_traced_gbuffer_matches_the_raster(scene_name):
     scene = load_scene(REPO / "scenes" / scene_name)
-    raster = _render(monkeypatch, "raster", scene)
-    traced = _render(monkeypatch, "traced", scene)
+    raster = _render("raster", scene)
+    traced = _render("traced", scene)
     assert raster["kind"] is GBufferPass and traced["kind"] is TracedGBufferPass
     assert "ray cast" in traced["explain"] and "ray cast" not in raster["explain"]
     prim_r, prim_t = raster["vis"][..., 0], traced["vis"][..., 0]
@@ -63,13 +63,13 @@ def test_traced_gbuffer_matches_the_raster(monkeypatch, scene_name):
     np.testing.assert_array_equal(traced["image"][same_frame], raster["image"][same_frame])
 
 
-def test_frames_write_only_the_visibility(monkeypatch):
+def test_frames_write_only_the_visibility():
     """A frame runs the program that writes only the visibility (all the trace pass reads), and
     it is the full program's, bit for bit; the guides (AOVs, denoiser) run the full one; a
     [reduced] plugin, whose passes read the albedo and normals, gets the full one every frame."""
-    monkeypatch.setenv(GBUFFER_ENV_VAR, "traced")
+    traced = Options(gbuffer="traced")
     scene = load_scene(REPO / "scenes" / "showcase.toml")  # triangles, spheres, textures
-    r = Renderer(scene, size=SIZE, integrator="pt", seed=2)
+    r = Renderer(scene, size=SIZE, integrator="pt", seed=2, options=traced)
     try:
         r.render(spp=1)
         g = r.gbuffer
@@ -84,7 +84,7 @@ def test_frames_write_only_the_visibility(monkeypatch):
         assert set(g._programs) == {True, False} and albedo.max() > 0.1
     finally:
         r.release()
-    r = Renderer(scene, size=SIZE, integrator="hybrid", seed=2)
+    r = Renderer(scene, size=SIZE, integrator="hybrid", seed=2, options=traced)
     try:
         r.render(spp=1)
         assert set(r.gbuffer._programs) == {False}
@@ -92,17 +92,24 @@ def test_frames_write_only_the_visibility(monkeypatch):
         r.release()
 
 
-def test_motion_vectors_keep_the_raster(monkeypatch):
+def test_motion_vectors_keep_the_raster():
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    monkeypatch.setenv(GBUFFER_ENV_VAR, "traced")
-    r = Renderer(scene, size=(16, 16), integrator="pt", temporal="reproject")
+    r = Renderer(scene, size=(16, 16), integrator="pt", temporal="reproject", options=Options(gbuffer="traced"))
     try:
         assert type(r.gbuffer) is GBufferPass
+        assert "gbuffer             traced -> raster because temporal reprojection" in r.explain()
     finally:
         r.release()
 
 
-def test_bad_gbuffer_setting_is_refused(monkeypatch):
-    monkeypatch.setenv(GBUFFER_ENV_VAR, "both")
-    with pytest.raises(LiftError, match=GBUFFER_ENV_VAR):
-        Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
+def test_which_devices_ray_cast_it_and_a_bad_setting():
+    """auto: ray cast on GPUs with few raster units (by the renderer's name), rasterized elsewhere."""
+    for renderer, software, expect in (("NVIDIA H100 80GB HBM3/PCIe/SSE2", False, "traced"),
+                                       ("NVIDIA GeForce RTX 4090/PCIe/SSE2", False, "raster"),
+                                       ("llvmpipe (LLVM 15.0.6, 256 bits)", True, "raster")):
+        assert resolve(Options(), Device(software, renderer))["gbuffer"] == expect, renderer
+    assert resolve(Options(gbuffer="raster"), Device(False, "NVIDIA H200"))["gbuffer"] == "raster"
+    assert resolve(Options(gbuffer="traced"), Device(False, "NVIDIA H200"), Workload(motion_vectors=True))["gbuffer"] \
+        == "raster"
+    with pytest.raises(LiftError, match="option gbuffer: 'both' is not allowed; use raster, traced, auto"):
+        parse_options(["gbuffer=both"])

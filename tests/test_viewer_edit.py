@@ -40,10 +40,10 @@ def project(camera, size, point) -> tuple[int, int]:
     return int((x + 1) / 2 * w), int(h - (y + 1) / 2 * h)
 
 
-def _cornell_session(tmp_path) -> ViewSession:
+def _cornell_session(tmp_path, options=None) -> ViewSession:
     scene_file = tmp_path / "cornell.toml"
     scene_file.write_text(CORNELL.read_text())
-    return ViewSession(create_context(), scene_file, seed=3, resolution=Resolution(window=(48, 48)))
+    return ViewSession(create_context(), scene_file, seed=3, resolution=Resolution(window=(48, 48)), options=options)
 
 
 @pytest.fixture
@@ -83,10 +83,10 @@ def test_camera_ray_goes_through_the_projected_pixel(session):
 def test_pick_with_a_ray_cast_gbuffer(tmp_path, monkeypatch):
     """GPUs with few raster units cast the G-buffer's rays (passes/gbuffer.py TracedGBufferPass):
     picking reads the same visibility there."""
-    from lift_gl.passes.gbuffer import GBUFFER_ENV_VAR, TracedGBufferPass
+    from lift_gl.options import Options
+    from lift_gl.passes.gbuffer import TracedGBufferPass
 
-    monkeypatch.setenv(GBUFFER_ENV_VAR, "traced")
-    s = _cornell_session(tmp_path)
+    s = _cornell_session(tmp_path, Options(gbuffer="traced"))
     try:
         assert isinstance(s.renderer.gbuffer, TracedGBufferPass)
         s.step()

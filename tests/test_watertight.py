@@ -1,7 +1,7 @@
 """The watertight ray/triangle test (Woop, Benthin and Wald 2013; shaders/lift/bvh.glsl and its
 OpenCL twin): no ray slips through the shared edges and vertices of a closed surface (where
-Möller–Trumbore, LIFT_MOLLER_TRUMBORE, lets some through), t and barycentrics agree with a
-float64 reference, degenerate triangles never hit, and GLSL and OpenCL give the same hits."""
+Möller–Trumbore in float32 lets some through), t and barycentrics agree with a float64
+reference, degenerate triangles never hit, and GLSL and OpenCL give the same hits."""
 from __future__ import annotations
 
 import numpy as np
@@ -157,6 +157,30 @@ def surface():
     return tris, o, d
 
 
+def moller_trumbore_slipped(tris, o, d, chunk=256) -> int:
+    """Rays that miss every triangle by float32 Möller–Trumbore (numpy, all triangles a ray):
+    each triangle's barycentrics from its own edge vectors, so a ray through a shared edge can
+    fall outside both."""
+    p = tris.astype(np.float32)
+    o, d = o.astype(np.float32), d.astype(np.float32)
+    p0, e1, e2 = p[:, 0], p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    missed = 0
+    for a in range(0, len(o), chunk):
+        oo, dd = o[a:a + chunk, None, :], d[a:a + chunk, None, :]
+        pv = np.cross(dd, e2[None])
+        det = np.einsum("rtk,tk->rt", pv, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = np.float32(1) / det
+            tv = oo - p0[None]
+            b1 = np.einsum("rtk,rtk->rt", tv, pv) * inv
+            qv = np.cross(tv, e1[None])
+            b2 = np.einsum("rtk,rtk->rt", np.broadcast_to(dd, qv.shape), qv) * inv
+            t = np.einsum("tk,rtk->rt", e2, qv) * inv
+        hit = (det != 0) & (b1 >= 0) & (b1 <= 1) & (b2 >= 0) & (b1 + b2 <= 1) & (t > 0)
+        missed += int((~hit.any(axis=1)).sum())
+    return missed
+
+
 def slipped(run, tris, o, d, defines=None) -> int:
     b = build_bvh(tris)
     _, _, occluded, found, _ = run(tris[b.order], o, d, nodes=b.nodes, defines=defines)
@@ -173,20 +197,17 @@ def test_no_ray_slips_through_shared_edges_and_vertices(gl, surface, up):
         return run_glsl(gl, *a, **k)
     leaks = slipped(run, tris, o, d)
     assert leaks == 0, f"{leaks} of {len(o)} rays slipped through the surface"
-    if up in ("-z", "+x"):
-        # the same rays with Möller–Trumbore: some slip through, so this test can fail
-        mt = slipped(run, tris, o, d, defines={"LIFT_MOLLER_TRUMBORE": True})
+    if up == "-z":
+        # the same rays by float32 Möller–Trumbore: some slip through (210 of 8,236 measured),
+        # so this test can fail
+        mt = moller_trumbore_slipped(tris, o, d)
         assert mt > 0.005 * len(o), f"Möller–Trumbore let only {mt} of {len(o)} through"
-        # with the double-precision fallback for edge functions of exactly 0, watertight too
-        assert slipped(run, tris, o, d, defines={"LIFT_WATERTIGHT_FP64": True}) == 0
 
 
 def test_opencl_no_ray_slips_through(surface):
     tris, o, d = surface
     tris, o, d = orient(tris, "-y"), orient(o, "-y"), orient(d, "-y")
     assert slipped(run_opencl, tris, o, d) == 0
-    assert slipped(run_opencl, tris, o, d, defines={"LIFT_WATERTIGHT_FP64": True}) == 0
-    assert slipped(run_opencl, tris, o, d, defines={"LIFT_MOLLER_TRUMBORE": True}) > 0.005 * len(o)
 
 
 # ---- agreement with a float64 reference ---------------------------------------------------
@@ -223,28 +244,26 @@ def reference(tris, o, d):
 @pytest.mark.parametrize("language", ["glsl", "opencl"])
 def test_t_and_barycentrics_match_float64(gl, language):
     """Hit or miss as the float64 reference wherever the call is clear in float32; t and the
-    barycentrics to float32 rounding: as close to the reference as Möller–Trumbore's on the
-    same rays, or closer (measured on llvmpipe: bary error max 7.1e-5 against its 8.9e-5,
+    barycentrics to float32 rounding, as close to the reference as Möller–Trumbore's on the
+    same rays was, or closer (measured on llvmpipe: bary error max 7.1e-5 against its 8.9e-5,
     99.9% below 7.2e-6 against 1.3e-5; t error max 3.8e-6 against 1.1e-4)."""
     tris, o, d = random_triangles_and_rays(20000, seed=11)
     run = run_opencl if language == "opencl" else (lambda *a, **k: run_glsl(gl, *a, **k))
     t_ref, b1, b2, ok, margin, cos = reference(tris, o, d)
     clear = (margin > 1e-4) & (cos > 0.05)            # not a near call in float32
     assert clear.sum() > 15000 and ok[clear].mean() > 0.3
-    errors = {}
-    for test, defines in (("watertight", None), ("mt", {"LIFT_MOLLER_TRUMBORE": True})):
-        t, prim, _, found, bary = run(tris, o, d, defines=defines)
-        assert (found[clear] == ok[clear]).all(), f"{test}: {(found[clear] != ok[clear]).sum()} clear calls differ"
-        assert (prim[found] == np.flatnonzero(found)).all() and (prim[~found] == NO_HIT).all()
-        assert (bary[found] >= 0).all() and (bary[found].sum(axis=1) <= 1 + 1e-6).all()
-        assert np.isfinite(t[found]).all() and np.isfinite(bary).all()
-        h = found & ok & (cos > 0.05)
-        length = np.linalg.norm(d[h], axis=1)   # t in units of the ray's direction
-        errors[test] = (np.abs(t[h] - t_ref[h]) * length,
-                        np.abs(bary[h] - np.stack([b1[h], b2[h]], 1)).max(axis=1))
-    (t_err, b_err), (t_mt, b_mt) = errors["watertight"], errors["mt"]
-    assert t_err.max() <= max(t_mt.max(), 1e-5) and np.quantile(t_err, 0.99) < 5e-6
-    assert b_err.max() <= max(b_mt.max(), 1e-5) and np.quantile(b_err, 0.999) <= np.quantile(b_mt, 0.999)
+    t, prim, _, found, bary = run(tris, o, d)
+    assert (found[clear] == ok[clear]).all(), f"{(found[clear] != ok[clear]).sum()} clear calls differ"
+    assert (prim[found] == np.flatnonzero(found)).all() and (prim[~found] == NO_HIT).all()
+    assert (bary[found] >= 0).all() and (bary[found].sum(axis=1) <= 1 + 1e-6).all()
+    assert np.isfinite(t[found]).all() and np.isfinite(bary).all()
+    h = found & ok & (cos > 0.05)
+    length = np.linalg.norm(d[h], axis=1)   # t in units of the ray's direction
+    t_err = np.abs(t[h] - t_ref[h]) * length
+    b_err = np.abs(bary[h] - np.stack([b1[h], b2[h]], 1)).max(axis=1)
+    # Möller–Trumbore's on these rays: t 1.1e-4, bary 8.9e-5 at most, bary 1.3e-5 at the 99.9th percentile
+    assert t_err.max() <= 1e-5 and np.quantile(t_err, 0.99) < 5e-6
+    assert b_err.max() <= 8.9e-5 and np.quantile(b_err, 0.999) <= 1.3e-5
 
 
 def test_interval_is_open_and_respected(gl):

@@ -5,19 +5,17 @@ same distance), the same any-hit answer, the same pt images; scenes the wide lay
 cover keep the binary tree."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from conftest import REPO, skip_without_shared
 from lift_gl.accel.bvh import build_bvh, intersect_numpy
-from lift_gl.accel.wide import (COLLAPSE_ENV_VAR, COUNT_SHIFT, EMPTY, GROUP_MAX_NODES, GROUP_SHARED_DEPTH,
-                                GROUP_STACK_FROM, LEAF_BIT, MAX_FIRST, ROWS, SLOT_ORDER_ENV_VAR, STACK, STACK_ENV_VAR,
-                                WIDTH_ENV_VAR, collapse,
-                                decoded_boxes, intersect_wide_numpy, quantize, resolve_collapse, resolve_slot_order,
-                                resolve_width,
-                                stack_defines, stack_size, wide_layout)
+from lift_gl.accel.wide import (COUNT_SHIFT, EMPTY, GROUP_SHARED_DEPTH, LEAF_BIT, MAX_FIRST, ROWS, STACK,
+                                decoded_boxes, intersect_wide_numpy, quantize, stack_defines, stack_size, wide_layout)
 from lift_gl.accel.wide_sah import COST_LEAF, COST_NODE, COST_TRIANGLE, collapse_sah
-from lift_gl.errors import LiftError
+from lift_gl.options import Options
 from lift_gl.scene.loader import load_scene
 from lift_gl.scene.pack import pack_scene
 from test_bvh import NO_HIT, gl, random_rays, run_glsl, soup  # noqa: F401 (gl: a fixture)
@@ -66,19 +64,6 @@ def _check_structure(wide, tris):
     assert np.isposinf(lo[~valid]).all() and np.isneginf(hi[~valid]).all()
     assert valid.sum(axis=1).min() >= 1
     return e, valid, leaf, inner
-
-
-@pytest.mark.parametrize("n", [1, 2, 7, 3000])
-def test_collapse_structure(n):
-    tris = soup(n, seed=n, degenerate=n >= 100)
-    b = build_bvh(tris)
-    e, valid, leaf, inner = _check_structure(collapse(b.nodes), tris[b.order])
-    assert leaf.sum() == b.num_leaves    # the binary leaves, each an entry
-    # a wide node of k children stands for k - 1 binary interior nodes, each used once
-    assert (valid.sum(axis=1) - 1).sum() == b.num_nodes - b.num_leaves
-    # largest area first only stops early where no interior child is left to open
-    full = valid.sum(axis=1) == 4
-    assert (full | ~inner.any(axis=1) | (valid.sum(axis=1) == 1)).all()
 
 
 COSTS = (COST_NODE, COST_LEAF, COST_TRIANGLE)
@@ -135,14 +120,14 @@ def _least_cost(nodes, costs=COSTS) -> float:
     return area[0] * node_cost + min(forest(first[0], k) + forest(first[0] + 1, 4 - k) for k in range(1, 4))
 
 
-@pytest.mark.parametrize("n", [7, 100, 3000])
+@pytest.mark.parametrize("n", [1, 2, 7, 100, 3000])
 def test_sah_collapse_structure(n):
     tris = soup(n, seed=n, degenerate=n >= 100)
     b = build_bvh(tris)
     wide = collapse_sah(b.nodes)
-    _check_structure(wide, tris[b.order])
-    # the greedy tree is one of those the tables choose from: never cheaper
-    assert _wide_cost(wide) <= _wide_cost(collapse(b.nodes)) * (1 + 1e-9)
+    e, valid, leaf, inner = _check_structure(wide, tris[b.order])
+    if b.num_nodes == 1:   # a one-leaf tree: one wide node whose only child is that leaf
+        assert (wide.num_nodes, wide.levels, wide.stack_bound, int(valid.sum()), int(leaf.sum())) == (1, 1, 0, 1, 1)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -159,51 +144,26 @@ def test_sah_collapse_is_least_cost(seed):
         assert _wide_cost(wide, costs) == pytest.approx(_least_cost(b.nodes, costs), rel=1e-9)
 
 
-@pytest.mark.parametrize("method", ["greedy", "sah"])
-def test_slots_largest_box_first(method, monkeypatch):
+def test_slots_largest_box_first():
     """By default a node's children go largest box first, empty slots last (the order the
     traversal keeps among children it enters at the same distance); `build` keeps the
     collapse's own order, the same children."""
     b = build_bvh(soup(3000, seed=8))
-    wide = wide_layout(b.nodes, "4", method)
+    wide = wide_layout(b.nodes, "4")
     e, r = _entries(wide)
     ext = np.maximum(np.stack([r[:, 1] - r[:, 0], r[:, 3] - r[:, 2], r[:, 5] - r[:, 4]], -1).astype(np.float64), 0)
     area = np.where(e != EMPTY, ext[..., 0] * ext[..., 1] + ext[..., 1] * ext[..., 2] + ext[..., 2] * ext[..., 0], -1.0)
     assert (np.diff(area, axis=1) <= 0).all()
-    monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "build")
-    e_build, _ = _entries(wide_layout(b.nodes, "4", method))
+    e_build, _ = _entries(wide_layout(b.nodes, "4", slot_order="build"))
     assert not np.array_equal(e_build, e)
     np.testing.assert_array_equal(np.sort(e_build, axis=1), np.sort(e, axis=1))
-    monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "biggest")
-    with pytest.raises(LiftError, match=SLOT_ORDER_ENV_VAR):
-        wide_layout(b.nodes, "4", method)
-
-
-def test_slot_order_by_device(monkeypatch):
-    """auto: largest box first on GPUs (and where the device is not known), the collapse's
-    order on CPU rasterizers, whose shadow rays take every child in slot order; the setting
-    overrides both."""
-    monkeypatch.delenv(SLOT_ORDER_ENV_VAR, raising=False)
-    assert [resolve_slot_order(None, software=s) for s in (False, None, True)] == ["area", "area", "build"]
-    monkeypatch.setenv(SLOT_ORDER_ENV_VAR, "area")
-    assert resolve_slot_order(None, software=True) == "area"
-
-
-def test_collapse_setting():
-    assert resolve_collapse("greedy") == ("greedy", ())
-    assert resolve_collapse("sah:1/0.5/2") == ("sah", (1.0, 0.5, 2.0))
-    assert resolve_collapse("auto")[0] == "sah"
-    for bad in ("largest", "sah:1,2", "greedy:1/2/3", "sah:a/b/c"):
-        with pytest.raises(LiftError, match=COLLAPSE_ENV_VAR):
-            resolve_collapse(bad)
-    # a one-leaf tree has no wide node to choose: the default still collapses it (greedy's way)
-    b = build_bvh(soup(1, seed=2, degenerate=False))
-    assert collapse_sah(b.nodes) is None and wide_layout(b.nodes, "4") is not None
+    with pytest.raises(ValueError, match="slot order"):
+        wide_layout(b.nodes, "4", slot_order="biggest")
 
 
 def test_collapse_refuses_what_the_layout_cannot_hold():
     b = build_bvh(soup(64, seed=3), max_depth=1)     # one leaf of 64 triangles: count has 4 bits
-    assert b.num_nodes == 1 and collapse(b.nodes) is None
+    assert b.num_nodes == 1 and collapse_sah(b.nodes) is None and wide_layout(b.nodes, "4") is None
 
 
 @pytest.mark.parametrize("offset", [0.0, 1e4])
@@ -211,7 +171,7 @@ def test_quantized_boxes_contain_the_float_boxes(offset):
     """8-bit boxes, decoded as the GLSL decodes them, hold the float boxes (far from the origin
     too, where the final add rounds), and stay tight: a few percent larger."""
     tris = soup(5000, seed=4) * np.float32(30) + np.float32(offset)
-    wide = collapse(build_bvh(tris).nodes)
+    wide = collapse_sah(build_bvh(tris).nodes)
     q = quantize(wide)
     assert q is not None and q.rows.nbytes * 2 == wide.rows.nbytes
     lo, hi, e = decoded_boxes(wide)
@@ -238,14 +198,13 @@ def _assert_ties_only(tris, o, d, t, p_a, p_b):
         assert (bary.min(axis=1) > -1e-4).all()
 
 
-@pytest.mark.parametrize("method", ["greedy", "sah"])
 @pytest.mark.parametrize("layout", ["4", "4q"])
-def test_numpy_wide_traversal_matches_binary(layout, method):
+def test_numpy_wide_traversal_matches_binary(layout):
     tris = soup(4000, seed=11)
     b = build_bvh(tris)
     o, d = random_rays(4000, seed=12)
     t2, p2 = intersect_numpy(b, tris[b.order], o, d)
-    t4, p4 = intersect_wide_numpy(wide_layout(b.nodes, layout, method), tris[b.order], o, d)
+    t4, p4 = intersect_wide_numpy(wide_layout(b.nodes, layout), tris[b.order], o, d)
     np.testing.assert_array_equal(t4, t2)
     _assert_ties_only(tris[b.order], o, d, t2, p4, p2)
 
@@ -316,19 +275,16 @@ def _wide_defines(wide, layout: str, stack: str) -> dict:
 
 
 @pytest.mark.parametrize("case", ["soup", "cornell.toml", "covered_dragon.toml"])
-@pytest.mark.parametrize("stack, layout, method", [
-    *((stack, layout, "sah") for stack, layout in [
-        ("local", "4"), ("shared", "4"), ("shared", "4q"), ("shared3", "4"), ("shared3", "4q"), ("groups", "4"),
-        ("groups", "4q"), ("groups_local", "4"), ("groups_shared3", "4")]),
-    ("shared", "4", "greedy"), ("groups", "4", "greedy")])
-def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout, method):
+@pytest.mark.parametrize("stack, layout", [
+    ("local", "4"), ("shared", "4"), ("shared", "4q"), ("shared3", "4"), ("shared3", "4q"), ("groups", "4"),
+    ("groups", "4q"), ("groups_local", "4"), ("groups_shared3", "4")])
+def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout):
     """shared3: only the top 3 stack entries in shared memory, the deeper ones spilled to the
     local array (LIFT_BVH_SHARED_DEPTH; by default the whole stack is shared). groups: a stack
     of node groups (LIFT_BVH_GROUP_STACK) exactly as deep as the tree has levels: entries past
-    it would land in the next invocation's column (shared) or out of the array. method: the
-    collapse (sah, the default, or greedy)."""
+    it would land in the next invocation's column (shared) or out of the array."""
     nodes, tris = _case_triangles(case)
-    wide = wide_layout(nodes, layout, method)
+    wide = wide_layout(nodes, layout)
     assert wide is not None
     lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
     o, d = _scene_rays(lo, hi, seed=7)
@@ -350,34 +306,6 @@ def test_glsl_wide_traversal_matches_binary(gl, case, stack, layout, method):
     tmax = np.where(found2, t2, 1.0).astype(np.float64) * np.random.default_rng(3).uniform(0.5, 1.5, len(o))
     _, _, occ2, _, _ = run_glsl(gl, nodes, tris, o, d, tmax=tmax.astype(np.float32), defines=extra)
     _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax.astype(np.float32), defines=tight)
-    assert 0.1 < occ2.mean() < 0.9
-    np.testing.assert_array_equal(occ4, occ2)
-
-
-# lift_bvh_any's other child orders (shaders/lift/bvh.glsl): benchmark variants that must give
-# exactly the default's answers
-ANY_HIT_ORDERS = {"nearest": ["LIFT_BVH4_ANY_NEAREST"], "leaves_first": ["LIFT_BVH4_ANY_LEAVES_FIRST"],
-                  "both": ["LIFT_BVH4_ANY_NEAREST", "LIFT_BVH4_ANY_LEAVES_FIRST"]}
-
-
-@pytest.mark.parametrize("case", ["soup", "covered_dragon.toml"])
-@pytest.mark.parametrize("layout", ["4", "4q"])
-@pytest.mark.parametrize("order", list(ANY_HIT_ORDERS))
-def test_glsl_any_hit_orders_agree(gl, case, layout, order):
-    """Every order of the 4-wide any-hit traversal answers as the binary tree does, on
-    unbounded rays and on shadow-ray intervals ending before, at and after the nearest hit."""
-    nodes, tris = _case_triangles(case)
-    wide = wide_layout(nodes, layout)
-    lo, hi = tris.reshape(-1, 3).min(axis=0).astype(np.float64), tris.reshape(-1, 3).max(axis=0).astype(np.float64)
-    o, d = _scene_rays(lo, hi, seed=9)
-    defines = dict(WIDE[layout], LIFT_BVH_SHARED_STACK=64, **{name: True for name in ANY_HIT_ORDERS[order]})
-    t2, _, occ2, found2, _ = run_glsl(gl, nodes, tris, o, d)
-    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, defines=defines)
-    assert 0.3 < occ2.mean() < 1.0
-    np.testing.assert_array_equal(occ4, occ2)
-    tmax = (np.where(found2, t2, 1.0).astype(np.float64) * np.random.default_rng(4).uniform(0.5, 1.5, len(o))).astype(np.float32)
-    _, _, occ2, _, _ = run_glsl(gl, nodes, tris, o, d, tmax=tmax)
-    _, _, occ4, _, _ = run_glsl(gl, wide.rows, tris, o, d, tmax=tmax, defines=defines)
     assert 0.1 < occ2.mean() < 0.9
     np.testing.assert_array_equal(occ4, occ2)
 
@@ -418,31 +346,41 @@ def test_glsl_shadow_and_next_in_one_loop_answer_as_two_traversals(gl, case, sta
     assert (primp[~nxt] == NO_HIT).all()
 
 
-def test_pack_scene_width_and_fallbacks(monkeypatch):
+def test_pack_scene_width_and_fallbacks():
     cornell = load_scene(REPO / "scenes" / "cornell.toml")
     assert pack_scene(cornell, bvh_width=4).bvh_width == 4
     assert pack_scene(cornell, bvh_width=2).bvh_width == 2
+    assert pack_scene(cornell).bvh_width == 2   # the device unknown: the binary tree
     packed = pack_scene(cornell, bvh_width="4q")
     assert (packed.bvh_width, packed.bvh_quantized, packed.bvh_nodes.shape[1]) == (4, True, 16)
-    monkeypatch.setenv(WIDTH_ENV_VAR, "4")
-    assert pack_scene(cornell).bvh_width == 4
     # motion blur (per-node close boxes) and traced instances (BLAS roots) keep the binary tree
     for name in ("motion_blur.toml", "instances.toml"):
         packed = pack_scene(load_scene(REPO / "scenes" / name), bvh_width=4)
         assert packed.bvh_width == 2 and packed.bvh_nodes.shape[1] == 8
-    monkeypatch.setenv(WIDTH_ENV_VAR, "8")
-    with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
-        pack_scene(cornell)
-    monkeypatch.setenv(WIDTH_ENV_VAR, "auto")
-    assert resolve_width(None, software=True) == "4q" and resolve_width(None) == "2"
-    assert resolve_width(None, software=False) == "4" and resolve_width(2, software=False) == "2"
+    with pytest.raises(ValueError, match="bvh_width must be one of 2, 4, 4q"):
+        pack_scene(cornell, bvh_width=8)
 
 
-def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, group_stack=False, **kw):
+def test_the_renderer_keeps_the_binary_tree_where_it_must_and_says_why():
+    """Options asking for a 4-wide tree: motion blur keeps the binary one, and explain() and
+    the choices say why."""
     from lift_gl.renderer import Renderer
 
-    monkeypatch.setenv(WIDTH_ENV_VAR, width)
-    r = Renderer(scene, size=size, integrator=integrator, seed=5, **kw)
+    r = Renderer(load_scene(REPO / "scenes" / "motion_blur.toml"), size=(8, 8), integrator="drt",
+                 options=Options(bvh_width="4"))
+    try:
+        assert r.packed.bvh_width == 2 and r.choices["bvh_width"] == "2"
+        assert "bvh_width           4 -> 2 because shaders with motion blur keep the binary tree" in r.explain()
+        assert r.choices["bvh_stack_entries"] is None and r.choices["trace_paired"] is None
+    finally:
+        r.release()
+
+
+def _render(width, scene, integrator, size=(40, 32), spp=4, group_stack=False, options=None, **kw):
+    from lift_gl.renderer import Renderer
+
+    options = dataclasses.replace(options or Options(), bvh_width=width)
+    r = Renderer(scene, size=size, integrator=integrator, seed=5, options=options, **kw)
     try:
         assert ("LIFT_BVH_GROUP_STACK" in r.defines) == group_stack
         return r.render(spp=spp), r.packed.bvh_width, r.defines.get("LIFT_BVH_WIDTH"), r.defines.get("LIFT_BVH_QUANTIZED")
@@ -458,30 +396,28 @@ def _render(monkeypatch, width, scene, integrator, size=(40, 32), spp=4, group_s
 @pytest.mark.parametrize("stack, layout, entries", [("local", "4", "children"), ("shared", "4", "children"),
                                                     ("shared", "4q", "children"), ("shared", "4", "groups"),
                                                     ("local", "4q", "groups")])
-def test_wide_renders_the_binary_image(monkeypatch, scene_name, integrator, stack, layout, entries):
-    monkeypatch.setenv("LIFT_GL_BVH_STACK", stack)
-    monkeypatch.setenv(STACK_ENV_VAR, entries)
+def test_wide_renders_the_binary_image(scene_name, integrator, stack, layout, entries):
+    options = Options(bvh_stack=stack, bvh_stack_entries=entries)
     scene = load_scene(REPO / "scenes" / scene_name)
-    binary, w2, d2, q2 = _render(monkeypatch, "2", scene, integrator)
-    wide, w4, d4, q4 = _render(monkeypatch, layout, scene, integrator, group_stack=entries == "groups")
+    binary, w2, d2, q2 = _render("2", scene, integrator, options=options)
+    wide, w4, d4, q4 = _render(layout, scene, integrator, group_stack=entries == "groups", options=options)
     assert (w2, d2, q2, w4, d4, q4) == (2, None, None, 4, 4, True if layout == "4q" else None)
     assert np.isfinite(binary).all() and binary.max() > 0
     np.testing.assert_array_equal(wide, binary)
 
 
 @pytest.mark.parametrize("entries", ["children", "groups"])
-def test_wide_split_scene_renders_the_same_image(monkeypatch, entries):
+def test_wide_split_scene_renders_the_same_image(entries):
     """A scene split across buffers (scene/split.py) reads the wide nodes through the heap, the
     node groups' entries too."""
-    from lift_gl import limits
     from lift_gl.renderer import Renderer
     from test_split_buffers import _small_limit
 
-    monkeypatch.setenv(STACK_ENV_VAR, entries)
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    whole = _render(monkeypatch, "4", scene, "pt", group_stack=entries == "groups")[0]
-    monkeypatch.setenv(limits.MAX_SSBO_ENV_VAR, str(_small_limit(pack_scene(scene, bvh_width=4))))
-    r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+    whole = _render("4", scene, "pt", group_stack=entries == "groups", options=Options(bvh_stack_entries=entries))[0]
+    r = Renderer(scene, size=(40, 32), integrator="pt", seed=5,
+                 options=Options(bvh_width="4", bvh_stack_entries=entries,
+                                 max_buffer_bytes=_small_limit(pack_scene(scene, bvh_width=4))))
     try:
         assert r.buffers.plan.split and r.buffers.plan.chunks >= 2 and r.packed.bvh_width == 4
         assert ("LIFT_BVH_GROUP_STACK" in r.defines) == (entries == "groups")
@@ -489,14 +425,6 @@ def test_wide_split_scene_renders_the_same_image(monkeypatch, entries):
     finally:
         r.release()
     np.testing.assert_array_equal(split, whole)
-
-
-def test_bad_width_setting_is_refused(monkeypatch):
-    from lift_gl.renderer import Renderer
-
-    monkeypatch.setenv(WIDTH_ENV_VAR, "3")
-    with pytest.raises(LiftError, match=WIDTH_ENV_VAR):
-        Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt")
 
 
 def test_the_shaders_declare_the_stack_the_tree_needs():
@@ -515,22 +443,27 @@ def test_the_shaders_declare_the_stack_the_tree_needs():
         r.release()
 
 
-def test_an_edit_that_deepens_the_tree_recompiles_with_the_deeper_stack():
-    """A geometry edit whose tree needs a deeper stack changes LIFT_BVH_STACK_SIZE: the passes
-    are recompiled with it, and the frame equals a fresh renderer's."""
-    import dataclasses
-
-    from lift_gl.renderer import Renderer
+def _cornell_with_a_cloud(triangles: int = 6000):
+    """The cornell-box with a cloud of small triangles inside the room: a deeper tree."""
     from lift_gl.scene.model import Mesh
 
     scene = load_scene(REPO / "scenes" / "cornell.toml")
-    tris = soup(6000, seed=31, size=0.05, degenerate=False).astype(np.float64)
+    tris = soup(triangles, seed=31, size=0.05, degenerate=False).astype(np.float64)
     pts = np.concatenate([m.positions for m in scene.meshes])
     box_lo, box_hi = pts.min(axis=0), pts.max(axis=0)
-    tris = box_lo + (0.2 + 0.3 * tris) * (box_hi - box_lo)    # a cloud of small triangles inside the room
+    tris = box_lo + (0.2 + 0.3 * tris) * (box_hi - box_lo)
     cloud = Mesh("cloud", tris.reshape(-1, 3), np.arange(3 * len(tris), dtype=np.int32).reshape(-1, 3),
                  scene.meshes[0].material)
-    bigger = dataclasses.replace(scene, meshes=[*scene.meshes, cloud])
+    return dataclasses.replace(scene, meshes=[*scene.meshes, cloud])
+
+
+def test_an_edit_that_deepens_the_tree_recompiles_with_the_deeper_stack():
+    """A geometry edit whose tree needs a deeper stack changes LIFT_BVH_STACK_SIZE: the passes
+    are recompiled with it, and the frame equals a fresh renderer's."""
+    from lift_gl.renderer import Renderer
+
+    scene = load_scene(REPO / "scenes" / "cornell.toml")
+    bigger = _cornell_with_a_cloud()
     r = Renderer(scene, size=(32, 32), integrator="pt", seed=1)
     try:
         before = r.defines["LIFT_BVH_STACK_SIZE"]
@@ -547,30 +480,23 @@ def test_an_edit_that_deepens_the_tree_recompiles_with_the_deeper_stack():
         r.release()
 
 
-def test_stack_entries_setting(monkeypatch):
-    """auto: node groups on GPUs where the stack of children would pass GROUP_STACK_FROM entries
-    (their shared memory is what they save), children on CPU rasterizers and for shallow trees;
-    groups only where node ids fit their 24 bits; a bad value names the variable."""
-    monkeypatch.delenv(STACK_ENV_VAR, raising=False)
-    children = {"LIFT_BVH_STACK_SIZE": 56}
+def test_stack_defines():
+    """A stack of children as deep as the tree's stack bound, of node groups as its levels (the
+    top GROUP_SHARED_DEPTH in shared memory); which one a device and tree get: tests/test_options.py."""
     groups = {"LIFT_BVH_GROUP_STACK": True, "LIFT_BVH_STACK_SIZE": 24, "LIFT_BVH_SHARED_DEPTH": GROUP_SHARED_DEPTH}
-    assert stack_defines(54, 18, 72647, software=False) == groups            # Lift's dining room on a GPU
-    assert stack_defines(54, 18, 72647, software=True) == children           # ... on llvmpipe
-    assert stack_defines(11, 4, 7, software=False) == {"LIFT_BVH_STACK_SIZE": 16}   # the cornell-box
-    assert stack_defines(GROUP_STACK_FROM, 9, 100, software=False)["LIFT_BVH_STACK_SIZE"] == GROUP_STACK_FROM
-    assert stack_defines(11, 4, 7, software=True, stack="groups") == dict(groups, LIFT_BVH_STACK_SIZE=8)
-    assert stack_defines(54, 18, 72647, software=False, stack="children") == children
-    assert stack_defines(54, 18, GROUP_MAX_NODES, software=False, stack="groups") == children
-    assert stack_defines(64, STACK + 1, 1000, software=False, stack="groups") == {"LIFT_BVH_STACK_SIZE": STACK}
-    with pytest.raises(LiftError, match=STACK_ENV_VAR):
-        stack_defines(54, 18, 72647, software=False, stack="pairs")
+    assert stack_defines(54, 18, "groups") == groups                          # Lift's dining room
+    assert stack_defines(54, 18, "children") == {"LIFT_BVH_STACK_SIZE": 56}
+    assert stack_defines(11, 4, "children") == {"LIFT_BVH_STACK_SIZE": 16}    # the cornell-box
+    assert stack_defines(11, 4, "groups") == dict(groups, LIFT_BVH_STACK_SIZE=8)
+    with pytest.raises(ValueError, match="stack entries"):
+        stack_defines(54, 18, "pairs")
 
 
 def test_collapse_counts_levels():
     """WideBVH.levels, the group stack's depth: the wide nodes on the longest root path,
     counted here by walking the child entries (and kept by quantize)."""
     tris = soup(3000, seed=2, size=0.05)
-    wide = collapse(build_bvh(tris).nodes)
+    wide = collapse_sah(build_bvh(tris).nodes)
     entries = _entries(wide)[0]
     depth = np.zeros(wide.num_nodes, np.int64)
     for node in range(wide.num_nodes):   # breadth first: a parent comes before its children
@@ -580,85 +506,44 @@ def test_collapse_counts_levels():
     assert quantize(wide).levels == wide.levels
 
 
-def test_plugin_asks_for_its_stack_entries(monkeypatch, tmp_path):
-    """A manifest's bvh_stack picks the stack entries where $LIFT_GL_BVH_STACK_ENTRIES is auto (a
-    set variable wins); a reload that changes it recompiles the trace pass with the new stack;
-    the images are pt's with either. bdpt's manifest asks for children (docs/gpu.md)."""
-    import shutil
-
-    from lift_gl.plugins import BUILTIN_DIR, find_plugin
+def test_plugins_with_splats_keep_the_stack_of_children_on_gpus(as_if_gpu):
+    """On a GPU (emulated here) a deep tree gets node groups, but a plugin with splats (bdpt: 3x
+    slower with them on an H100) keeps child entries; the option decides where set."""
     from lift_gl.renderer import Renderer
 
-    monkeypatch.delenv(STACK_ENV_VAR, raising=False)
-    assert find_plugin("bdpt").bvh_stack == "children" and find_plugin("pt").bvh_stack == "auto"
-    assert stack_defines(54, 18, 72647, software=False, preferred="children") == {"LIFT_BVH_STACK_SIZE": 56}
-    assert "LIFT_BVH_GROUP_STACK" in stack_defines(11, 4, 7, software=True, preferred="groups")
-    assert "LIFT_BVH_GROUP_STACK" not in stack_defines(11, 4, 7, software=True, stack="children", preferred="groups")
-    folder = tmp_path / "ptg"
-    shutil.copytree(BUILTIN_DIR / "pt", folder)
-    manifest = folder / "plugin.toml"
-    manifest.write_text(manifest.read_text().replace('name = "pt"', 'name = "ptg"\nbvh_stack = "groups"'))
-    monkeypatch.setenv(WIDTH_ENV_VAR, "4")
-    scene = load_scene(REPO / "scenes" / "cornell.toml")
-    reference = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
-    r = Renderer(scene, size=(40, 32), integrator=str(folder), seed=5)
-    try:
-        assert "#define LIFT_BVH_GROUP_STACK" in r.trace.source.text
-        assert "#define LIFT_BVH_GROUP_STACK" not in reference.trace.source.text
-        assert "BVH stack: 8 node groups" in r.explain() and "BVH stack: 8 child entries" in reference.explain()
-        np.testing.assert_array_equal(r.render(spp=4), reference.render(spp=4))
-        manifest.write_text(manifest.read_text().replace('bvh_stack = "groups"', 'bvh_stack = "children"'))
-        assert r.reload(force=True)
-        assert "#define LIFT_BVH_GROUP_STACK" not in r.trace.source.text and "child entries" in r.explain()
-    finally:
-        r.release()
-        reference.release()
+    scene = _cornell_with_a_cloud()   # a stack of children would need 40 entries
+    cases = {("pt", "auto"): "groups", ("pt", "children"): "children", ("bdpt", "groups"): "groups",
+             ("bdpt", "auto"): "children"}
+    for (integrator, asked), expect in cases.items():
+        r = Renderer(scene, size=(8, 8), integrator=integrator, options=Options(bvh_stack_entries=asked))
+        try:
+            assert r.packed.bvh_stack > 32 and r.choices["bvh_stack_entries"] == expect, (integrator, asked)
+            assert ("#define LIFT_BVH_GROUP_STACK" in r.trace.source.text) == (expect == "groups")
+        finally:
+            r.release()
 
 
 @pytest.mark.parametrize("scene_name", ["cornell.toml", "showcase.toml"])   # area light; spheres, textures, sky
-@pytest.mark.parametrize("entries, wavefront", [("children", "off"), ("groups", "off"), ("children", "on")])
-def test_pt_with_the_pair_in_one_loop_renders_the_same_image(monkeypatch, scene_name, entries, wavefront):
+@pytest.mark.parametrize("entries", ["children", "groups"])
+def test_pt_with_the_pair_in_one_loop_renders_the_same_image(scene_name, entries):
     """pt's vertex traces its shadow ray and next ray with trace_shadow_and_next: the image with
-    them in one loop ($LIFT_GL_TRACE_PAIRED on, GPUs' default) is the one traced apart, bit for
-    bit, on the megakernel and the wavefront."""
-    from lift_gl.accel.wide import PAIRED_ENV_VAR
+    them in one loop (trace_paired on, GPUs' default on deep trees) is the one traced apart, bit
+    for bit."""
     from lift_gl.renderer import Renderer
 
-    monkeypatch.setenv("LIFT_GL_BVH_STACK", "shared")
-    monkeypatch.setenv("LIFT_GL_BVH_STACK_ENTRIES", entries)
-    monkeypatch.setenv("LIFT_GL_WAVEFRONT", wavefront)
-    monkeypatch.setenv(WIDTH_ENV_VAR, "4")
     scene = load_scene(REPO / "scenes" / scene_name)
     images = {}
     for paired in ("off", "on"):
-        monkeypatch.setenv(PAIRED_ENV_VAR, paired)
-        r = Renderer(scene, size=(40, 32), integrator="pt", seed=5)
+        r = Renderer(scene, size=(40, 32), integrator="pt", seed=5,
+                     options=Options(bvh_stack="shared", bvh_stack_entries=entries, bvh_width="4", trace_paired=paired))
         try:
             assert ("LIFT_TRACE_PAIRED" in r.defines) == (paired == "on")
             assert ("LIFT_BVH_GROUP_STACK" in r.defines) == (entries == "groups")
-            assert (r.trace.wavefront is not None) == (wavefront == "on")
             images[paired] = r.render(spp=4)
         finally:
             r.release()
     assert np.isfinite(images["on"]).all() and images["on"].max() > 0
     np.testing.assert_array_equal(images["on"], images["off"])
-
-
-def test_paired_setting(monkeypatch):
-    from lift_gl.accel.wide import PAIRED_ENV_VAR, PAIRED_FROM_LEVELS, paired_defines
-
-    monkeypatch.delenv(PAIRED_ENV_VAR, raising=False)
-    deep, shallow = PAIRED_FROM_LEVELS, PAIRED_FROM_LEVELS - 1
-    assert paired_defines(software=True, levels=deep) == {}
-    assert paired_defines(software=False, levels=deep) == {"LIFT_TRACE_PAIRED": True}
-    assert paired_defines(software=False, levels=shallow) == {}
-    monkeypatch.setenv(PAIRED_ENV_VAR, "on")
-    assert paired_defines(software=True, levels=shallow) == {"LIFT_TRACE_PAIRED": True}
-    monkeypatch.setenv(PAIRED_ENV_VAR, "off")
-    assert paired_defines(software=False, levels=deep) == {}
-    monkeypatch.setenv(PAIRED_ENV_VAR, "sometimes")
-    with pytest.raises(LiftError, match=PAIRED_ENV_VAR):
-        paired_defines(software=False, levels=deep)
 
 
 def test_large_trees_wide_layout_is_cached(tmp_path, monkeypatch):
@@ -681,12 +566,11 @@ def test_large_trees_wide_layout_is_cached(tmp_path, monkeypatch):
     np.testing.assert_array_equal(again.rows, first.rows)
     assert (again.width, again.stack_bound, again.levels, again.quantized) == \
            (first.width, first.stack_bound, first.levels, first.quantized)
-    for setting in ({"slot_order": "build"}, {"collapse_method": "greedy"}):
-        other = cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path, **setting)
-        assert not np.array_equal(other.rows, first.rows)
+    other = cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path, slot_order="build")
+    assert not np.array_equal(other.rows, first.rows)
     q = cache.wide_layout_cached(b.nodes, "4q", cache_dir=tmp_path)
     assert q.quantized and cache.wide_layout_cached(b.nodes, "4q", cache_dir=tmp_path).quantized
-    assert len(list(tmp_path.iterdir())) == 4 and len(calls) == 5
+    assert len(list(tmp_path.iterdir())) == 3 and len(calls) == 4
     path.write_bytes(b"not a zip")
     np.testing.assert_array_equal(cache.wide_layout_cached(b.nodes, "4", cache_dir=tmp_path).rows, first.rows)
-    assert len(calls) == 6
+    assert len(calls) == 5

@@ -159,7 +159,7 @@ def _best_splits(sorted_key, d, gstart, total, bins, n_bins, forced, n_act, act_
 
 
 def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int = MAX_LEAF,
-              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT, all_axes: bool = False,
+              max_depth: int = MAX_DEPTH, min_split: int = MIN_SPLIT,
               traversal_cost: float = TRAVERSAL_COST, large_bins: int = 0) -> BVH:
     """Binned SAH BVH of a float32 (T, 3, 3) triangle array (triangle, corner, xyz).
 
@@ -167,11 +167,10 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
     triangle passes its corners at shutter open and at shutter close, (T, 6, 3), and gets
     the box it sweeps (a linear motion stays inside the union of the two end boxes).
 
-    Each node bins its triangles' bounding-box centroids into `bins` bins along the longest
-    axis of the centroid bounds and takes the cheapest of the bins - 1 plane splits (nodes of
-    at least LARGE_NODE triangles: `large_bins` bins where that is more); with
-    `all_axes`, along each of the three axes, and the cheapest plane of all (about 2.3x the
-    build time; the SAH builder's default through accel/cache.py, docs/bvh.md). A node
+    Each node bins its triangles' bounding-box centroids into `bins` bins along each of the
+    three axes and takes the cheapest of the 3 x (bins - 1) plane splits (nodes of at least
+    LARGE_NODE triangles: `large_bins` bins where that is more): the longest axis alone builds
+    2.3x faster but cost the classroom's tree 16.3 against 10.3 (docs/bvh.md). A node
     becomes a leaf when it has <= 2 triangles, when it has <= max_leaf and SAH says a split
     does not pay (a split costs `traversal_cost` box tests, relative to one triangle test, plus
     its children's expected cost), or at depth max_depth (the traversal stack size); `min_split` = 2 with
@@ -228,7 +227,7 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         nodes[act_node, 0:3] = node_lo
         nodes[act_node, 4:7] = node_hi
 
-        # --- bin centroids along each node's longest centroid axis (or along each axis) ----
+        # --- bin centroids along each axis ----
         # Small nodes get few bins: with <= SMALL_NODE triangles, SMALL_NODE bins are nearly an
         # exact sweep, and the dense per-node bin grids below are then 4x smaller. Deep levels
         # hold mostly small nodes, so this roughly halves the build time.
@@ -242,12 +241,11 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
         c_lo = np.minimum.reduceat(c, seg_off, axis=0).astype(np.float64)
         c_hi = np.maximum.reduceat(c, seg_off, axis=0).astype(np.float64)
         longest = np.argmax(c_hi - c_lo, axis=1)
-        candidates = [np.full(n_act, k, np.int64) for k in range(3)] if all_axes else [longest]
         best_cost = np.full(n_act, np.inf)
         n_left = act_count // 2   # no separating plane (all centroids equal): cut by count
         best_axis = longest.copy()
         keys = []
-        for axis in candidates:   # each axis judged on its own (node, bin)-sorted copy
+        for axis in (np.full(n_act, k, np.int64) for k in range(3)):   # each on its own (node, bin)-sorted copy
             key, perm, gstart = _bin_keys(axis, c, c_lo, c_hi, n_bins, seg, grid, total)
             keys.append(key)
             sorted_d = d[perm]
@@ -256,10 +254,10 @@ def build_bvh(tri_positions: np.ndarray, *, bins: int = SAH_BINS, max_leaf: int 
             best_cost = np.where(better, cost, best_cost)
             n_left = np.where(better & np.isfinite(cost), nl, n_left)
             best_axis = np.where(better, axis, best_axis)
-        if len(candidates) > 1:   # each node's triangles in the order of its chosen axis's bins
-            chosen = np.take_along_axis(np.stack(keys, axis=1), best_axis[seg][:, None], axis=1)[:, 0]
-            perm = np.argsort(chosen, kind="stable")
-            sorted_d = d[perm]
+        # each node's triangles in the order of its chosen axis's bins
+        chosen = np.take_along_axis(np.stack(keys, axis=1), best_axis[seg][:, None], axis=1)[:, 0]
+        perm = np.argsort(chosen, kind="stable")
+        sorted_d = d[perm]
         # Sorting by (node, bin) groups each bin's triangles contiguously inside its node's
         # range, so a split after bin k is simply "the first NL triangles of the range".
         d = sorted_d

@@ -3,7 +3,7 @@
 The key is a hash of the exact triangle bytes, their shape, the builder and
 bvh.LAYOUT_VERSION: any change to the geometry, the builder or the node layout gives a
 different file, so stale entries are never read; they are left behind until the folder passes
-$LIFT_GL_CACHE_MAX_BYTES (4 GiB), when the least recently used go. A file that cannot be read
+DEFAULT_MAX_BYTES (4 GiB), when the least recently used go. A file that cannot be read
 or fails the sanity checks is rebuilt and overwritten; the cache is an optimisation and never
 a reason to fail.
 """
@@ -18,39 +18,30 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import BVH, LARGE_BINS, LARGE_NODE, LAYOUT_VERSION, MAX_LEAF, SAH_BINS, TRAVERSAL_COST, build_bvh, sah_cost
+from .bvh import BVH, LARGE_BINS, LARGE_NODE, LAYOUT_VERSION, SAH_BINS, build_bvh, sah_cost
 from .presplit import (AUTO_CANDIDATES, AUTO_MIN_GAIN, OFF, SLIVER_CANDIDATE, SLIVER_TOLERANCE, SplitSettings,
                        presplit, resolve_splits)
-from .wide import MAX_LEAF_COUNT, WideBVH, resolve_collapse, resolve_slot_order, wide_layout
+from .wide import WideBVH, wide_layout
 
 ENV_VAR = "LIFT_GL_CACHE_DIR"
-BUILDER_ENV_VAR = "LIFT_GL_BVH_BUILDER"
-# sah: binned SAH in numpy (bvh.py); lbvh: Morton-code LBVH through OpenCL (lbvh.py);
-# lbvh+sah: the LBVH with its top levels rebuilt by SAH; auto: sah below AUTO_LBVH_TRIANGLES,
-# lbvh from there on when pyopencl is installed. Not lbvh+sah: its lower SAH cost did not
-# make it trace faster on llvmpipe (docs/bvh.md has the measurements).
-BUILDERS = ("auto", "sah", "lbvh", "lbvh+sah")
+# sah: binned SAH in numpy (bvh.py); lbvh: Morton-code LBVH through OpenCL (lbvh.py); auto: sah
+# below AUTO_LBVH_TRIANGLES, lbvh from there on when pyopencl is installed (the option
+# bvh_builder, lift_gl/options.py).
+BUILDERS = ("auto", "sah", "lbvh")
 AUTO_LBVH_TRIANGLES = 1_000_000
-# The SAH builder's split planes: along each node's longest centroid axis, or the cheapest of
-# all three axes (bvh.py build_bvh all_axes; docs/bvh.md "Split planes on all three axes").
-AXES_ENV_VAR = "LIFT_GL_BVH_AXES"
-AXES = ("longest", "all")
-DEFAULT_AXES = "all"
-BINS_ENV_VAR = "LIFT_GL_BVH_BINS"
 BUILD_NOTICE_TRIANGLES = 50_000   # builds of at least this many triangles are announced on a terminal
 
 
 def resolve_bins(value: int | str | None = None) -> int | str:
-    """The SAH builder's bins per node: `value`, else $LIFT_GL_BVH_BINS: a whole number from 8
-    to 256 (every node that many), or 'auto' (the default): bvh.SAH_BINS, and the tree is built
-    a second time with bvh.LARGE_BINS bins for its nodes of bvh.LARGE_NODE triangles or more,
-    and the one of lower SAH cost kept (build_with; docs/bvh.md "Finer bins at the top")."""
-    source = "the caller" if value is not None else "$" + BINS_ENV_VAR
-    text = (str(value) if value is not None else os.environ.get(BINS_ENV_VAR, "")).strip().lower()
-    if not text or text == "auto":
+    """The SAH builder's bins per node: a whole number from 8 to 256 (every node that many), or
+    'auto' (None, the default): bvh.SAH_BINS, and the tree is built a second time with
+    bvh.LARGE_BINS bins for its nodes of bvh.LARGE_NODE triangles or more, and the one of lower
+    SAH cost kept (build_with; docs/bvh.md, finer bins at the top)."""
+    text = "auto" if value is None else str(value).strip().lower()
+    if text == "auto":
         return "auto"
     if not text.isdigit() or not 8 <= int(text) <= 256:
-        raise ValueError(f"bad BVH bins {text!r} (from {source}): use auto or a whole number from 8 to 256")
+        raise ValueError(f"bad BVH bins {value!r}: use auto or a whole number from 8 to 256")
     return int(text)
 
 
@@ -61,36 +52,6 @@ def bins_for_one_build(value: int | str | None = None) -> int:
     return SAH_BINS if bins == "auto" else bins
 
 
-LEAF_ENV_VAR = "LIFT_GL_BVH_LEAF"
-
-
-def resolve_leaf() -> tuple[int, float]:
-    """The SAH builder's largest leaf and the cost of a split relative to one triangle test:
-    $LIFT_GL_BVH_LEAF as MAX_LEAF,COST (e.g. 8,2), else bvh.MAX_LEAF and bvh.TRAVERSAL_COST.
-    Larger leaves and dearer splits make fewer nodes and more triangle tests (docs/gpu.md
-    "Tenth session" measured what the GPU's traversal makes of it)."""
-    text = os.environ.get(LEAF_ENV_VAR, "").strip()
-    if not text:
-        return MAX_LEAF, TRAVERSAL_COST
-    parts = text.split(",")
-    try:
-        leaf, cost = int(parts[0]), float(parts[1]) if len(parts) > 1 else TRAVERSAL_COST
-    except ValueError:
-        leaf = cost = None
-    if len(parts) > 2 or leaf is None or not 1 <= leaf <= MAX_LEAF_COUNT or not 0.0 < cost <= 64.0:
-        raise ValueError(f"${LEAF_ENV_VAR} must be MAX_LEAF (1 to {MAX_LEAF_COUNT}) or MAX_LEAF,COST "
-                         f"(COST above 0, at most 64), not {text!r}")
-    return leaf, cost
-
-
-def resolve_axes() -> str:
-    """longest or all: $LIFT_GL_BVH_AXES, else DEFAULT_AXES."""
-    name = (os.environ.get(AXES_ENV_VAR) or DEFAULT_AXES).strip().lower()
-    if name not in AXES:
-        raise ValueError(f"unknown BVH split axes {name!r} (from ${AXES_ENV_VAR}); choose one of {', '.join(AXES)}")
-    return name
-
-
 def _opencl_available() -> bool:
     import importlib.util
 
@@ -98,11 +59,10 @@ def _opencl_available() -> bool:
 
 
 def resolve_builder(builder: str | None, n_tris: int) -> str:
-    """The concrete builder for `builder` (None: $LIFT_GL_BVH_BUILDER, else auto)."""
-    name = (builder or os.environ.get(BUILDER_ENV_VAR) or "auto").strip().lower()
+    """The concrete builder for `builder` (BUILDERS; None: auto)."""
+    name = (builder or "auto").strip().lower()
     if name not in BUILDERS:
-        raise ValueError(f"unknown BVH builder {name!r} (from {'$' + BUILDER_ENV_VAR if builder is None else 'the caller'}); "
-                         f"choose one of {', '.join(BUILDERS)}")
+        raise ValueError(f"unknown BVH builder {name!r}; choose one of {', '.join(BUILDERS)}")
     if name == "auto":
         return "lbvh" if n_tris >= AUTO_LBVH_TRIANGLES and _opencl_available() else "sah"
     return name
@@ -110,13 +70,11 @@ def resolve_builder(builder: str | None, n_tris: int) -> str:
 
 def _build_plain(tri_positions: np.ndarray, builder: str, large_bins: int = 0, bins=None) -> BVH:
     if builder == "sah":
-        leaf, cost = resolve_leaf()
         bins = resolve_bins(bins)
-        return build_bvh(tri_positions, bins=SAH_BINS if bins == "auto" else bins, all_axes=resolve_axes() == "all",
-                         max_leaf=leaf, traversal_cost=cost, large_bins=large_bins)
-    from .lbvh import build_lbvh  # pyopencl, only for these builders
+        return build_bvh(tri_positions, bins=SAH_BINS if bins == "auto" else bins, large_bins=large_bins)
+    from .lbvh import build_lbvh  # pyopencl, only for this builder
 
-    return build_lbvh(tri_positions, refine=builder == "lbvh+sah")
+    return build_lbvh(tri_positions)
 
 
 def splits_apply(tri_positions: np.ndarray, splits: SplitSettings) -> bool:
@@ -168,8 +126,7 @@ def _split_refs(pos: np.ndarray, splits: SplitSettings):
 
 def _finer_top(prims: np.ndarray, builder: str, bvh: BVH, bins=None) -> BVH:
     """`bvh`, or the SAH tree over the same primitives built with LARGE_BINS bins for its nodes
-    of LARGE_NODE primitives or more, where that one's SAH cost is lower ($LIFT_GL_BVH_BINS
-    auto). Why both: the greedy top-down build sometimes does worse with the finer planes
+    of LARGE_NODE primitives or more, where that one's SAH cost is lower (`bins` auto). Why both: the greedy top-down build sometimes does worse with the finer planes
     (the Bitterli living room's cost 71.1 -> 74.1) and often better (the classroom's 10.3 ->
     8.3); docs/bvh.md "Finer bins at the top"."""
     # scenes of a million primitives or more build once: there the build's own time is what
@@ -195,16 +152,12 @@ def cache_key(tri_positions: np.ndarray, builder: str = "sah", splits: SplitSett
     if builder != "sah":  # the SAH keys stay what they were before there were other builders
         h.update(builder.encode())
     else:
-        if resolve_axes() == "all":  # ... and before the SAH builder could bin on every axis
-            h.update(b"axes=all")
+        h.update(b"axes=all")  # ... and before the SAH builder binned on every axis
         bins = resolve_bins(bins)
         if bins == "auto":   # the finer bins at the top (_finer_top)
             h.update(f"bins={SAH_BINS}+{LARGE_BINS}@{LARGE_NODE}".encode())
         elif bins != SAH_BINS:
             h.update(f"bins={bins}".encode())
-        leaf = resolve_leaf()
-        if leaf != (MAX_LEAF, TRAVERSAL_COST):
-            h.update(f"leaf={leaf[0]},{leaf[1]!r}".encode())
     if splits_apply(pos, splits):  # builds that splitting cannot change keep their keys
         h.update(splits.key().encode())
     h.update(repr(pos.shape).encode())
@@ -231,23 +184,10 @@ def _load(path: Path, n_tris: int) -> BVH | None:
 
 
 # The cache's size: after each write, the least recently used files go until the folder holds
-# at most this many bytes ($LIFT_GL_CACHE_MAX_BYTES). Each edit of a scene's geometry keys a new
-# tree, so a session of live edits to a big scene would otherwise fill the disk (a 6.4M-triangle
-# tree and its wide layout take about 300 MB).
-MAX_BYTES_ENV_VAR = "LIFT_GL_CACHE_MAX_BYTES"
+# at most this many bytes (`max_bytes` of the functions that write). Each edit of a scene's
+# geometry keys a new tree, so a session of live edits to a big scene would otherwise fill the
+# disk (a 6.4M-triangle tree and its wide layout take about 300 MB).
 DEFAULT_MAX_BYTES = 4 << 30
-
-
-def max_cache_bytes() -> int:
-    """$LIFT_GL_CACHE_MAX_BYTES (a byte count), else DEFAULT_MAX_BYTES."""
-    text = os.environ.get(MAX_BYTES_ENV_VAR, "").strip()
-    try:
-        value = int(text) if text else DEFAULT_MAX_BYTES
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise ValueError(f"${MAX_BYTES_ENV_VAR} must be a byte count (0 or more), not {text!r}")
-    return value
 
 
 def _touch(path: Path) -> None:
@@ -258,10 +198,10 @@ def _touch(path: Path) -> None:
         pass
 
 
-def _prune(root: Path, keep: Path) -> None:
+def _prune(root: Path, keep: Path, max_bytes: int = DEFAULT_MAX_BYTES) -> None:
     """Delete the least recently used cache files (oldest mtime first) until the folder holds
-    at most max_cache_bytes(); never `keep`, the file just written. Files another process
-    removes first, or cannot be removed, are skipped: the cache is never a reason to fail."""
+    at most `max_bytes`; never `keep`, the file just written. Files another process removes
+    first, or cannot be removed, are skipped: the cache is never a reason to fail."""
     try:
         files = []
         for f in root.glob("*.npz"):
@@ -270,7 +210,7 @@ def _prune(root: Path, keep: Path) -> None:
             except OSError:
                 continue
             files.append((st.st_mtime, st.st_size, f))
-        total, limit = sum(size for _, size, _ in files), max_cache_bytes()
+        total, limit = sum(size for _, size, _ in files), max_bytes
         for _, size, f in sorted(files, key=lambda x: x[0]):
             if total <= limit:
                 break
@@ -285,11 +225,12 @@ def _prune(root: Path, keep: Path) -> None:
         pass
 
 
-def _store(path: Path, bvh: BVH) -> None:
-    _store_arrays(path, nodes=bvh.nodes, order=bvh.order, depth=np.int64(bvh.depth), version=np.str_(LAYOUT_VERSION))
+def _store(path: Path, bvh: BVH, max_bytes: int = DEFAULT_MAX_BYTES) -> None:
+    _store_arrays(path, max_bytes, nodes=bvh.nodes, order=bvh.order, depth=np.int64(bvh.depth),
+                  version=np.str_(LAYOUT_VERSION))
 
 
-def _store_arrays(path: Path, **arrays) -> None:
+def _store_arrays(path: Path, max_bytes: int = DEFAULT_MAX_BYTES, **arrays) -> None:
     """Write an npz atomically (temp file + rename) so that a concurrent reader or a crash never
     sees half a file. Failing to write (read-only home, full disk) is not an error."""
     try:
@@ -304,7 +245,7 @@ def _store_arrays(path: Path, **arrays) -> None:
             raise
     except OSError:
         return
-    _prune(path.parent, keep=path)
+    _prune(path.parent, keep=path, max_bytes=max_bytes)
 
 
 def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah",
@@ -314,11 +255,11 @@ def cache_path(tri_positions: np.ndarray, cache_dir=None, builder: str = "sah",
 
 
 def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | None = None,
-                     splits=None, bins=None) -> BVH:
+                     splits=None, bins=None, max_bytes: int = DEFAULT_MAX_BYTES) -> BVH:
     """The BVH of tri_positions by `builder` (see resolve_builder), with large triangles split
-    per `splits` (presplit.resolve_splits: None reads $LIFT_GL_BVH_SPLITS, default on) and the
-    SAH builder's `bins` (resolve_bins: None reads $LIFT_GL_BVH_BINS, default auto), read from
-    / written to `cache_dir` (default: default_cache_dir())."""
+    per `splits` (presplit.resolve_splits: None is auto) and the SAH builder's `bins`
+    (resolve_bins: None is auto), read from / written to `cache_dir` (default:
+    default_cache_dir()), which keeps to `max_bytes`."""
     pos = np.ascontiguousarray(tri_positions, dtype=np.float32)
     builder = resolve_builder(builder, pos.shape[0] if pos.ndim == 3 else 0)
     splits = resolve_splits(splits)
@@ -336,7 +277,7 @@ def build_bvh_cached(tri_positions: np.ndarray, cache_dir=None, builder: str | N
         bvh = build_with(pos, builder, splits, bins)
         if notice:
             print(f"lift-gl: BVH built in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
-        _store(path, bvh)
+        _store(path, bvh, max_bytes)
     return bvh
 
 
@@ -348,17 +289,15 @@ WIDE_CACHE_MIN_NODES = 1 << 20
 WIDE_LAYOUT_VERSION = "wide-1"
 
 
-def wide_layout_cached(nodes: np.ndarray, layout: str, cache_dir=None, collapse_method: str | None = None,
-                       slot_order: str | None = None):
-    """accel/wide.py wide_layout(nodes, layout, collapse_method, slot_order), read from / written
-    to `cache_dir` (default: default_cache_dir()) for trees of at least WIDE_CACHE_MIN_NODES
-    binary nodes."""
+def wide_layout_cached(nodes: np.ndarray, layout: str, cache_dir=None, slot_order: str = "area",
+                       max_bytes: int = DEFAULT_MAX_BYTES):
+    """accel/wide.py wide_layout(nodes, layout, slot_order), read from / written to `cache_dir`
+    (default: default_cache_dir()) for trees of at least WIDE_CACHE_MIN_NODES binary nodes."""
     if nodes.shape[0] < WIDE_CACHE_MIN_NODES:
-        return wide_layout(nodes, layout, collapse_method, slot_order)
-    method, costs = resolve_collapse(collapse_method)
-    order = resolve_slot_order(slot_order)
+        return wide_layout(nodes, layout, slot_order)
     h = hashlib.blake2b(digest_size=16)
-    h.update(f"{WIDE_LAYOUT_VERSION}|{layout}|{method}|{costs!r}|{order}|{nodes.shape!r}".encode())
+    # ("sah|()": the collapse by cost with its own costs, as the layouts already cached are keyed)
+    h.update(f"{WIDE_LAYOUT_VERSION}|{layout}|sah|()|{slot_order}|{nodes.shape!r}".encode())
     h.update(np.ascontiguousarray(nodes, np.float32).view(np.uint8).reshape(-1))
     root = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     path = root / f"wide-{h.hexdigest()}.npz"
@@ -371,8 +310,8 @@ def wide_layout_cached(nodes: np.ndarray, layout: str, cache_dir=None, collapse_
                            levels=int(meta[3]))
     except Exception:  # missing, truncated, not a zip, wrong keys...
         pass
-    wide = wide_layout(nodes, layout, collapse_method, slot_order)
+    wide = wide_layout(nodes, layout, slot_order)
     if wide is not None:
-        _store_arrays(path, rows=wide.rows, meta=np.array([wide.width, wide.stack_bound, int(wide.quantized),
+        _store_arrays(path, max_bytes, rows=wide.rows, meta=np.array([wide.width, wide.stack_bound, int(wide.quantized),
                                                            wide.levels], np.int64))
     return wide

@@ -1,10 +1,9 @@
 """Linear BVH (Karras 2012, "Maximizing parallelism in the construction of BVHs, octrees and
-k-d trees") through OpenCL, with an optional SAH rebuild of its top levels.
+k-d trees") through OpenCL.
 
     build_lbvh(tri_positions)               # Morton order, Karras hierarchy
-    build_lbvh(tri_positions, refine=True)  # the same, top levels rebuilt with binned SAH
 
-Both return the same `BVH` as bvh.build_bvh, so packing, the cache and the shaders do not
+It returns the same `BVH` as bvh.build_bvh, so packing, the cache and the shaders do not
 care which builder made a tree.
 
 Steps, and where each runs:
@@ -16,11 +15,6 @@ Steps, and where each runs:
 4. flatten into the breadth-first layout of bvh.py (numpy, one step a level), turning every
    subtree of at most `max_leaf` triangles into one leaf, then the node boxes bottom-up
    (bvh.refit_boxes, one step a level).
-
-Refinement (`refine=True`): the LBVH's subtrees of at most `cluster` triangles become the
-primitives of a binned-SAH build (bvh.build_bvh over their boxes, one cluster a leaf), and
-the subtrees hang under the new top. Morton splits are worst near the root, where one
-badly placed plane costs every ray, and the clusters are few, so this is cheap.
 
 A tree deeper than MAX_DEPTH (the traversal stack) has its deep subtrees rebuilt with SAH,
 depth-limited; rare (it needs thousands of triangles in one Morton cell).
@@ -35,7 +29,6 @@ import numpy as np
 
 from .bvh import BVH, MAX_DEPTH, MAX_LEAF, bounds_of, build_bvh, empty_bvh, refit_boxes
 
-CLUSTER = 64           # refinement: LBVH subtrees of at most this many triangles stay whole
 MORTON_BITS = 10       # per axis: 30-bit codes
 
 _KERNELS = r"""
@@ -224,7 +217,7 @@ class _PointerTree:
 
 def _lbvh_tree(keys: np.ndarray, max_leaf: int):
     """The Karras hierarchy as a _PointerTree whose subtrees of <= max_leaf triangles are
-    leaves, plus each node's key range (lo, size)."""
+    leaves."""
     n = keys.shape[0]
     left, right, rlo, rhi = _karras(keys)   # int32: half the memory traffic of int64
     size = np.concatenate([rhi - rlo + 1, np.ones(n, np.int32)])
@@ -232,39 +225,7 @@ def _lbvh_tree(keys: np.ndarray, max_leaf: int):
     small = size[: n - 1] <= max_leaf
     left = np.concatenate([np.where(small, np.int32(-1), left), np.full(n, -1, np.int32)])
     right = np.concatenate([right, np.full(n, -1, np.int32)])
-    return _PointerTree(left, right, lo, size), lo, size
-
-
-def _refine_top(tree: _PointerTree, lo: np.ndarray, size: np.ndarray, tri_lo: np.ndarray,
-                tri_hi: np.ndarray, cluster: int) -> int:
-    """Rebuild the tree above its subtrees of <= `cluster` triangles with binned SAH, in
-    place (new nodes are appended); returns the new root id."""
-    n_ids = tree.left.size
-    inner = np.flatnonzero(tree.left >= 0)
-    kids = np.concatenate([tree.left[inner], tree.right[inner]])
-    parent_size = np.concatenate([size[inner], size[inner]])
-    roots = kids[(size[kids] <= cluster) & (parent_size > cluster)]
-    if size[0] <= cluster or roots.size < 2:
-        return 0
-    roots = roots[np.argsort(lo[roots])]
-    # cluster boxes: segment reductions over the Morton-sorted triangle boxes
-    c_lo = np.minimum.reduceat(tri_lo, lo[roots], axis=0)
-    c_hi = np.maximum.reduceat(tri_hi, lo[roots], axis=0)
-    top = build_bvh(np.stack([c_lo, c_hi], axis=1), max_leaf=1, min_split=2)
-    if int(top.count.max()) > 1:   # depth limit hit: keep the plain LBVH
-        return 0
-    t_first = top.first.astype(np.int64)
-    t_leaf = top.count > 0
-    # top node j -> id: interior ones become new ids n_ids + j, leaves are their cluster root
-    ids = np.where(t_leaf, roots[top.order.astype(np.int64)[np.where(t_leaf, t_first, 0)]],
-                   n_ids + np.arange(top.num_nodes))
-    new_left = np.where(t_leaf, -1, ids[np.where(t_leaf, 0, t_first)])
-    new_right = np.where(t_leaf, -1, ids[np.where(t_leaf, 0, t_first + 1)])
-    tree.left = np.concatenate([tree.left, new_left])
-    tree.right = np.concatenate([tree.right, new_right])
-    tree.first = np.concatenate([tree.first, np.zeros(top.num_nodes, np.int64)])
-    tree.count = np.concatenate([tree.count, np.zeros(top.num_nodes, np.int64)])
-    return int(ids[0])
+    return _PointerTree(left, right, lo, size)
 
 
 def _limit_depth(bvh: BVH, pos_sorted: np.ndarray, max_depth: int) -> BVH:
@@ -325,8 +286,8 @@ def _limit_depth(bvh: BVH, pos_sorted: np.ndarray, max_depth: int) -> BVH:
     return out
 
 
-def build_lbvh(tri_positions: np.ndarray, *, refine: bool = False, max_leaf: int = MAX_LEAF,
-               max_depth: int = MAX_DEPTH, cluster: int = CLUSTER, timings: dict | None = None) -> BVH:
+def build_lbvh(tri_positions: np.ndarray, *, max_leaf: int = MAX_LEAF, max_depth: int = MAX_DEPTH,
+               timings: dict | None = None) -> BVH:
     """LBVH of a float32 (T, K, 3) primitive array (see bvh.build_bvh for K). Leaves hold the
     Morton-consecutive triangles of subtrees of at most max_leaf triangles. `timings`, if
     given, receives the seconds of each step (benchmarks/bvh_scale.py reports them)."""
@@ -354,14 +315,10 @@ def build_lbvh(tri_positions: np.ndarray, *, refine: bool = False, max_leaf: int
     keys, box_lo, box_hi = _sorted_keys(pos)
     lap("morton codes (OpenCL), sort (numpy), boxes in order (OpenCL)")
     order = (keys & np.uint64(0xFFFFFFFF)).astype(np.int64)
-    tree, lo, size = _lbvh_tree(keys, max_leaf)
+    tree = _lbvh_tree(keys, max_leaf)
     del keys
     lap("hierarchy (OpenCL)")
-    root = 0
-    if refine:
-        root = _refine_top(tree, lo, size, box_lo, box_hi, cluster)
-        lap("SAH top rebuild")
-    nodes, depth = tree.flatten(root)
+    nodes, depth = tree.flatten(0)
     lap("flatten")
     bvh = BVH(nodes=nodes, order=order.astype(np.uint32), depth=depth)
     bvh.nodes[:, 0:3], bvh.nodes[:, 4:7] = refit_boxes(bvh, None, tri_boxes=(box_lo, box_hi))

@@ -29,14 +29,12 @@ outside both sides.
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from .bvh import bounds_of
 
-ENV_VAR = "LIFT_GL_BVH_SPLITS"
 MAX_SPLITS_PER_TRIANGLE = 64   # one triangle never becomes more than 65 references
 _GRID_BITS = 30
 
@@ -61,7 +59,7 @@ class SplitSettings:
     (docs/bvh.md, "Slivers").
     auto: build the tree without splits and with each of AUTO_CANDIDATES, and keep the one
     of least SAH cost (accel/cache.py build_with).
-    slivers (with auto, the default; $LIFT_GL_BVH_SPLITS=auto-no-slivers leaves it out): where
+    slivers (with auto, the default; resolve_splits("auto-no-slivers") leaves it out): where
     no candidate lowers the SAH cost enough, also try SLIVER_CANDIDATE (slivers split, nearly
     nothing else) and keep it where its SAH cost is within SLIVER_TOLERANCE of the tree without
     splits: its gain is in the warps' longest rays, which the SAH cost does not see (docs/gpu.md
@@ -113,8 +111,7 @@ SLIVER_TOLERANCE = 0.01
 
 
 def resolve_splits(splits) -> SplitSettings:
-    """SplitSettings from None ($LIFT_GL_BVH_SPLITS, else auto), a SplitSettings, a bool, or a
-    string: 'auto' (the default), 'off'/'0', a budget fraction ('0.3': split every triangle
+    """SplitSettings from None (auto), a SplitSettings, a bool, or a string: 'auto' (the default), 'off'/'0', a budget fraction ('0.3': split every triangle
     over 1% of the scene, however large and whatever the scene's size, with that many extra
     references, and keep the result: for tests and experiments), or SplitSettings fields as
     'name=value' joined by ':' ('budget=1:min_extent=0.005': the default candidates with
@@ -125,7 +122,7 @@ def resolve_splits(splits) -> SplitSettings:
         return AUTO if splits else OFF
     source = "the caller"
     if splits is None:
-        splits, source = os.environ.get(ENV_VAR) or "auto", "$" + ENV_VAR
+        splits = "auto"
     text = str(splits).strip().lower()
     if text in ("on", "auto"):
         return AUTO

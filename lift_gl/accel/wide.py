@@ -4,13 +4,8 @@ Why: the binary traversal (shaders/lift/bvh.glsl) fetches one node and tests two
 step; a wide node gives the GPU four boxes per 128-byte fetch and half the steps, and leaves
 become child entries of their parent, so a leaf is never fetched as a node of its own.
 
-Collapse: by default chosen by cost (accel/wide_sah.py: which binary nodes become wide nodes
-and which subtrees one leaf, by dynamic programming). collapse() here is the simple rule
-($LIFT_GL_BVH_COLLAPSE=greedy, and where the other cannot hold a tree): top down, level by
-level (vectorised: Python work per level, not per node), each binary interior node that
-becomes a wide node starts with its two children and repeatedly replaces its largest-area
-interior child by that child's two children, until it has 4 (Wald et al. 2008 / Ylitie et
-al. 2017's "largest area first"). Either way the leaves are runs of the binary tree's
+Collapse: chosen by cost (accel/wide_sah.py: which binary nodes become wide nodes and which
+subtrees one leaf, by dynamic programming). The leaves are runs of the binary tree's
 triangles, so the triangle arrays (and the BVH cache) stay those of the binary tree.
 
 Node layout, 8 vec4 rows (128 bytes) per wide node, children in columns (SoA):
@@ -21,23 +16,18 @@ LEAF_BIT | (count - 1) << 27 | first (triangles first .. first + count - 1); an 
 slot is EMPTY with the box (+inf, -inf), which no ray's slab test ever enters (the GLSL
 takes the near plane by the ray's direction sign, so the planes are never swapped).
 Node 0 is the root; nodes are numbered breadth first. quantize() turns the same tree into
-64-byte nodes with 8-bit child boxes ($LIFT_GL_BVH_WIDTH=4q). docs/gpu.md has the
-measurements behind the defaults below.
+64-byte nodes with 8-bit child boxes (the option bvh_width=4q). Which layout, order of
+children and stack a device gets is lift_gl/options.py's choice.
 
 Not here (the caller keeps the binary tree): motion blur (per-node boxes at shutter close)
 and instances (BLAS roots index the node array); see scene/pack.py.
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..env_settings import env_choice
-from ..errors import LiftError
-
-WIDTH_ENV_VAR = "LIFT_GL_BVH_WIDTH"
 ROWS = 8                    # vec4 rows per 4-wide node
 QROWS = 4                   # vec4 rows per 4-wide node with quantized boxes (quantize())
 LEAF_BIT = 0x80000000
@@ -56,92 +46,35 @@ def stack_size(stack_bound: int) -> int:
     traversal needs `stack_bound` entries: rounded up to a multiple of 8, so that an edit that
     deepens the tree a little recompiles nothing, and at most STACK. On GPUs the stack lives in
     shared memory, which bounds how many warps an SM holds: a smaller one lets more run
-    (docs/gpu.md "A stack as deep as the tree needs")."""
+    (docs/gpu.md, the stack sized to the tree: 1.67x on the cornell-box)."""
     return min(STACK, max(8, -(-int(stack_bound) // 8) * 8))
 
 
-STACK_ENV_VAR = "LIFT_GL_BVH_STACK_ENTRIES"
 STACKS = ("children", "groups")
 # A stack of node groups (shaders/lift/bvh.glsl LIFT_BVH_GROUP_STACK) packs a node id in 24 bits.
 GROUP_MAX_NODES = 1 << 24
-
-
-def resolve_stack(value: str | None = None) -> str:
-    """What the 4-wide traversal's stack entries are: `value`, else $LIFT_GL_BVH_STACK_ENTRIES,
-    else auto; one of STACKS or "auto" (stack_defines decides per tree and device).
-    children: one entry a child left to visit (as deep as stack_bound); groups: one entry a
-    node with children left (as deep as the tree has levels, shaders/lift/bvh.glsl)."""
-    return env_choice(STACK_ENV_VAR, STACKS, value)
-
-
+# Node groups rarely go more than a few levels deep: with only the top 8 in shared memory (1 KiB
+# a work group) pt's plain megakernel ran 1.21x faster on the dining room than with all 24 there,
+# 1.04x on the dragon, 1.02x on the classroom (H100; 12 entries: 1.13 / 0.98 / 0.98x). pt's
+# queued megakernel keeps its whole stack in a local array on GPUs (lift_gl/options.py), and
+# drt, hybrid and ao keep this.
+GROUP_SHARED_DEPTH = 8
 STACK_DEFINES = ("LIFT_BVH_GROUP_STACK", "LIFT_BVH_STACK_SIZE", "LIFT_BVH_SHARED_DEPTH")   # what stack_defines sets
 
 
-def stack_defines(wide_stack_bound: int, levels: int, num_nodes: int, software: bool, stack: str | None = None,
-                  preferred: str = "auto") -> dict:
-    """The defines that size a 4-wide tree's traversal stack: LIFT_BVH_STACK_SIZE, with
-    LIFT_BVH_GROUP_STACK where its entries are node groups, whose top GROUP_SHARED_DEPTH
-    entries then stay in shared memory on GPUs (LIFT_BVH_SHARED_DEPTH) and deeper ones go to a
-    local array. auto: groups on GPUs where the stack of children would need more than
-    GROUP_STACK_FROM entries, else children; groups need node ids that fit 24 bits and at
-    most STACK levels (a tree's levels can pass its stack_bound by one).
-    `preferred`: what the plugin's manifest asks for (bvh_stack), taken where `stack` (else
-    $LIFT_GL_BVH_STACK_ENTRIES) is auto."""
-    mode = resolve_stack(stack)
-    if mode == "auto":
-        mode = resolve_stack(preferred)
-    if mode == "auto":
-        mode = "groups" if not software and stack_size(wide_stack_bound) > GROUP_STACK_FROM else "children"
-    if mode == "groups" and 0 < levels <= STACK and num_nodes < GROUP_MAX_NODES:
+def stack_defines(wide_stack_bound: int, levels: int, entries: str) -> dict:
+    """The defines that size a 4-wide tree's traversal stack of `entries` (STACKS; the option
+    bvh_stack_entries, resolved by lift_gl/options.py): LIFT_BVH_STACK_SIZE, with
+    LIFT_BVH_GROUP_STACK where its entries are node groups, whose top GROUP_SHARED_DEPTH entries
+    then stay in shared memory on GPUs (LIFT_BVH_SHARED_DEPTH) and deeper ones go to a local
+    array. A stack of node groups holds one entry a level; a stack of children, the tree's
+    stack_bound (shaders/lift/bvh.glsl)."""
+    if entries not in STACKS:
+        raise ValueError(f"stack entries must be one of {STACKS}, not {entries!r}")
+    if entries == "groups":
         return {"LIFT_BVH_GROUP_STACK": True, "LIFT_BVH_STACK_SIZE": stack_size(levels),
                 "LIFT_BVH_SHARED_DEPTH": GROUP_SHARED_DEPTH}
     return {"LIFT_BVH_STACK_SIZE": stack_size(wide_stack_bound)}
-
-
-PAIRED_ENV_VAR = "LIFT_GL_TRACE_PAIRED"
-
-
-def paired_defines(software: bool, levels: int, value: str | None = None) -> dict:
-    """LIFT_TRACE_PAIRED where a path vertex's shadow ray and next ray go through one traversal
-    loop (shaders/lift/bvh.glsl trace_shadow_and_next): `value`, else $LIFT_GL_TRACE_PAIRED:
-    on, off or auto (on GPUs for trees of at least PAIRED_FROM_LEVELS levels, off on CPU
-    rasterizers; the comment below says why)."""
-    text = env_choice(PAIRED_ENV_VAR, ("on", "off"), value)
-    on = text == "on" or (text == "auto" and not software and levels >= PAIRED_FROM_LEVELS)
-    return {"LIFT_TRACE_PAIRED": True} if on else {}
-
-
-# On an H100 at 1920x1080 (docs/gpu.md "Seventh session"), with the megakernel's pixel queue,
-# pt's trace with a vertex's two rays in one loop ran 1.11x as fast as with two loops on the
-# classroom (16 levels), 1.04x on the dining room (18), 0.99x on the Covered Dragon (15) and
-# 0.92x on the cornell-box (4: its traversals are a few nodes long, and the loop's second
-# setup, run apart by each lane, costs more than the waits it saves). In the eighth session three
-# scenes of Bitterli's of 12, 13 and 15 levels gained 1.30x, 1.09x, 1.09x (H100, the stack local).
-# Seven scenes: a rule, not a law. On llvmpipe the one loop cost 5%: CPUs trace the two apart.
-PAIRED_FROM_LEVELS = 8
-
-# The width GPUs get by default (resolve_width): on an H100 the 4-wide tree made pt's trace
-# pass 1.02-1.19x faster than the binary one on Lift's scenes and the Covered Dragon at
-# 1920x1080 (docs/gpu.md, benchmarks/results/gpu_h100/wide_bvh/).
-DEFAULT_GPU_WIDTH = "4"
-# On llvmpipe (2 cores here) the 4-wide tree made pt 1.10-1.26x faster in CPU time per sample
-# than the binary one on Lift's scenes, and its 8-bit boxes (4q) 1.06x more on the classroom
-# and the dining room, interleaved (benchmarks/cpu_speed.py; results/cpu_speed/wide_bvh_*):
-# on a CPU the smaller nodes pay (on the H100 they cost 7-35%).
-DEFAULT_CPU_WIDTH = "4q"
-# auto's stack entries (stack_defines). On an H100 at 1920x1080 (docs/gpu.md "A stack of node
-# groups"), node groups made the ray-casting shader's rays 1.2-1.7x faster on the dining room,
-# the classroom and the Covered Dragon (their stacks of children: 56, 48, 48 entries) and pt's
-# trace pass 1.17x (dining room), 1.10x (dragon), 0.98x (classroom); on the cornell-box (16
-# entries: occupancy is not held down by shared memory there) pt's trace 0.89x. On llvmpipe
-# (no shared memory: stacks are local arrays) its rays 0.78-0.99x: CPUs keep children.
-GROUP_STACK_FROM = 32
-# Node groups rarely go more than a few levels deep: with only the top 8 in shared memory (1 KiB
-# a work group) pt's trace pass ran 1.21x faster again on the dining room than with all 24 there,
-# 1.04x on the dragon, 1.02x on the classroom (H100; 12 entries: 1.13 / 0.98 / 0.98x). That was
-# pt's plain megakernel; the queued one it runs now keeps its whole stack in a local array on
-# GPUs (passes/trace.py trace_layout), and drt, hybrid and ao keep this.
-GROUP_SHARED_DEPTH = 8
 
 
 @dataclass
@@ -158,59 +91,24 @@ class WideBVH:
 
 
 LAYOUTS = ("2", "4", "4q")   # binary, 4-wide with float boxes, 4-wide with 8-bit boxes (quantize)
+# The order of a wide node's four children. The traversal sorts the children it enters by entry
+# distance, but every child box that holds the ray's origin has the same one (the ray's tmin),
+# and so do the boxes around a path vertex, where shadow and bounce rays start: those ties go
+# in slot order (shaders/lift/bvh.glsl). Shadow rays outside the paired loop (CPU rasterizers,
+# the ray-casting shader) take all their children in slot order. `area` puts the largest box
+# first: for a shadow ray the child most likely to hold an occluder; `build` keeps the
+# collapse's own order (a node's slots from its left subtree first). Which a device gets:
+# lift_gl/options.py.
+SLOT_ORDERS = ("area", "build")
 
 
-def resolve_width(value: str | int | None, software: bool | None = None) -> str:
-    """The BVH layout to build, one of LAYOUTS: `value` (2, 4, 4q, auto), else
-    $LIFT_GL_BVH_WIDTH, else auto. auto: DEFAULT_GPU_WIDTH on GPUs, DEFAULT_CPU_WIDTH on CPU
-    rasterizers (software True), 2 where the device is not known (software None: pack_scene
-    called on its own)."""
-    text = env_choice(WIDTH_ENV_VAR, LAYOUTS, value)
-    if text == "auto":
-        return "2" if software is None else DEFAULT_CPU_WIDTH if software else DEFAULT_GPU_WIDTH
-    return text
+def wide_layout(nodes: np.ndarray, layout: str, slot_order: str = "area") -> WideBVH | None:
+    """The binary node array in `layout` ("4" or "4q"), each node's children in `slot_order`
+    (SLOT_ORDERS), or None where that layout cannot hold the tree (wide_sah.collapse_sah,
+    quantize)."""
+    from .wide_sah import collapse_sah
 
-
-COLLAPSE_ENV_VAR = "LIFT_GL_BVH_COLLAPSE"
-
-
-def resolve_collapse(value: str | None = None) -> tuple[str, tuple[float, ...]]:
-    """How the binary tree becomes a wide one: `value`, else $LIFT_GL_BVH_COLLAPSE, else auto:
-    greedy (collapse: the largest child opened first), or sah (accel/wide_sah.py: chosen by
-    cost) with optional costs sah:NODE,LEAF,TRIANGLE (or NODE/LEAF/TRIANGLE). Returns (method, costs)."""
-    text = (os.environ.get(COLLAPSE_ENV_VAR, "auto") if value is None else str(value)).strip().lower() or "auto"
-    method, _, costs = text.partition(":")
-    if method == "auto":
-        method = DEFAULT_COLLAPSE
-    try:
-        numbers = tuple(float(c) for c in costs.replace("/", ",").split(",")) if costs else ()
-    except ValueError:
-        numbers = None
-    if method not in ("greedy", "sah") or numbers is None or (numbers and (method != "sah" or len(numbers) != 3)):
-        raise LiftError(f"${COLLAPSE_ENV_VAR} must be greedy, sah, sah:NODE,LEAF,TRIANGLE or auto, not {text!r}")
-    return method, numbers
-
-
-# On an H100 at 1920x1080 (docs/gpu.md "Seventeenth session"), the collapse by cost made pt's
-# trace 0.98x (dining room), 0.99x (classroom) and 0.965x (Covered Dragon) of the greedy
-# one's, its G-buffer 0.94x on the dining room, with 30-32% fewer wide nodes; on llvmpipe pt
-# 1.00-1.025x faster in CPU time (cornell-box, classroom, dining room).
-DEFAULT_COLLAPSE = "sah"
-
-
-def wide_layout(nodes: np.ndarray, layout: str, collapse_method: str | None = None,
-                slot_order: str | None = None) -> WideBVH | None:
-    """The binary node array in `layout` ("4" or "4q"), or None where that layout cannot hold
-    the tree (collapse, quantize). `collapse_method`: see resolve_collapse; `slot_order`: see
-    resolve_slot_order."""
-    method, costs = resolve_collapse(collapse_method)
-    order = resolve_slot_order(slot_order)
-    wide = None
-    if method == "sah":
-        from .wide_sah import collapse_sah
-        wide = collapse_sah(nodes, *costs, slot_order=order)
-    if wide is None:
-        wide = collapse(nodes, slot_order=order)
+    wide = collapse_sah(nodes, slot_order=slot_order)
     if wide is not None and layout == "4q":
         wide = quantize(wide)
     return wide
@@ -306,100 +204,6 @@ def decoded_boxes(wide: WideBVH) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return lo, hi, entry
 
 
-def collapse(nodes: np.ndarray, width: int = 4, slot_order: str = "area") -> WideBVH | None:
-    """The 4-wide tree of a binary node array (accel/bvh.py layout, (N, 8) float32), or None
-    where the layout cannot hold it: a leaf of more than MAX_LEAF_COUNT triangles, a triangle
-    index past MAX_FIRST, or a tree that needs a traversal stack deeper than STACK. Each
-    node's children in `slot_order` (SLOT_ORDERS)."""
-    if width != 4:
-        raise ValueError(f"only 4-wide nodes are implemented, not {width}")
-    nodes = np.asarray(nodes, np.float32)
-    u = nodes.view(np.uint32)
-    first = u[:, 3].astype(np.int64)
-    count = u[:, 7].astype(np.int64)
-    bmin, bmax = nodes[:, 0:3], nodes[:, 4:7]
-    leaf = count > 0
-    if (count > MAX_LEAF_COUNT).any() or (first[leaf] + count[leaf] > MAX_FIRST).any():
-        return None
-    area = _area(bmin, bmax)
-
-    out_slots, out_ids = [], []          # per level: (m, 4) binary ids (-1 empty), wide ids
-    n_wide = 1
-    frontier = np.zeros(1, np.int64)     # binary nodes that become the wide nodes of a level
-    root_is_leaf = bool(leaf[0])
-    depth_push = np.zeros(1, np.int64)   # stack pushes on the path down to each frontier node
-    stack_bound = 0
-    while frontier.size:
-        m = frontier.size
-        slots = np.full((m, width), -1, np.int64)
-        if root_is_leaf:                 # a one-leaf tree: the root's only child is itself
-            slots[0, 0] = 0
-            fill = np.ones(1, np.int64)
-            root_is_leaf = False
-        else:
-            slots[:, 0] = first[frontier]
-            slots[:, 1] = first[frontier] + 1
-            fill = np.full(m, 2, np.int64)
-        rows = np.arange(m)
-        for _ in range(width - 2):
-            valid = slots >= 0
-            safe = np.where(valid, slots, 0)
-            expandable = valid & ~leaf[safe]
-            key = np.where(expandable, area[safe], -1.0)
-            j = np.argmax(key, axis=1)
-            go = np.flatnonzero(key[rows, j] >= 0)
-            if not go.size:
-                break
-            c = slots[go, j[go]]
-            slots[go, j[go]] = first[c]
-            slots[go, fill[go]] = first[c] + 1
-            fill[go] += 1
-        stack_bound = max(stack_bound, int((depth_push + fill - 1).max()))
-        valid = slots >= 0
-        inner = valid & ~leaf[np.where(valid, slots, 0)]
-        k = int(inner.sum())
-        ids = np.full((m, width), -1, np.int64)
-        ids[inner] = n_wide + np.arange(k)   # row-major: breadth-first numbering
-        n_wide += k
-        out_slots.append(slots)
-        out_ids.append(ids)
-        parent_push = np.repeat(depth_push + fill - 1, inner.sum(axis=1))
-        frontier = slots[inner]
-        depth_push = parent_push
-    if stack_bound > STACK:
-        return None
-
-    slots = np.concatenate(out_slots)
-    safe = np.where(slots >= 0, slots, 0)
-    rows = wide_rows(slots, (slots >= 0) & leaf[safe], np.concatenate(out_ids), first, count, bmin, bmax, slot_order)
-    return WideBVH(rows=rows, width=width, stack_bound=stack_bound, levels=len(out_slots))
-
-
-# The order of a wide node's four children. The traversal sorts the children it enters by entry
-# distance, but every child box that holds the ray's origin has the same one (the ray's tmin),
-# and so do the boxes around a path vertex, where shadow and bounce rays start: those ties go
-# in slot order (shaders/lift/bvh.glsl). Shadow rays outside the paired loop (CPU rasterizers,
-# the ray-casting shader) take all their children in slot order. `area` puts the largest box
-# first: for a shadow ray the child most likely to hold an occluder. On an H100 (docs/gpu.md
-# "Seventeenth session") that made pt's trace 0.968x on the dining room, 0.855x on the Covered
-# Dragon, 1.001x on the classroom against `build` (the collapse's own order: a node's slots
-# from its left subtree first). On llvmpipe it made pt 0.956x as fast on the classroom, 1.016x
-# on the dining room (why the classroom loses there is not known: the H100's ray-casting
-# shader, whose shadow rays also take their children in slot order, ran the classroom's 1.9x
-# as fast): auto is `area` on GPUs, `build` on CPU rasterizers.
-SLOT_ORDER_ENV_VAR = "LIFT_GL_BVH_SLOT_ORDER"
-SLOT_ORDERS = ("area", "build")
-
-
-def resolve_slot_order(value: str | None = None, software: bool | None = None) -> str:
-    """`value`, else $LIFT_GL_BVH_SLOT_ORDER, else auto: one of SLOT_ORDERS. auto: area, but
-    build on CPU rasterizers (software True; None: the device is not known)."""
-    text = env_choice(SLOT_ORDER_ENV_VAR, SLOT_ORDERS, value)
-    if text == "auto":
-        return "build" if software else "area"
-    return text
-
-
 def wide_rows(slots: np.ndarray, is_leaf: np.ndarray, ids: np.ndarray, leaf_first: np.ndarray,
               leaf_count: np.ndarray, bmin: np.ndarray, bmax: np.ndarray, slot_order: str = "area") -> np.ndarray:
     """The float layout's rows (W, 4 * ROWS) of a wide tree given per slot (W, 4) the binary
@@ -411,7 +215,7 @@ def wide_rows(slots: np.ndarray, is_leaf: np.ndarray, ids: np.ndarray, leaf_firs
     if slot_order not in SLOT_ORDERS:
         raise ValueError(f"slot order must be one of {SLOT_ORDERS}, not {slot_order!r}")
     if slot_order == "area":
-        # largest box first, empty slots last: see SLOT_ORDER_ENV_VAR
+        # largest box first, empty slots last: see SLOT_ORDERS
         order = np.argsort(-np.where(valid, _area(bmin[safe], bmax[safe]), -1.0), axis=1, kind="stable")
         slots, is_leaf, ids = (np.take_along_axis(a, order, 1) for a in (slots, is_leaf, ids))
         valid = slots >= 0

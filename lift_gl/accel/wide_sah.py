@@ -3,9 +3,9 @@ which subtrees become one leaf, by dynamic programming over the binary SAH tree 
 Karras and Laine 2017, "Efficient incoherent ray traversal on GPUs through compressed wide
 BVHs", section 3.1).
 
-Why: wide.collapse opens the largest interior child until a node has four, and keeps every
-binary leaf (at most 4 triangles, mostly 2) as a leaf. That rule never asks what a wide
-traversal pays. Here every binary subtree may be
+Why: the simple rule (open the largest interior child until a node has four, keep every
+binary leaf as a leaf: Wald et al. 2008) never asks what a wide traversal pays, and traced
+0.965-0.99x as fast on an H100 (docs/alternatives.md). Here every binary subtree may be
   - one leaf entry (its triangles are contiguous in the binary tree's order, so any subtree of
     at most MAX_LEAF_COUNT triangles can be), tested when its box is hit;
   - a wide node, whose four slots the subtree's descendants fill;
@@ -17,9 +17,9 @@ by the surface area of the box whose hit triggers it (the SAH):
 With the costs of a GPU (a leaf's triangles are tested one after another by one lane while its
 warp waits) the tree gets larger leaves where their boxes are small, and fewer, fuller nodes.
 
-The result has wide.collapse's layout (same WideBVH, same rows, breadth-first ids), so
-quantize, the shaders and the cache work unchanged; only the triangle ranges of leaves differ
-(runs of the binary tree's leaves), and the triangle arrays stay the binary tree's.
+The result is a wide.WideBVH (breadth-first ids, wide.wide_rows' rows), which quantize, the
+shaders and the cache read; the leaves' triangle ranges are runs of the binary tree's leaves,
+and the triangle arrays stay the binary tree's.
 Vectorised by level: bottom-up over the binary tree's depths, top-down over the wide tree's.
 """
 from __future__ import annotations
@@ -45,17 +45,24 @@ _LEAF, _NODE, _FEWER = -1, -2, -3      # >= 1: split, the left child's share of 
 def collapse_sah(nodes: np.ndarray, cost_node: float = COST_NODE, cost_leaf: float = COST_LEAF,
                  cost_triangle: float = COST_TRIANGLE, slot_order: str = "area") -> WideBVH | None:
     """The cost-optimal 4-wide tree of a binary node array (accel/bvh.py layout, (N, 8)
-    float32), or None where the layout cannot hold it (as wide.collapse) or the root is a leaf
-    (wide.collapse handles that tree). Each node's children in `slot_order` (wide.SLOT_ORDERS)."""
+    float32), or None where the layout cannot hold it: a binary leaf of more than
+    MAX_LEAF_COUNT triangles, a triangle index past MAX_FIRST, or a traversal stack deeper than
+    STACK. Each node's children in `slot_order` (wide.SLOT_ORDERS)."""
     nodes = np.asarray(nodes, np.float32)
     u = nodes.view(np.uint32)
     first = u[:, 3].astype(np.int64)
     count = u[:, 7].astype(np.int64)
     n = nodes.shape[0]
     leaf = count > 0
-    if leaf[0] or (count > MAX_LEAF_COUNT).any():
+    if (count > MAX_LEAF_COUNT).any():
         return None
     bmin, bmax = nodes[:, 0:3], nodes[:, 4:7]
+    if leaf[0]:   # a one-leaf tree: one wide node whose only child is that leaf
+        if first[0] + count[0] > MAX_FIRST:
+            return None
+        slots = np.array([[0, -1, -1, -1]], np.int64)
+        rows = wide_rows(slots, slots >= 0, np.full((1, SLOTS), -1, np.int64), first, count, bmin, bmax, slot_order)
+        return WideBVH(rows=rows, width=SLOTS, stack_bound=0, levels=1)
     area = _area(bmin, bmax)
     left = np.where(leaf, -1, first)           # children of interior nodes: left, left + 1
 

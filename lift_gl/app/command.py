@@ -12,6 +12,7 @@ from pathlib import Path
 
 from ..denoise import DENOISERS
 from ..errors import LiftError
+from ..options import add_option_argument
 from .aov_view import AOV_VIEWS
 
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent.parent / "scenes" / "cornell.toml"
@@ -90,11 +91,13 @@ def add_parser(subparsers) -> None:
     p.add_argument("--frames", type=positive_int, help="render this many frames, then exit (scripted run)")
     p.add_argument("--screenshot", help="with --frames: save the window, GUI included, to this PNG "
                    "(and its statistics to the same name with .json)")
+    add_option_argument(p)
     p.set_defaults(func=cmd_view)
 
 
 def cmd_view(args) -> int:
     from ..cli import _settings
+    from ..options import from_args
 
     if args.screenshot is not None and args.frames is None:
         raise LiftError("--screenshot needs --frames N (F12 takes screenshots in an interactive session)")
@@ -127,5 +130,5 @@ def cmd_view(args) -> int:
         view=args.aov or ("noisy | denoised" if args.noisy_split else "render"),
         denoise=args.denoise, denoiser=args.denoiser,
         split=args.split, split_params=_prefixed(args.set, args.split), reference=args.ref, panels=args.panels, inspector=args.inspector,
-        frames=args.frames, screenshot=args.screenshot, temporal=args.temporal)
+        frames=args.frames, screenshot=args.screenshot, temporal=args.temporal, render_options=from_args(args))
     return ViewerWindow(options).run()

@@ -121,8 +121,10 @@ class ErrorLog:
 class ViewSession:
     def __init__(self, ctx, scene_path, integrator: str = "pt", params: dict | None = None, seed: int = 0,
                  plugin_dirs=(), resolution: Resolution | None = None, timers: bool = True,
-                 temporal: str = "reset"):
+                 temporal: str = "reset", options=None):
+        """`options`: the renderers' lift_gl/options.py Options (None: the defaults)."""
         self.ctx = ctx
+        self.options = options
         self.temporal = temporal  # Renderer(temporal=...): "reproject" keeps history while the camera moves
         self.seed = int(seed)
         self.plugin_dirs = tuple(plugin_dirs)
@@ -156,7 +158,7 @@ class ViewSession:
             return Renderer(scene or self.scene, size=self.resolution.render_size(self.moving), integrator=integrator,
                             seed=self.seed, params=params, plugin_dirs=self.plugin_dirs, timers=self.timers,
                             ctx=self.ctx, temporal=self.temporal, denoise=self.denoise.mode, denoiser=self.denoise.denoiser,
-                            denoiser_options=self.denoise.options)
+                            denoiser_options=self.denoise.options, options=self.options)
         except DenoiserError as exc:  # the denoiser went away (a missing package): render without it
             self.errors.add(exc)
             self.denoise = Denoise()

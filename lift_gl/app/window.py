@@ -71,6 +71,7 @@ class ViewOptions:
     screenshot: str | None = None
     vsync: bool = False
     temporal: str = "reset"  # "reproject": a moving camera keeps its history (docs/temporal.md)
+    render_options: object = None  # lift_gl/options.py Options (--option); None: the defaults
 
 
 class ViewerWindow:
@@ -119,7 +120,7 @@ class ViewerWindow:
             fixed=options.render_size)
         self.session = ViewSession(self.ctx, options.scene, integrator=options.integrator, params=options.params,
                                    seed=options.seed, plugin_dirs=options.plugin_dirs, resolution=resolution,
-                                   temporal=options.temporal)
+                                   temporal=options.temporal, options=options.render_options)
         s = self.session
         s.sampling.samples_per_frame = options.samples_per_frame
         s.sampling.target_spp = options.target_spp

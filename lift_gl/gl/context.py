@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import os
 
 import moderngl
 
@@ -28,7 +27,6 @@ def create_context(backend: str = "auto") -> moderngl.Context:
     """A headless context of the given backend; one per backend and process, reused."""
     if backend not in BACKENDS:
         raise ContextError(f"unknown GL backend {backend!r}; choose one of {', '.join(BACKENDS)}")
-    backend = backend if backend != "auto" else os.environ.get("LIFT_GL_BACKEND", "auto")
     if backend in _contexts:
         return _contexts[backend]
     if backend == "auto":

@@ -42,6 +42,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--jobs", type=positive_int, help="submissions rendered at once (default 1)")
     p.add_argument("--cache-dir", type=Path, help="the reference cache (default ~/.cache/lift-gl/grade)")
     p.add_argument("--out", type=Path, required=True, help="output folder: grades.csv, report.md, pictures/")
+    from ..options import add_option_argument
+
+    add_option_argument(p)
     p.set_defaults(func=cmd_grade)
 
 
@@ -62,7 +65,8 @@ def settings_from_args(args):
                                  spp=args.spp, seeds=args.seeds, first_seed=args.first_seed,
                                  reference_seeds=args.reference_seeds, timeout=args.timeout, alpha=args.alpha,
                                  tolerance=args.tolerance, block_tolerance=args.block_tolerance, jobs=args.jobs,
-                                 cache_dir=args.cache_dir, params=params)
+                                 cache_dir=args.cache_dir, params=params,
+                                 options=tuple(settings.options) + tuple(getattr(args, "options", ())) or None)
 
 
 def cmd_grade(args) -> int:

@@ -129,7 +129,8 @@ def reference_key(settings: GradeSettings, scene: GradeScene, plugin: str) -> st
     _files_digest(h, REPO / "shaders")
     _files_digest(h, REPO / "lift_gl" / "passes", "*.py")
     h.update(json.dumps({"size": list(settings.size), "spp": settings.spp,
-                         "seeds": settings.reference_seed_list, "params": settings.params}, sort_keys=True).encode())
+                         "seeds": settings.reference_seed_list, "params": settings.params,
+                         **({"options": list(settings.options)} if settings.options else {})}, sort_keys=True).encode())
     return h.hexdigest()[:32]
 
 
@@ -156,7 +157,7 @@ def reference_runs(settings: GradeSettings, scenes: list[GradeScene], log=print)
         log(f"rendering the reference ({plugin}) on {', '.join(s.name for s, _ in missing)}: "
             f"{settings.reference_seeds} seeds x {settings.spp} spp (cached afterwards)")
         specs = [scene_spec(s.name, s.path, settings.size, settings.spp, settings.reference_seed_list,
-                            settings.params) for s, _ in missing]
+                            settings.params, settings.options) for s, _ in missing]
         runs = run_plugin(plugin, specs, timeout=settings.timeout * settings.reference_seeds / settings.seeds)
         for scene, key in missing:
             run = runs[scene.name]
@@ -295,8 +296,8 @@ def grade(submissions, settings: GradeSettings | None = None, out=None, log=prin
 
     def one(folder: Path):
         name = str(folder.relative_to(root))
-        specs = [scene_spec(s.name, s.path, settings.size, settings.spp, settings.submission_seeds, settings.params)
-                 for s in scenes]
+        specs = [scene_spec(s.name, s.path, settings.size, settings.spp, settings.submission_seeds, settings.params,
+                            settings.options) for s in scenes]
         start = time.perf_counter()
         runs = run_plugin(str(folder.resolve()), specs, settings.timeout)
         timings[name] = time.perf_counter() - start

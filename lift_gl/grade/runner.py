@@ -32,9 +32,10 @@ class SceneRun:
     seconds: float = 0.0            # wall time of the scene in the child, compiling included
 
 
-def scene_spec(name: str, path, size, spp: int, seeds: list[int], params: dict) -> dict:
+def scene_spec(name: str, path, size, spp: int, seeds: list[int], params: dict, options=()) -> dict:
+    """A child's job for one scene (grade/worker.py); `options`: KEY=VALUE (lift_gl/options.py)."""
     return {"name": name, "path": str(path), "size": list(size), "spp": int(spp), "seeds": list(seeds),
-            "params": dict(params)}
+            "params": dict(params), "options": list(options)}
 
 
 def _kill(process: subprocess.Popen) -> None:

@@ -38,6 +38,7 @@ class GradeSettings:
     block_tolerance: float = BLOCK_TOLERANCE  # ... and of one block's (consistency.BLOCK_TOLERANCE)
     block: int = 8                        # side of the blocks tested, in pixels
     params: dict = field(default_factory=dict)  # plugin settings for every render (e.g. max_depth)
+    options: tuple = ()                   # the renderer's options for every render, KEY=VALUE (lift_gl/options.py)
     jobs: int = 1                         # submissions rendered at once
     cache_dir: Path | None = None         # the reference cache (None: ~/.cache/lift-gl/grade)
     base: Path | None = None              # scenes and reference given relative to this folder (a lab)
@@ -58,6 +59,9 @@ class GradeSettings:
             raise LiftError("grade needs at least one scene")
         if not math.isfinite(self.timeout):
             raise LiftError("grade setting timeout must be finite")
+        from ..options import parse_options
+
+        parse_options(self.options)   # a bad one is one clear error here, not one per child process
 
     @property
     def submission_seeds(self) -> list[int]:
@@ -97,7 +101,7 @@ class GradeSettings:
         if unknown:
             raise LiftError(f"[grade] has unknown keys {', '.join(unknown)} (known: {', '.join(sorted(known))})", path)
         values = dict(table)
-        for key in ("scenes", "size"):
+        for key in ("scenes", "size", "options"):
             if key in values:
                 values[key] = tuple(values[key])
         try:

@@ -2,7 +2,8 @@
 
     python -m lift_gl.grade.worker JOB.json
 
-The job names the plugin, the scenes (path, size, spp, seeds, params) and an output folder.
+The job names the plugin, the scenes (path, size, spp, seeds, params, the renderer's options as
+KEY=VALUE) and an output folder.
 For each scene the worker writes NAME.started (the parent's clock for the timeout starts
 there), then NAME.npz (the renders: float32 K x H x W x 3) and NAME.json (status "ok", or
 "error" with the message naming the student's file and line). A crash of the GL driver or an
@@ -25,6 +26,7 @@ def render_scene(plugin: str, spec: dict, ctx=None) -> tuple[np.ndarray, dict]:
     """The seeds' images (K, H, W, 3) and what the renders said (time, dropped samples,
     warnings about the images)."""
     from ..image_checks import check_image
+    from ..options import parse_options
     from ..renderer import Renderer
     from ..scene.loader import load_scene
 
@@ -32,7 +34,8 @@ def render_scene(plugin: str, spec: dict, ctx=None) -> tuple[np.ndarray, dict]:
     size = tuple(spec["size"])
     seeds = list(spec["seeds"])
     start = time.perf_counter()
-    renderer = Renderer(scene, size=size, integrator=plugin, seed=seeds[0], params=spec.get("params") or {}, ctx=ctx)
+    renderer = Renderer(scene, size=size, integrator=plugin, seed=seeds[0], params=spec.get("params") or {}, ctx=ctx,
+                        options=parse_options(spec.get("options") or ()))
     compile_seconds = time.perf_counter() - start
     images, dropped, warnings = [], 0, []
     render_seconds = 0.0

@@ -14,18 +14,24 @@ pixel whose sample is late has one sample fewer until it lands, never a wrong on
 Who may park: the renderer asks for it frame by frame (Renderer.render: a still camera, every
 frame of a render of known length but its last, which finishes every path). Parked paths that
 cannot land (the camera moved, a reset) are discarded: those pixels miss one sample, which the
-per-pixel count accounts for. $LIFT_GL_CARRY_PATHS = on | off | faster | always | auto
-(carry_mode; auto is faster on GPUs: timed on a render's first frames). Only the queued
-megakernel (a plugin with LIFT_PATH_STEPS on a GPU, or with $LIFT_GL_PIXEL_QUEUE=on) can carry.
+per-pixel count accounts for. The option carry_paths (lift_gl/options.py) = on | off | faster
+| always | auto: auto is faster on GPUs, off on CPU rasterizers, where lanes rarely see the
+queue run out while a path is under way; always parks every new path after its first vertex
+whether the queue has run out or not, which puts the mechanism to work on every pixel (tests).
+faster times the megakernel with and without the carry code on the first frames of a render
+that may park and keeps the faster (CarryTuning). Why not simply on: on an H100 carrying made
+the dining room's frame 8-12% faster at Lift's Russian roulette and the classroom's 2.5%, but
+the Covered Dragon's and the cornell-box's 7-16% slower, where the carry code compiled in and
+never used already costs 12-22% (on the dragon it costs the megakernel a step of occupancy,
+16 warps an SM to 12), and no cheaper form of it was found. Only the queued megakernel (a
+plugin with LIFT_PATH_STEPS and the option pixel_queue on) can carry.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..env_settings import env_choice
 from .common import fastest_half_mean, set_uniforms
 
-CARRY_ENV_VAR = "LIFT_GL_CARRY_PATHS"
 CARRY_BINDING = 15
 LATE_IMAGE_UNIT = 1
 LATE_TAG_IMAGE_UNIT = 2
@@ -35,25 +41,6 @@ MAX_PARKED = 1 << 18         # paths a half is sized for: more than the lanes an
 # entries of ENTRY_BYTES, and the shader divides the buffer's length by its own entry size
 # (pt's parked path is 224 bytes in std430). A larger entry holds fewer; the extra paths run on.
 ENTRY_BYTES = 256
-
-
-def carry_mode(value: str | None = None, gpu: bool = True) -> str:
-    """How the queued megakernel carries paths: `value`, else $LIFT_GL_CARRY_PATHS: on, off,
-    faster or always (every new path parks after its first vertex whether the queue has run out
-    or not, which puts the mechanism to work on every pixel: tests; on a CPU rasterizer lanes
-    rarely see the queue run out while a path is under way). faster: the trace pass times the
-    megakernel with and without the carry code on the first frames of a render that may park
-    and keeps the faster (passes/trace.py, CarryTuning). auto is faster on GPUs, off on CPU
-    rasterizers. Why not simply on: on an H100 carrying made the dining room's frame 8-12%
-    faster at Lift's Russian roulette and the classroom's 2.5%, but the Covered Dragon's and
-    the cornell-box's 7-16% slower, where the carry code compiled in and never used already
-    costs 12-22% (docs/gpu.md "Tenth session"; on the dragon the code costs the megakernel a
-    step of occupancy, 16 warps an SM to 12: "Twelfth session"), and no cheaper form of it
-    was found; the compiler's answer to it differs by scene."""
-    mode = env_choice(CARRY_ENV_VAR, ("on", "off", "faster", "always"), value)
-    if mode == "auto":
-        return "faster" if gpu else "off"
-    return mode
 
 
 class CarriedPaths:
@@ -104,7 +91,7 @@ class CarriedPaths:
         self.late_tag.release()
 
 
-# $LIFT_GL_CARRY_PATHS=faster: frames a block, and blocks of each way. A block's frames are
+# carry_paths=faster: frames a block, and blocks of each way. A block's frames are
 # queued as a render queues them and timed together between two finishes (a wait after every
 # frame cost the small scenes' frames 4x their time on an H100, mostly the wait, and let the
 # GPU's clock drop: the first version of this choice, timing each frame alone, kept the slower

@@ -5,7 +5,6 @@ import time
 
 import numpy as np
 
-from ..plugins import COHERENT_DEFINE, INTERLEAVE_DEFINE
 from ..scene.pack import PackedScene, still_motion
 from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chunks, plan_buffers
 
@@ -32,6 +31,18 @@ STAT_RAYS_LOW, STAT_RAYS_HIGH = 2, 3  # rays traced (LIFT_COUNT_RAYS), a 64-bit 
 STAT_LOOP_LIMITED = 4  # pixel-frames cut short by the driver's loop limit (passes/trace.py)
 NUM_STATS = 5
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
+# Coherent sampling (the options coherent_sampling and coherent_interleave, lift_gl/options.py):
+# the trace programs are compiled with these (coherent_sampling_source).
+COHERENT_DEFINE = "LIFT_COHERENT_SAMPLING"
+INTERLEAVE_DEFINE = "LIFT_COHERENT_INTERLEAVE"
+
+
+def coherent_defines(coherent_sampling: str, interleave: int) -> dict:
+    """The trace programs' defines for the options coherent_sampling (on, off) and
+    coherent_interleave: none when off (a compile-time switch: off costs nothing)."""
+    if coherent_sampling != "on":
+        return {}
+    return {COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: max(1, int(interleave))}
 
 
 def fastest_half_mean(seconds) -> float:
@@ -317,8 +328,8 @@ def coherent_sampling_source(tile: tuple[int, int]) -> str:
     keyed on (tiles of `tile`, the work group's shape).
 
     Without COHERENT_DEFINE: tiles of the work group's shape in the image's grid, and the
-    pixel itself as the key. With it (a plugin's bool parameter `coherent_sampling` on:
-    lift_gl/plugins.py param_defines), coherent sampling (Sadeghi, Chen and Jensen 2009): the
+    pixel itself as the key. With it (the option coherent_sampling on: coherent_defines),
+    coherent sampling (Sadeghi, Chen and Jensen 2009): the
     pixels of a tile, which run in one warp on a GPU (and the pixel queue hands out a tile at a
     time), draw the same numbers, so their light samples, bounce directions and Russian
     roulette agree and the warp's rays travel together through the BVH. Each pixel's own

@@ -23,7 +23,6 @@ import numpy as np
 
 from .. import shaders
 from .camera import depth_uniforms, view_projection
-from ..env_settings import env_choice
 from .common import groups, set_uniforms
 
 SHADER_DIR = shaders.SHADER_DIR / "passes"
@@ -142,29 +141,10 @@ class GBufferPass:
                 vao.release()
 
 
-GBUFFER_ENV_VAR = "LIFT_GL_GBUFFER"
-# GPUs whose graphics units are few (NVIDIA's data-centre parts: graphics on a couple of
-# TPCs): on an H100 rasterizing the 36-triangle cornell-box at 1920x1080 took 2.8 ms, however
-# little the fragment shader did, while one camera ray per pixel takes a fraction of that.
-RASTER_POOR_GPUS = ("h100", "h200", "h800", "gh200", "a100", "a800")
-
-
-def traced_gbuffer_wanted(ctx: moderngl.Context) -> bool:
-    """Whether the G-buffer is ray cast (TracedGBufferPass) rather than rasterized: on the
-    GPUs of RASTER_POOR_GPUS; $LIFT_GL_GBUFFER (raster, traced, auto) overrides."""
-    from ..gl.context import is_software
-
-    mode = env_choice(GBUFFER_ENV_VAR, ("raster", "traced"))
-    if mode != "auto":
-        return mode == "traced"
-    renderer = ctx.info["GL_RENDERER"].lower()
-    return not is_software(ctx) and any(name in renderer for name in RASTER_POOR_GPUS)
-
-
 class TracedGBufferPass:
     """The G-buffer's visibility, normal_depth and albedo by one camera ray per pixel (a
     compute pass over lift/bvh.glsl) instead of the raster: the same outputs, for GPUs whose
-    raster units are the bottleneck (traced_gbuffer_wanted). No motion vectors: temporal
+    raster units are the bottleneck (the option gbuffer, lift_gl/options.py). No motion vectors: temporal
     reprojection keeps the raster pass. The primary hit is then the traced camera ray's,
     which the trace pass rebuilds exactly (lift/primary_hit.glsl).
 
@@ -180,9 +160,13 @@ class TracedGBufferPass:
     motion_vectors = False
     motion = prev_normal_depth = None
 
-    def __init__(self, ctx: moderngl.Context, size, defines: dict):
-        from .trace import trace_layout
+    def __init__(self, ctx: moderngl.Context, size, defines: dict, stack: str | None = None):
+        """`stack`: where the traversal keeps its stack, shared or local (the resolved options'
+        gbuffer_stack; None: this device's default)."""
+        from ..options import Device, Options, resolve, work_group
 
+        device = Device.of(ctx)
+        stack = stack or resolve(Options(), device).gbuffer_stack
         self.ctx = ctx
         self.size = size
         self.visibility = ctx.texture(size, 4, dtype="u4")
@@ -190,9 +174,9 @@ class TracedGBufferPass:
         self.albedo = ctx.texture(size, 4, dtype="f2")
         for t in (self.visibility, self.normal_depth, self.albedo):
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.local_size, shared_stack = trace_layout(ctx)
+        self.local_size = work_group(stack, device)
         defines = dict(defines, LIFT_GBUFFER_LOCAL_X=self.local_size[0], LIFT_GBUFFER_LOCAL_Y=self.local_size[1])
-        if shared_stack:
+        if stack == "shared":
             defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
         self._defines = defines
         self._programs = {}  # visibility_only -> program, each compiled on its first run

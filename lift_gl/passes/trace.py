@@ -24,69 +24,44 @@ their vertices, each lane starting its next sample when its path ends: on a CPU 
 the 8 lanes of a SIMD batch otherwise wait for the longest path of the batch, sample after
 sample (docs/cpu-speed.md). The samples and their random numbers are the same either way.
 
-On a GPU the program runs in 8x4 work groups with the BVH traversal stack in shared memory
-(LIFT_BVH_SHARED_STACK, shaders/lift/bvh.glsl): a per-invocation stack array is local
-memory there, and on an H100 the two together made pt's trace pass 2.6-3.6x faster than 8x8
-groups with local stacks (docs/gpu.md). CPU rasterizers keep 8x8 groups and local stacks.
-$LIFT_GL_BVH_STACK = shared | local overrides the choice (tests render both ways).
-
-A plugin with LIFT_PATH_STEPS (pt) runs, on GPUs, a megakernel whose lanes take their next
-pixel from a queue as soon as their pixel's paths end (path regeneration, LIFT_PIXEL_QUEUE:
-$LIFT_GL_PIXEL_QUEUE = on | off | auto, auto on GPUs), instead of idling until the longest path
-of their warp ends: the same image. That megakernel keeps its 8x4 groups but its stack in a
-local array on GPUs (trace_layout: 1.03-1.05x on an H100 and an H200, session 8). It may also
-run as a wavefront (a dispatch per path vertex
-over the paths still alive, passes/wavefront.py): the same image. $LIFT_GL_WAVEFRONT = on | off
-forces it; faster times both ways on its first frames (after the clock has had TUNING_DELAY_S
-to rise and, where NVML reads it, once it has) and keeps the faster; auto is off (the queued
-megakernel matched or beat the wavefront on an H100, docs/gpu.md). On GPUs that megakernel is
-also built with the carry code (paths under way when the queue runs out go on in the next
-frame's dispatch, passes/carry.py) on a render's first frame that may park, and the two are
-timed in blocks of frames (CarryTuning): the faster is kept ($LIFT_GL_CARRY_PATHS faster, auto
-on GPUs).
+How the program runs is the options' choice (lift_gl/options.py, resolved for the device):
+- bvh_stack: the BVH traversal stack in shared memory with 8x4 work groups
+  (LIFT_BVH_SHARED_STACK, shaders/lift/bvh.glsl), or in a local array (8x8 groups on CPU
+  rasterizers); on an H100 shared stacks in 8x4 groups made pt's trace 2.6-3.6x faster than
+  8x8 groups with local stacks (docs/gpu.md).
+- pixel_queue: a plugin with LIFT_PATH_STEPS runs a megakernel whose lanes take their next
+  pixel from a queue as soon as their pixel's paths end (path regeneration, LIFT_PIXEL_QUEUE),
+  instead of idling until the longest path of their warp ends: the same image.
+- carry_paths: that megakernel is built with the carry code (paths under way when the queue
+  runs out go on in the next frame's dispatch, passes/carry.py); `faster` builds it on a
+  render's first frame that may park and times the two in blocks of frames (CarryTuning),
+  keeping the faster.
 """
 from __future__ import annotations
 
+import re
 import time
 
 import moderngl
-import numpy as np
 
 from .. import shaders
-from ..gl.context import is_software
-from ..plugins import GLSL_TYPES, Plugin
-from ..env_settings import env_choice
 from ..errors import ShaderError
-from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning, carry_mode
-from .common import LOCAL_SIZE, coherent_sampling_source, fastest_half_mean, groups, set_uniforms, tile_dispatch_size
+from ..options import Device, Options, ResolvedOptions, Workload, resolve, work_group
+from ..plugins import GLSL_TYPES, Plugin
+from .carry import CARRY_TUNING_FRAMES, CarriedPaths, CarryTuning
+from .common import LOCAL_SIZE, coherent_sampling_source, groups, set_uniforms, tile_dispatch_size
 from .splat import SplatBuffer, splat_defines
-from .wavefront import SlotsTooBig, WavefrontTrace, fallback_reason, path_steps, wavefront_mode
 
-# Frames each way ($LIFT_GL_WAVEFRONT faster) before the trace pass keeps the faster:
-# medians of 4 frames of 2-30 ms told the H100's ways apart by 6-27% (docs/gpu.md). Where the
-# medians are within TUNING_CLOSE of each other, another 4 each, up to TUNING_ROUNDS blocks.
-# The timing starts TUNING_DELAY_S after the first frame (the megakernel runs until then): an
-# idle GPU's clock takes a few hundred milliseconds to rise (report/gpu_clock.py), and one
-# call's dining room, timed from its first frame at the idle clock, kept the slower way.
-# Where NVML reads the SM clock (report/gpu_clock.py), a frame is timed only once the clock is
-# at TUNING_CLOCK of its maximum, waiting at most TUNING_CLOCK_WAIT_S: with the delay alone, one
-# of four processes of a seventh-session device call still timed the dining room's first frames
-# at 2-4x their steady time and kept the slower way. The wavefront's first frame runs untimed
-# (another process timed the classroom's wavefront at 2.5x its steady time and kept the megakernel).
-TUNING_FRAMES = 4
-TUNING_CLOSE = 0.05
-TUNING_ROUNDS = 3
+# The carry code is timed (CarryTuning) from TUNING_DELAY_S after the first frame: an idle GPU's
+# clock takes a few hundred milliseconds to rise (report/gpu_clock.py), and a choice timed
+# from a first frame at the idle clock kept the slower way. Where NVML reads the SM clock
+# (report/gpu_clock.py), a frame is timed only once the clock is at TUNING_CLOCK of its
+# maximum, waiting at most TUNING_CLOCK_WAIT_S: with the delay alone one process of four still
+# timed the dining room's first frames at 2-4x their steady time.
 TUNING_DELAY_S = 0.3
 TUNING_CLOCK = 0.9
 TUNING_CLOCK_WAIT_S = 3.0
-
-
-def tuning_way(frame: int) -> str:
-    """The way timed in the frame-th tuning frame: megakernel, wavefront, wavefront,
-    megakernel, and again (the low bit of the frame's Gray code), so that a drift that is
-    linear over each four frames (a GPU clock rising from idle: report/gpu_clock.py) adds
-    the same to both ways' medians (and means)."""
-    return ("megakernel", "wavefront")[(frame ^ (frame >> 1)) & 1]
+_PATH_STEPS = re.compile(r"^\s*#\s*define\s+LIFT_PATH_STEPS\b", re.M)
 
 MAIN_TEMPLATE = """
 #if defined(LIFT_SPLATS) && !defined(LIFT_SPLATS_CAS)
@@ -197,7 +172,7 @@ void lift_store_late(ivec2 pixel, vec3 sum, float valid) {{
     imageStore(u_late_tag_out, pixel, uvec4(u_late_tag));
 }}
 #ifdef LIFT_CARRY_PARK_ALWAYS
-#define LIFT_QUEUE_RAN_OUT true   // $LIFT_GL_CARRY_PATHS=always: every new path parks after its first vertex (tests)
+#define LIFT_QUEUE_RAN_OUT true   // carry_paths=always: every new path parks after its first vertex (tests)
 #else
 #define LIFT_QUEUE_RAN_OUT (lift_queue_next >= items)
 #endif
@@ -373,10 +348,6 @@ void main() {{
 """
 
 
-BVH_STACK_ENV_VAR = "LIFT_GL_BVH_STACK"
-# $LIFT_GL_PIXEL_QUEUE on | off | auto (GPUs): the megakernel of a plugin with LIFT_PATH_STEPS
-# takes pixels from a queue as its lanes' paths end (MAIN_TEMPLATE, lift_trace_pixel_queue).
-PIXEL_QUEUE_ENV_VAR = "LIFT_GL_PIXEL_QUEUE"
 PIXEL_QUEUE_BINDING = 13
 
 
@@ -392,21 +363,19 @@ def reset_pixel_queue(ctx: moderngl.Context, queue: moderngl.Buffer) -> None:
     queue.bind_to_storage_buffer(PIXEL_QUEUE_BINDING)
 
 
-GPU_LOCAL_SIZE = (8, 4)  # one warp of 32 a work group (docs/gpu.md has the shapes measured)
+def path_steps(source_text: str) -> bool:
+    """Whether a program's plugin advances its paths a vertex at a time (defines LIFT_PATH_STEPS)."""
+    return _PATH_STEPS.search(source_text) is not None
 
 
-def trace_layout(ctx: moderngl.Context, pixel_queue: bool = False) -> tuple[tuple[int, int], bool]:
-    """The trace program's work-group shape and whether its BVH stack is in shared memory:
-    GPUs 8x4 and shared, CPU rasterizers 8x8 and local; on GPUs a megakernel that takes its
-    pixels from the queue (`pixel_queue`) keeps 8x4 with the stack in a local array, which ran
-    its trace 1.03-1.05x faster on an H100 and an H200 (docs/gpu.md "Eighth session"; the plain
-    megakernel of drt lost 0.87-0.94x that way). $LIFT_GL_BVH_STACK (shared, local, auto)
-    overrides the stack's place, and the shape follows it (local: 8x8)."""
-    mode = env_choice(BVH_STACK_ENV_VAR, ("shared", "local"))
-    if mode == "auto" and not is_software(ctx):
-        return GPU_LOCAL_SIZE, not pixel_queue
-    shared = mode == "shared"
-    return (GPU_LOCAL_SIZE if shared else (LOCAL_SIZE, LOCAL_SIZE)), shared
+def plugin_path_steps(plugin: Plugin, defines: dict) -> bool:
+    """Whether the plugin's paths go a vertex at a time from the G-buffer, which the pixel
+    queue needs (known from its source: assembled here to read it, the text only)."""
+    if plugin.language != "glsl" or plugin.primary != "gbuffer":
+        return False
+    defines = dict(defines, PRIMARY_GBUFFER=True)
+    return path_steps(shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
+                                       main_name=f"<{plugin.name} host main>").text)
 
 
 def param_declarations(plugin: Plugin) -> str:
@@ -433,13 +402,16 @@ class TracePass:
     inputs = ("scene", "camera", "visibility?")
     outputs = ("frame",)
 
-    def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict, wavefront: bool | None = None,
-                 wavefront_options: dict | None = None):
-        """`wavefront`: run it as a wavefront (passes/wavefront.py) where the plugin allows;
-        None: as $LIFT_GL_WAVEFRONT says. `wavefront_options`: WavefrontTrace's steps, ballot."""
+    def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict,
+                 choices: ResolvedOptions | None = None):
+        """`choices`: the resolved options (lift_gl/options.py: pixel_queue, bvh_stack,
+        carry_paths); None: the defaults, resolved for this device and plugin."""
         self.ctx = ctx
         self.size = size
         self.plugin = plugin
+        if choices is None:
+            choices = resolve(Options(), Device.of(ctx), Workload(path_steps=plugin_path_steps(plugin, defines),
+                                                                   splats=plugin.splats))
         defines = dict(defines)
         if plugin.primary == "gbuffer":
             defines["PRIMARY_GBUFFER"] = True
@@ -448,35 +420,25 @@ class TracePass:
             defines.update(splat_defines(ctx))
             self.splats = SplatBuffer(ctx, size)
             self.outputs = ("frame (with splats)",)
-        queue_mode = env_choice(PIXEL_QUEUE_ENV_VAR, ("on", "off"))
-        if queue_mode == "on" or (queue_mode == "auto" and not is_software(ctx)):
-            defines["LIFT_PIXEL_QUEUE"] = True
-            if is_software(ctx):   # CPU rasterizers (llvmpipe) end long-running loops
-                defines["LIFT_LOOP_LIMITED"] = True
         # the megakernel's pixel queue (MAIN_TEMPLATE): a plugin whose paths go a vertex at a time
-        # (known from its source: assembled once here to read it, the text only)
-        queued = ("LIFT_PIXEL_QUEUE" in defines and plugin.primary == "gbuffer"
-                  and path_steps(shaders.assemble(generate_main(plugin), defines, include_dirs=[plugin.folder],
-                                                  main_name=f"<{plugin.name} host main>").text))
-        # the wavefront's kernels keep the stack in shared memory on GPUs (trace_layout's plain rule)
-        wavefront_size, shared_stack = trace_layout(ctx)
-        if shared_stack:
-            defines["LIFT_BVH_SHARED_STACK"] = wavefront_size[0] * wavefront_size[1]
-        # the megakernel's own: where its BVH stack lives (renderer.explain says it)
-        self.local_size, self.shared_stack = trace_layout(ctx, pixel_queue=queued)
-        megakernel_defines = {name: value for name, value in defines.items()
-                              if self.shared_stack or name != "LIFT_BVH_SHARED_STACK"}
-        mode = wavefront_mode(ctx) if wavefront is None else ("on" if wavefront else "off")
+        queued = choices["pixel_queue"] == "on"
+        if queued:
+            defines["LIFT_PIXEL_QUEUE"] = True
+            if choices.device.software:   # CPU rasterizers (llvmpipe) end long-running loops
+                defines["LIFT_LOOP_LIMITED"] = True
+        # where the BVH stack lives (renderer.explain says it)
+        self.shared_stack = choices["bvh_stack"] == "shared"
+        self.local_size = work_group(choices["bvh_stack"], choices.device)
+        if self.shared_stack:
+            defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
         # paths still under way when the queue runs out go on in the next frame (passes/carry.py)
         self.carry = None
-        carry = carry_mode(gpu=not is_software(ctx)) if queued else "off"
-        if carry == "faster" and mode != "off":
-            carry = "off"   # a wavefront cannot carry; one choice timed at a time (the wavefront's)
-        carry_defines = dict(megakernel_defines, LIFT_CARRY_PATHS=True)
+        carry = choices["carry_paths"] if queued else "off"
+        carry_defines = dict(defines, LIFT_CARRY_PATHS=True)
         if carry == "always":
             carry_defines["LIFT_CARRY_PARK_ALWAYS"] = True
         if carry in ("on", "always"):
-            megakernel_defines = carry_defines
+            defines = carry_defines
             self.carry = self._carried_paths()
         # faster: the megakernel with the carry code is built on a render's first frame that may
         # park, and the two are timed on the frames after it (run, CarryTuning)
@@ -486,31 +448,14 @@ class TracePass:
         self.carry_fallback = None     # why the carry code could not be timed
         self._resumed = False          # the last dispatch resumed parked paths (late)
         self._carry_leaving = False    # the plain megakernel was kept: the carry buffers go next frame
-        self.defines = megakernel_defines  # what the megakernel was built with (benchmarks rebuild it from them)
-        self.source = self._megakernel_source(megakernel_defines)
+        self.defines = defines         # what the megakernel was built with (benchmarks rebuild it from them)
+        self.source = self._megakernel_source(defines)
         self.program = shaders.compile_compute(ctx, self.source)
         self.pixel_queue = ctx.buffer(reserve=4) if queued else None
         self.frame = ctx.texture(size, 4, dtype="f4")
-        self.wavefront = None
-        self.wavefront_fallback = None  # why a wavefront asked for runs as the megakernel
-        # "faster": both ways timed on the first frames, alternately, then the faster kept
-        self.tuning = {"megakernel": [], "wavefront": []} if mode == "faster" else None
-        self.tuned_ms = None  # once chosen: each way's frame ms (fastest_half_mean)
-        self.tuning_frames_ms = None  # and each of its timed frames
-        self._tuning_from = None  # when the timed frames may start (TUNING_DELAY_S)
+        self._tuning_from = None  # when the carry code's timed frames may start (TUNING_DELAY_S)
         self._tuning_clock = None  # the GPU's SM clock reader (NVML), made when tuning starts
         self._clock_low_since = None  # when it first read low (TUNING_CLOCK_WAIT_S)
-        self._wavefront_ran = False   # its first frame runs untimed
-        if mode != "off":
-            self.wavefront_fallback = fallback_reason(plugin, self.source.text, defines)
-            if self.wavefront_fallback is None:
-                try:
-                    self.wavefront = WavefrontTrace(ctx, size, plugin, defines, param_declarations(plugin),
-                                                    wavefront_size, **(wavefront_options or {}))
-                except SlotsTooBig as exc:  # known once the plugin's slot size is
-                    self.wavefront_fallback = str(exc)
-        if self.wavefront is None:
-            self.tuning = None
 
     @property
     def late(self):
@@ -548,34 +493,10 @@ class TracePass:
         if self.carry_tuning is not None:
             self._run_carry_tuning(uniforms, visibility, park, frames_left)
             return
-        if self.tuning is None:
-            self._run(uniforms, visibility, self.wavefront is not None, park)
-            return
-        # the first frames, and any while the GPU's clock is still low: not timed
-        if not self._ready_to_time() or not self._wavefront_ran:
-            # the wavefront's first frame (its programs' first dispatches, its buffers' first
-            # use) is never timed: it runs first, untimed; then the megakernel
-            self._run(uniforms, visibility, not self._wavefront_ran)
-            self._wavefront_ran = True
-            return
-        # Choosing: this frame's way in the order A B B A (a GPU's clock rising over these
-        # frames then slows both alike), its wall time between two finishes (a timer query
-        # could not nest in the renderer's per-pass one)
-        timed = sum(len(t) for t in self.tuning.values())
-        way = tuning_way(timed)
-        self.ctx.finish()
-        start = time.perf_counter()
-        self._run(uniforms, visibility, way == "wavefront")
-        self.ctx.finish()
-        self.tuning[way].append(time.perf_counter() - start)
-        if (timed + 1) % (2 * TUNING_FRAMES) == 0:
-            ms = [fastest_half_mean(t) for t in self.tuning.values()]
-            close = abs(ms[0] - ms[1]) < TUNING_CLOSE * min(ms)
-            if not close or timed + 1 >= 2 * TUNING_FRAMES * TUNING_ROUNDS:
-                self._keep_the_faster()
+        self._run(uniforms, visibility, park)
 
     def _run_carry_tuning(self, uniforms: dict, visibility, park: bool, frames_left: int | None = None) -> None:
-        """A frame while the carry code's worth is being timed ($LIFT_GL_CARRY_PATHS faster):
+        """A frame while the carry code's worth is being timed (carry_paths=faster):
         frames that may park run in blocks of either megakernel (CarryTuning), a block's frames
         but its first and last timed between two finishes; the others, and those before the
         clock is up, run the plain one untimed (or the carrying one, to finish paths the frame
@@ -585,7 +506,7 @@ class TracePass:
         if not park or too_short or (t.way is None and not self._ready_to_time()):
             t.abort()
             waiting = self.carry is not None and self.carry.parked
-            self._run(uniforms, visibility, False, False, program=t.program if waiting else None)
+            self._run(uniforms, visibility, False, program=t.program if waiting else None)
             return
         if t.program is None:   # built now, and its first dispatch (first-use costs) untimed
             t.source = self._megakernel_source(t.defines)
@@ -594,17 +515,17 @@ class TracePass:
             except ShaderError as exc:   # a driver that rejects the carry code: the plain megakernel stays
                 self.carry_tuning = None
                 self.carry_fallback = f"the megakernel with the carry code did not compile: {exc}"
-                self._run(uniforms, visibility, False, False)
+                self._run(uniforms, visibility, False)
                 return
             self.carry = self._carried_paths()
         if not t.warmed:
             t.warmed = True
-            self._run(uniforms, visibility, False, False, program=t.program)
+            self._run(uniforms, visibility, False, program=t.program)
             return
         if t.way is None:
             t.start()
         last = t.last()
-        self._run(uniforms, visibility, False, t.parks(park), program=t.program if t.way == "carry" else None)
+        self._run(uniforms, visibility, t.parks(park), program=t.program if t.way == "carry" else None)
         t.frames += 1
         if t.clock_due():
             self.ctx.finish()
@@ -648,34 +569,16 @@ class TracePass:
             self._clock_low_since = now
         return now - self._clock_low_since >= TUNING_CLOCK_WAIT_S
 
-    def _keep_the_faster(self) -> None:
-        """Each way's fastest_half_mean decides; a megakernel kept frees the wavefront's slots."""
-        ms = {k: 1e3 * fastest_half_mean(t) for k, t in self.tuning.items()}
-        self.tuning_frames_ms = {k: [1e3 * s for s in t] for k, t in self.tuning.items()}   # for benchmarks
-        self.tuning = None
-        self.tuned_ms = ms
-        if ms["wavefront"] >= ms["megakernel"]:
-            self.wavefront.release()
-            self.wavefront = None
-            self.wavefront_fallback = (f"the megakernel was faster on this scene's first frames "
-                                       f"({ms['megakernel']:.2f} against {ms['wavefront']:.2f} ms)")
-
-    def _run(self, uniforms: dict, visibility, as_wavefront: bool, park: bool = False, program=None) -> None:
-        """One dispatch (or the wavefront's): `program` a megakernel other than self.program (the
-        carrying one while CarryTuning times it)."""
+    def _run(self, uniforms: dict, visibility, park: bool = False, program=None) -> None:
+        """One dispatch: `program` a megakernel other than self.program (the carrying one while
+        CarryTuning times it)."""
         self._resumed = False
-        if as_wavefront:
-            self.discard_parked()   # the wavefront's kernels resume nothing: those samples are lost
         megakernel = program or self.program
-        for prog in self.wavefront.programs if as_wavefront else (megakernel,):
-            set_uniforms(prog, uniforms)
-            sampler = prog.get("u_visibility", None) if visibility is not None else None
-            if sampler is not None:
-                visibility.use(location=0)
-                sampler.value = 0
-        if as_wavefront:
-            self.wavefront.run(self.frame, int(uniforms["u_samples"]))
-            return
+        set_uniforms(megakernel, uniforms)
+        sampler = megakernel.get("u_visibility", None) if visibility is not None else None
+        if sampler is not None:
+            visibility.use(location=0)
+            sampler.value = 0
         self.frame.bind_to_image(0, read=False, write=True)
         if self.splats is not None:
             self.splats.bind()
@@ -704,7 +607,5 @@ class TracePass:
             self.carry.release()
         if self.carry_tuning is not None and self.carry_tuning.program is not None:
             self.carry_tuning.program.release()
-        if self.wavefront is not None:
-            self.wavefront.release()
         if self.splats is not None:
             self.splats.release()

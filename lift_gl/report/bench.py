@@ -1,7 +1,7 @@
 """`lift-gl bench`: how fast each pass runs, for a set of scenes and resolutions.
 
     lift-gl bench SCENE... [--sizes 64x64,128x128,256x256] [--integrator pt] [--frames 16]
-                  [--repeat 3] [--json FILE]
+                  [--repeat 3] [--option KEY=VALUE ...] [--json FILE]
 
 For each scene: its BVH build time (no cache) and, at each size:
 - frame time: wall-clock time per frame, frames pipelined, GPU work finished (best of --repeat);
@@ -16,7 +16,8 @@ A pass that exists only with some settings gets its column when it runs.
   unjittered G-buffer guides included, GPU work finished (best of --repeat x 3 runs); "none"
   leaves it out.
 - on NVIDIA GPUs: frames until the SM clock has risen from idle before timing, and the clock
-  each timed run ended at (`sm_clock` in the JSON; report/gpu_clock.py).
+  each timed run ended at (`sm_clock` in the JSON; report/gpu_clock.py);
+- how the frames ran: every option's choice (`options` in the JSON, lift_gl/options.py).
 """
 from __future__ import annotations
 
@@ -45,6 +46,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--plugins", action="append", default=[], metavar="DIR")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--json", type=Path, dest="json_path", help="also write the results here")
+    from ..options import add_option_argument
+
+    add_option_argument(p)
     p.set_defaults(func=cmd_bench)
 
 
@@ -140,14 +144,15 @@ def at_full_clock(seconds: list, readings: list, peak) -> list:
 
 
 def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, backend="auto", plugin_dirs=(),
-               denoisers=()) -> dict:
-    """Timings of one scene at one size; see the module's docstring."""
+               denoisers=(), options=None) -> dict:
+    """Timings of one scene at one size; see the module's docstring. `options`: lift_gl/options.py
+    Options (None: the defaults)."""
     from ..passes.carry import CARRY_TUNING_FRAMES
     from ..renderer import Renderer
 
     def make(**kw):
         r = Renderer(scene, size=size, integrator=integrator, params=params, backend=backend,
-                     plugin_dirs=plugin_dirs, **kw)
+                     plugin_dirs=plugin_dirs, options=options, **kw)
         r.render(spp=r.samples_per_frame * 2)  # warm-up: shader JIT and first-use costs
         r.reset()
         return r
@@ -161,13 +166,12 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # steps of at least 16 frames and WARM_STEP_S: a step of a few frames of a small scene left
     # the GPU idle between calls, and its clock then stayed down
     warm = warm_up(growing_step(lambda n: (renderer.render(spp=n * spf), renderer.ctx.finish())), clock)
-    # On a GPU the trace pass times its two ways on its first frames, each between two
-    # finishes (passes/trace.py, TUNING_*; with and without the carry code, CarryTuning, on
-    # frames that may park: renders of several frames): those end before the timed frames start.
+    # On a GPU the trace pass may time the megakernel with and without the carry code on its
+    # first frames that may park (renders of several frames; passes/trace.py, CarryTuning): those
+    # end before the timed frames start.
     trace = getattr(renderer, "trace", None)
     give_up = time.perf_counter() + 20.0
-    while (getattr(trace, "tuning", None) is not None or getattr(trace, "carry_tuning", None) is not None) \
-            and time.perf_counter() < give_up:
+    while getattr(trace, "carry_tuning", None) is not None and time.perf_counter() < give_up:
         renderer.render(spp=(CARRY_TUNING_FRAMES + 1) * spf)   # long enough to start the carry choice
     frame_seconds, frame_mhz, frame_reasons = [], [], []
     peak = clock.max_sm_mhz()
@@ -186,10 +190,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     pass_mhz = clock.sm_mhz()
     pass_sync = {name: t.mean_ms for name, t in renderer.timers.items() if t.count}
     pass_query = {name: t.query.mean_ms for name, t in renderer.timers.items() if t.count}
-    # how the trace pass ran: the megakernel or a wavefront ($LIFT_GL_WAVEFRONT; auto's timings)
-    trace_way = "wavefront" if getattr(trace, "wavefront", None) is not None else "megakernel"
-    tuned_ms = getattr(trace, "tuned_ms", None)
-    tuning_frames_ms = getattr(trace, "tuning_frames_ms", None)
+    choices = renderer.choices.record()   # how the frames ran (lift_gl/options.py)
     carry = getattr(trace, "carry", None) is not None   # paths carried into the next frame
     carry_tuned_ms = getattr(trace, "carry_tuned_ms", None)
     carry_tuning_blocks_ms = getattr(trace, "carry_tuning_blocks_ms", None)
@@ -223,8 +224,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             # the tree traversed: children a node (2 or 4), its nodes and levels (4-wide: wide nodes)
             "bvh": {"width": int(renderer.packed.bvh_width), "quantized": bool(renderer.packed.bvh_quantized),
                     "nodes": int(renderer.packed.bvh_nodes.shape[0]), "levels": int(renderer.packed.bvh_levels)},
-            "trace_way": trace_way, "wavefront_tuned_ms": tuned_ms,
-            "wavefront_tuning_frames_ms": tuning_frames_ms, "carry": carry, "carry_tuned_ms": carry_tuned_ms,
+            "options": choices, "carry": carry, "carry_tuned_ms": carry_tuned_ms,
             "carry_tuning_blocks_ms": carry_tuning_blocks_ms,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
             # the per-pass run, and the warm-up before them
@@ -270,6 +270,7 @@ def cmd_bench(args) -> int:
     from ..arg_types import check_output_file
     from ..atomic import write_text
     from ..cli import _settings, _size
+    from ..options import from_args
     from ..errors import LiftError
     from ..gl.context import create_context
     from ..scene.loader import load_scene
@@ -284,6 +285,7 @@ def cmd_bench(args) -> int:
     if args.json_path:
         check_output_file(args.json_path, "--json")
     params = _settings(args.set, args.integrator)
+    options = from_args(args)
     denoisers = [] if args.denoisers.strip() == "none" else [d.strip() for d in args.denoisers.split(",")]
     from ..denoise import DENOISERS
 
@@ -300,7 +302,7 @@ def cmd_bench(args) -> int:
         triangles, build_seconds = bvh_build_seconds(scene)
         for size in sizes:
             case = bench_case(scene, size, args.integrator, params, args.frames, args.repeat, args.backend, args.plugins,
-                              denoisers)
+                              denoisers, options)
             case.update(scene=str(path), scene_name=Path(path).parent.name if Path(path).stem == "scene" else Path(path).stem,
                         triangles=triangles, spheres=len(scene.spheres), load_seconds=load_seconds,
                         bvh_build_seconds=build_seconds)
@@ -314,5 +316,5 @@ def cmd_bench(args) -> int:
           f"frame ms: best of {args.repeat} x {args.frames} pipelined frames")
     if args.json_path:
         write_text(args.json_path, json.dumps({"machine": machine, "integrator": args.integrator, "params": params,
-                                               "results": results}, indent=1))
+                                               "options": options.changed(), "results": results}, indent=1))
     return 0

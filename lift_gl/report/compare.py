@@ -70,6 +70,9 @@ def add_parser(subparsers) -> None:
                    help="after each run, time a plain render of the same spp and seed (the checkpoints' cost)")
     p.add_argument("--exposure", type=finite, default=0.0, help="stops, for the contact sheet")
     p.add_argument("--out", type=Path, required=True, help="output folder")
+    from ..options import add_option_argument
+
+    add_option_argument(p)
     p.set_defaults(func=cmd_compare)
 
 
@@ -132,9 +135,11 @@ class Session:
     def renderer(self, config: Configuration, seed: int):
         from ..renderer import Renderer
 
+        from ..options import from_args
+
         return Renderer(self.scene, size=self.size, integrator=config.integrator, backend=self.args.backend,
                         seed=seed, params=config.params, plugin_dirs=self.args.plugins, denoise=config.denoise,
-                        denoiser=config.denoiser)
+                        denoiser=config.denoiser, options=from_args(self.args))
 
     def run(self, config: Configuration, seed: int, reference: np.ndarray, keep_images: bool):
         """One progressive run: its rows (one per checkpoint), images if asked, total wall time,
@@ -261,6 +266,7 @@ def cmd_compare(args) -> int:
     from .plots import plot_convergence
     from .bias import as_json as bias_json
     from .bias import consistency_of_runs
+    from ..options import from_args
     from .summary import at_time, common_time, curve, final_row, verdict
 
     _check_arguments(args)
@@ -317,6 +323,7 @@ def cmd_compare(args) -> int:
                "configurations": [c.label for c in configs], "biased": biased, "reference": {"source": reference.source,
                                                                          "cached": reference.cached, **reference.info},
                "machine": machine, "started": started, "equal_time_seconds": t_equal, "overhead": overhead,
+               "options": from_args(args).changed(),   # --option KEY=VALUE (lift_gl/options.py)
                "final": {label: {k: (v.__dict__ if hasattr(v, "__dict__") else v) for k, v in f.items()}
                          for label, f in finals.items()},
                "consistency": {label: bias_json(c) for label, c in consistency.items()},

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..accel.bvh import build_bvh, refit_boxes
 from ..accel.cache import build_bvh_cached, resolve_builder, wide_layout_cached
-from ..accel.wide import resolve_width
+from ..accel.wide import LAYOUTS
 from .images import pack_images
 from .instances import (InstanceTable, build_blas, instance_table, instance_world_bounds,
                         split_instances)
@@ -219,13 +219,12 @@ def still_motion(packed: PackedScene) -> np.ndarray:
 def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
                bvh_splits=None, bvh_width=None, bvh_bins=None, bvh_slot_order=None) -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
-    `bvh_builder`: see accel/cache.py BUILDERS (None: $LIFT_GL_BVH_BUILDER, else auto).
-    `bvh_splits`: see accel/presplit.py resolve_splits (None: $LIFT_GL_BVH_SPLITS, else auto).
-    `bvh_bins`: see accel/cache.py resolve_bins (None: $LIFT_GL_BVH_BINS, else auto).
-    `bvh_width`: 2, 4 or 4q (None: $LIFT_GL_BVH_WIDTH, else 2; the renderer passes its
-    device's choice, accel/wide.py resolve_width). `bvh_slot_order`: the 4-wide nodes' order of
-    children, area or build (None: $LIFT_GL_BVH_SLOT_ORDER, else area; the renderer passes its
-    device's choice, accel/wide.py resolve_slot_order). Scenes with motion blur or traced
+    `bvh_builder`: see accel/cache.py BUILDERS (None: auto).
+    `bvh_splits`: see accel/presplit.py resolve_splits (None: auto).
+    `bvh_bins`: see accel/cache.py resolve_bins (None: auto).
+    `bvh_width`: 2, 4 or 4q (None: 2; the renderer passes its device's choice, the option
+    bvh_width of lift_gl/options.py). `bvh_slot_order`: the 4-wide nodes' order of children,
+    area or build (None: area; the renderer passes its device's choice). Scenes with motion blur or traced
     instances keep the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
     and so does a tree the wide layout cannot hold (wide.wide_layout returns None; the layout of a
     large tree is cached beside its BVH, accel/cache.py wide_layout_cached).
@@ -294,10 +293,12 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         motion = np.concatenate([displacement, close_boxes] + [b.reshape(-1, 4) for b in blas_nodes])
     if blas_nodes:
         bvh_nodes = np.concatenate([bvh_nodes] + blas_nodes)
-    layout = resolve_width(bvh_width)
+    layout = "2" if bvh_width is None else str(bvh_width)
+    if layout not in LAYOUTS:
+        raise ValueError(f"bvh_width must be one of {', '.join(LAYOUTS)}, not {bvh_width!r}")
     wide = None
     if layout != "2" and not has_motion and not blas_nodes and T_world:
-        wide = wide_layout_cached(bvh_nodes, layout, cache_dir=cache_dir, slot_order=bvh_slot_order)
+        wide = wide_layout_cached(bvh_nodes, layout, cache_dir=cache_dir, slot_order=bvh_slot_order or "area")
     if wide is not None:
         bvh_nodes = wide.rows
 

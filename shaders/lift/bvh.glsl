@@ -111,14 +111,14 @@ uint lift_rays_traced = 0u;
 #endif
 
 // ---- Ray/triangle test --------------------------------------------------------------------
-// The watertight test of Woop, Benthin and Wald (JCGT 2013), the default: the triangle is
+// The watertight test of Woop, Benthin and Wald (JCGT 2013): the triangle is
 // moved into a frame where the ray runs along +z from (0, 0) (the axes permuted so that z is
 // the ray's largest, then a shear), and three 2D edge functions U, V, W decide the hit. Two
 // triangles sharing an edge compute its edge function from the same two products, subtracted
 // in the opposite order, so the one is exactly the negation of the other and a ray through
-// the edge or a shared vertex cannot slip between them (Möller–Trumbore, LIFT_MOLLER_TRUMBORE,
-// computes each triangle's barycentrics from its own edge vectors and lets 3-5% of such rays
-// through: tests/test_watertight.py). The permutation and the shear depend only on the ray:
+// the edge or a shared vertex cannot slip between them (Möller–Trumbore computes each
+// triangle's barycentrics from its own edge vectors and lets 3-5% of such rays through:
+// tests/test_watertight.py). The permutation and the shear depend only on the ray:
 // the traversal computes them once (lift_ray_shear) as two rows, the frame's x and y axes in
 // world space, so a corner's frame x and y are two fused dot products, and its z (for t) is
 // read only for a hit. On an H100 this costs pt's trace pass 1-4% over Möller–Trumbore; the
@@ -158,27 +158,6 @@ float lift_shear(vec3 p, vec3 row) {
 bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, out vec2 bary) {
     bary = vec2(0.0);
     uint i = 3u * tri;
-#ifdef LIFT_MOLLER_TRUMBORE
-    vec3 p0 = tri_pos_row(i).xyz;
-    vec3 e1 = tri_pos_row(i + 1u).xyz - p0;
-    vec3 e2 = tri_pos_row(i + 2u).xyz - p0;
-    vec3 pv = cross(ray.dir, e2);
-    float det = dot(e1, pv);
-    if (det == 0.0) return false;
-    float inv_det = 1.0 / det;
-    vec3 tv = ray.origin - (p0 + prim_displacement(tri));  // a moving triangle: where it is now
-    float b1 = dot(tv, pv) * inv_det;
-    if (b1 < 0.0 || b1 > 1.0) return false;
-    vec3 qv = cross(tv, e1);
-    float b2 = dot(ray.dir, qv) * inv_det;
-    if (b2 < 0.0 || b1 + b2 > 1.0) return false;
-    float th = dot(e2, qv) * inv_det;
-    // written so that a NaN th (from a near-zero det) fails the test
-    if (!(th > ray.tmin && th < t)) return false;
-    t = th;
-    bary = vec2(b1, b2);
-    return true;
-#else
     // `precise` (no operation fused or reordered by the compiler): a corner shared by two
     // triangles gets the same coordinates in both, and the edge functions stay exact negations
     precise vec3 org = ray.origin - prim_displacement(tri);  // a moving triangle: where it is now
@@ -192,16 +171,7 @@ bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, 
     precise float v = ax * cy - ay * cx;
     precise float w = bx * ay - by * ax;
     // An edge function of exactly 0 counts as inside, so a ray through an edge or vertex hits
-    // every triangle there (the closest hit keeps one). With LIFT_WATERTIGHT_FP64, such a 0
-    // is redone in double precision, where products of floats are exact (the paper's
-    // fallback: the exact side of the edge), at 1-3% more of pt's trace pass on an H100.
-#ifdef LIFT_WATERTIGHT_FP64
-    if (u == 0.0 || v == 0.0 || w == 0.0) {
-        u = float(double(cx) * double(by) - double(cy) * double(bx));
-        v = float(double(ax) * double(cy) - double(ay) * double(cx));
-        w = float(double(bx) * double(ay) - double(by) * double(ax));
-    }
-#endif
+    // every triangle there (the closest hit keeps one).
     if (!((u >= 0.0 && v >= 0.0 && w >= 0.0) || (u <= 0.0 && v <= 0.0 && w <= 0.0))) return false;
     precise float det = u + v + w;
     if (det == 0.0) return false;
@@ -213,7 +183,6 @@ bool lift_intersect_triangle(Ray ray, LiftRayShear sh, uint tri, inout float t, 
     t = th;
     bary = vec2(v, w) * inv_det;
     return true;
-#endif
 }
 
 // The test for one triangle (lift/primary_hit.glsl, plugins), with its own ray shear.
@@ -444,17 +413,9 @@ bool lift_bvh4_any_leaf(uint leaf, Ray ray, LiftRayShear shear, float t) {
 
 #ifndef LIFT_BVH_GROUP_STACK
 // Whether any triangle lies in (ray.tmin, t): the same loops; the first hit found ends the
-// query, so the order is free and the answer the same in every order. By default the hit
-// children are taken in slot order (no sorting). Two other orders, for benchmarks/gpu.py ab
-// and gpu_pt_variants.py (docs/gpu.md "Shadow rays in the 4-wide tree"):
-// LIFT_BVH4_ANY_NEAREST sorts them near to far as lift_bvh_closest does (an occluder near
-// the shading point is met first); LIFT_BVH4_ANY_LEAVES_FIRST tests a node's hit leaf
-// children at once, before descending into its interior children (leaves never go on the
-// stack). Either pushes at most as many entries a level as lift_bvh_closest: STACK holds.
-#ifdef LIFT_BVH4_ANY_LEAVES_FIRST
-// a hit leaf child: tested now, then dropped from the children to visit
-#define LIFT_BVH4_ANY_LEAF(h, en) if (h && (en & LIFT_BVH4_LEAF) != 0u) { if (lift_bvh4_any_leaf(en, ray, shear, t)) return true; h = false; }
-#endif
+// query, so the order is free and the answer the same in every order: the hit children are
+// taken in slot order, unsorted (sorting them near to far, or testing a node's leaf children
+// first, ran shadow rays 0.79-0.96x as fast on an H100: docs/alternatives.md).
 bool lift_bvh_any(uint root, Ray ray, float t) {
     vec3 inv = lift_bvh_inv_dir(ray.dir);
     uvec3 near = lift_bvh4_near_rows(inv);
@@ -469,17 +430,6 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
             bvec4 hit = lift_bvh4_children(cur, ray.origin, inv, near, ray.tmin, t, tn, e);
             bool h0 = hit.x, h1 = hit.y, h2 = hit.z, h3 = hit.w;
             uint e0 = e.x, e1 = e.y, e2 = e.z, e3 = e.w;
-#ifdef LIFT_BVH4_ANY_NEAREST
-            LIFT_BVH4_SORT(hit, tn, e0, e1, e2, e3)
-            uint n = uint(hit.x) + uint(hit.y) + uint(hit.z) + uint(hit.w);
-            h0 = n > 0u; h1 = n > 1u; h2 = n > 2u; h3 = n > 3u;
-#endif
-#ifdef LIFT_BVH4_ANY_LEAVES_FIRST
-            LIFT_BVH4_ANY_LEAF(h0, e0)
-            LIFT_BVH4_ANY_LEAF(h1, e1)
-            LIFT_BVH4_ANY_LEAF(h2, e2)
-            LIFT_BVH4_ANY_LEAF(h3, e3)
-#endif
             // visit the first child left next, push the others (the last first)
             bool have = false;
             uint next = 0u;
@@ -512,9 +462,6 @@ bool lift_bvh_any(uint root, Ray ray, float t) {
 // takes that much less shared memory, which is also the SM's L1 cache (docs/gpu.md "A stack
 // of node groups"). Node ids get 24 bits (the host keeps the other stack past 2^24 nodes).
 // Each function pops in one place only: the pop is longer than the other stack's.
-#if defined(LIFT_BVH4_ANY_NEAREST) || defined(LIFT_BVH4_ANY_LEAVES_FIRST)
-#error "LIFT_BVH_GROUP_STACK keeps shadow rays' children in slot order"
-#endif
 // The child entry in slot s (0-3) of a node's four, by selects (no dynamic vector index).
 uint lift_bvh4_pick(uvec4 e, uint s) { return s == 0u ? e.x : s == 1u ? e.y : s == 2u ? e.z : e.w; }
 uint lift_bvh4_group(uint node, uint slots, uint left) { return node << 8u | slots << 2u | (left - 1u); }

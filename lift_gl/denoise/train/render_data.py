@@ -25,10 +25,10 @@ from ..model_io import autoexposure, clean, network_input
 from .scenes import random_scene
 
 SPP_LEVELS = (1, 2, 4, 8, 16, 32, 64)
-# pt's parameters of each sampling of the noisy inputs (plugins/pt/plugin.toml)
-SAMPLINGS = {"independent": {},
-             "coherent": {"coherent_sampling": True, "coherent_interleave": 1},
-             "interleave2": {"coherent_sampling": True, "coherent_interleave": 2}}
+# the renderer's options of each sampling of the noisy inputs (lift_gl/options.py)
+SAMPLINGS = {"independent": (),
+             "coherent": ("coherent_sampling=on", "coherent_interleave=1"),
+             "interleave2": ("coherent_sampling=on", "coherent_interleave=2")}
 F16_MAX = 60000.0  # stored as float16: clip the rare brighter pixel (an emitter seen directly)
 
 
@@ -50,9 +50,10 @@ def render_views(scene, size, spp_levels, ref_spp: int, seed: int, ctx=None, ref
                  sampling: str = "independent"):
     """Noisy radiance at each spp level (drawn by `sampling`, one of SAMPLINGS), albedo, normal
     and the reference radiance (float32 H x W x 3; None where ref_spp is 0)."""
+    from ...options import parse_options
     from ...renderer import Renderer
     r = Renderer(scene, size=size, integrator="pt", seed=2 * seed, samples_per_frame=1, ctx=ctx,
-                 params=dict(SAMPLINGS[sampling]))
+                 options=parse_options(SAMPLINGS[sampling]))
     finish = lambda renderer, done: None  # a progress callback: the renderer then waits for each frame
     try:
         noisy, done = [], 0

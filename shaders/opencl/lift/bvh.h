@@ -26,11 +26,7 @@ Ray make_ray(float3 origin, float3 dir, float tmin, float tmax) {
 // shaders/lift/bvh.glsl (which says why), with the same arithmetic: the axes permuted so that
 // z is the ray's largest, a shear that makes the ray run along +z from (0, 0), both folded
 // into two rows per ray, and 2D edge functions U, V, W that two triangles sharing an edge
-// compute as exact negations. LIFT_MOLLER_TRUMBORE: the old test; LIFT_WATERTIGHT_FP64: an
-// edge function of exactly 0 redone in double precision (where the device has it).
-#if defined(LIFT_WATERTIGHT_FP64) && defined(cl_khr_fp64)
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-#endif
+// compute as exact negations.
 
 typedef struct {
     float3 row_x, row_y;  // frame x = dot(row_x, p - origin): the axis after the ray's largest, sheared
@@ -64,26 +60,6 @@ bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint 
 #pragma OPENCL FP_CONTRACT OFF
     *bary = (float2)(0.0f);
     uint i = 3u * tri;
-#ifdef LIFT_MOLLER_TRUMBORE
-    float3 p0 = scene->tri_pos[i].xyz;
-    float3 e1 = scene->tri_pos[i + 1u].xyz - p0;
-    float3 e2 = scene->tri_pos[i + 2u].xyz - p0;
-    float3 pv = cross(ray.dir, e2);
-    float det = dot(e1, pv);
-    if (det == 0.0f) return false;
-    float inv_det = 1.0f / det;
-    float3 tv = ray.origin - p0;
-    float b1 = dot(tv, pv) * inv_det;
-    if (b1 < 0.0f || b1 > 1.0f) return false;
-    float3 qv = cross(tv, e1);
-    float b2 = dot(ray.dir, qv) * inv_det;
-    if (b2 < 0.0f || b1 + b2 > 1.0f) return false;
-    float th = dot(e2, qv) * inv_det;
-    if (!(th > ray.tmin && th < *t)) return false;  // a NaN th fails too
-    *t = th;
-    *bary = (float2)(b1, b2);
-    return true;
-#else
     float3 a = scene->tri_pos[i].xyz - ray.origin;
     float3 b = scene->tri_pos[i + 1u].xyz - ray.origin;
     float3 c = scene->tri_pos[i + 2u].xyz - ray.origin;
@@ -93,13 +69,6 @@ bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint 
     float u = cx * by - cy * bx;
     float v = ax * cy - ay * cx;
     float w = bx * ay - by * ax;
-#if defined(LIFT_WATERTIGHT_FP64) && defined(cl_khr_fp64)
-    if (u == 0.0f || v == 0.0f || w == 0.0f) {   // exactly 0: decide in double, products exact
-        u = (float)((double)cx * (double)by - (double)cy * (double)bx);
-        v = (float)((double)ax * (double)cy - (double)ay * (double)cx);
-        w = (float)((double)bx * (double)ay - (double)by * (double)ax);
-    }
-#endif
     if (!((u >= 0.0f && v >= 0.0f && w >= 0.0f) || (u <= 0.0f && v <= 0.0f && w <= 0.0f))) return false;
     float det = u + v + w;
     if (det == 0.0f) return false;
@@ -110,7 +79,6 @@ bool lift_intersect_triangle(const Scene* scene, Ray ray, LiftRayShear sh, uint 
     *t = th;
     *bary = (float2)(v, w) * inv_det;
     return true;
-#endif
 }
 
 // The test for one triangle (the host's gbuffer_hit, plugins), with its own ray shear.
