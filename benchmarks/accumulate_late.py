@@ -1,6 +1,6 @@
 """What the accumulation pass costs with paths carried into the next frame (issue 10; docs/gpu.md
 "Tenth session"): the pass alone at 1920x1080, timed by GL timer queries, as it is (`plain`),
-with the late samples of the frame's tag added (`late`, what $LIFT_GL_CARRY_PATHS=on runs), and,
+with the late samples of the frame's tag added (`late`, what the option carry_paths=on runs), and,
 as the first version did, with the late image added and cleared by a store of zeros
 (`late_clear`); then the renderer's own per-pass times over 32 frames without and with parking.
 
@@ -10,15 +10,14 @@ Needs a GPU (the queued megakernel, where paths can be carried). Measured on an 
 first version: 0.105 ms plain, 0.294 clearing, 0.111 reading the late image without clearing
 it: the store of zeros was what cost, hence the tag.
 """
-import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-os.environ["LIFT_GL_CARRY_PATHS"] = "on"
 
+from lift_gl.options import Options
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 from lift_gl import shaders
@@ -29,13 +28,13 @@ from lift_gl.report.bench import PassTimer
 
 if len(sys.argv) != 2:
     raise SystemExit(__doc__)
-r = Renderer(load_scene(sys.argv[1]), size=(1920, 1080), integrator="pt")
+r = Renderer(load_scene(sys.argv[1]), size=(1920, 1080), integrator="pt", options=Options(carry_paths="on"))
 clock = ClockReader(r.ctx.info.get("GL_RENDERER", ""))
 warm_up(lambda: (r.render(spp=8), r.ctx.finish()), clock)
 r.render(spp=4)
 acc, ctx = r.accumulate, r.ctx
 if getattr(r.trace, "carry", None) is None:
-    raise SystemExit("no paths to carry here: the pixel queue runs on GPUs ($LIFT_GL_PIXEL_QUEUE=on elsewhere)")
+    raise SystemExit("no paths to carry here: the pixel queue runs on GPUs (the option pixel_queue=on elsewhere)")
 late = r.trace.carry.late
 q = ctx.query(time=True)
 src = shaders.assemble(SOURCE, defines={"LIFT_LATE_SAMPLES": True}).text

@@ -1,5 +1,5 @@
 """Whether a GPU renders the same frames twice: pt rendered by two renderers with one seed, N
-frames each, without and with the pixel queue ($LIFT_GL_PIXEL_QUEUE), images compared bit for bit.
+frames each, without and with the pixel queue (the option pixel_queue), images compared bit for bit.
 
     python benchmarks/gpu_repeatable.py SCENE... [--size 1920x1080] [--frames 3]
 
@@ -10,7 +10,6 @@ up here as pixels that differ from run to run in frames after the first
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from pathlib import Path
 
@@ -23,11 +22,11 @@ from gpu import scene_name  # noqa: E402
 
 
 def render(path, size, frames, queue):
+    from lift_gl.options import Options
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
 
-    os.environ["LIFT_GL_PIXEL_QUEUE"] = queue
-    r = Renderer(load_scene(path), size=size, integrator="pt", seed=3)
+    r = Renderer(load_scene(path), size=size, integrator="pt", seed=3, options=Options(pixel_queue=queue))
     try:
         return r.render(spp=frames).astype(np.float64)
     finally:
