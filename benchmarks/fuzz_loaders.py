@@ -11,7 +11,7 @@ kept, and a new worker goes on with the remaining cases. Escaping inputs are sav
 --out (the first few of each kind and message). Prints a table, writes it with the escapes
 to --results (markdown and JSON), exits 1 if anything escaped.
 
-    nice -n 19 python benchmarks/fuzz_loaders.py [--cases 10000] [--seed 0] [--only NAME]
+    nice -n 19 python benchmarks/fuzz_loaders.py [--cases 10000] [--seed 0] [--only NAME] [--jobs 2]
     python benchmarks/fuzz_loaders.py --replay out/fuzz/FOLDER...   # saved inputs again
 """
 from __future__ import annotations
@@ -25,8 +25,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections import Counter
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -79,7 +81,12 @@ def worker(target_name: str, cases: int, seed: int, root: Path, out: Path) -> No
                 record["saved"] = str(save_case(case, out / f"{_slug(target_name)}-{seed}-{number[0]}", target))
         emit.write(json.dumps(record) + "\n")
 
-    run()
+    try:
+        run()
+    except Exception:  # noqa: BLE001 - the fuzzer's own failure (a strategy), not the loader's
+        import traceback
+        emit.write(json.dumps({"fuzzer_error": traceback.format_exc(limit=-3)[-600:]}) + "\n")
+        raise SystemExit(3)
     emit.write(json.dumps({"done": number[0]}) + "\n")
 
 
@@ -96,7 +103,8 @@ def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> di
     slowest = ""
     start = time.perf_counter()
     done, restarts = 0, 0
-    while done < cases:
+    fuzzer_errors: list[str] = []
+    while done < cases and len(fuzzer_errors) < 5:
         with tempfile.TemporaryDirectory(prefix="lift-gl-fuzz-") as tmp:
             root = Path(tmp) / "root"
             command = [sys.executable, __file__, "--worker", name, "--cases", str(cases - done),
@@ -116,15 +124,20 @@ def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> di
                     done += 1
                     break
                 line = proc.stdout.readline()
-                if not line:  # the worker died
+                if not line:  # the worker ended
                     proc.wait()
-                    if current is not None:
+                    if current is not None:  # during a case: the loader crashed it
                         _lost(current, "crash", f"the worker died (exit {proc.returncode})", name, root, out, seed,
                               restarts, counts, escapes)
                         done += 1
-                    elif not finished:
+                    elif not finished and not fuzzer_errors:
                         raise RuntimeError(f"the {name} worker failed to start (exit {proc.returncode})")
                     break
+                if line.startswith('{"fuzzer_error"'):
+                    fuzzer_errors.append(json.loads(line)["fuzzer_error"])
+                    print(f"{name}: the fuzzer's own error, a new worker goes on:\n{fuzzer_errors[-1]}",
+                          file=sys.stderr)
+                    continue
                 try:
                     record = json.loads(line)
                 except ValueError:
@@ -159,7 +172,7 @@ def fuzz_target(name: str, cases: int, seed: int, out: Path, stall: float) -> di
     return {"target": name, "cases": done, "loaded": counts["loaded"], "refused": counts["refused"],
             "refused_no_line": counts["refused, no line"], "escaped": counts["escaped"],
             "warned": warned, "numpy_warnings": numpy_warned, "max_cpu_s": round(cpu_max, 3), "slowest": slowest,
-            "seconds": round(time.perf_counter() - start, 1), "restarts": restarts,
+            "seconds": round(time.perf_counter() - start, 1), "restarts": restarts, "fuzzer_errors": fuzzer_errors,
             "escapes": sorted(escapes.values(), key=lambda e: -e["count"]),
             "signatures": {sig: e["count"] for sig, e in escapes.items()}}
 
@@ -238,6 +251,18 @@ def machine() -> dict:
             "uncommitted_loader_changes": bool(git("status", "--porcelain", "--", "lift_gl"))}
 
 
+def write_results(results: Path, command: str, where: dict, rows: list) -> None:
+    where = dict(where, load_average_end=os.getloadavg())
+    head = (f"`{command}` at commit {where['commit']}"
+            + (" (with uncommitted changes to lift_gl/)" if where["uncommitted_loader_changes"] else "")
+            + f"; {where['cpu']}, {where['cores']} cores, load {where['load_average'][0]:.1f} at the start "
+              f"and {where['load_average_end'][0]:.1f} at the end, Python {where['python']}")
+    results.parent.mkdir(parents=True, exist_ok=True)
+    results.with_suffix(".md").write_text(f"{head}\n\n{table(rows)}\n\nEscapes:\n\n{escapes_text(rows)}\n")
+    results.with_suffix(".json").write_text(json.dumps({"command": command, "machine": where, "rows": rows},
+                                                       indent=1) + "\n")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cases", type=int, default=10000, help="inputs per loader (default 10000)")
@@ -246,6 +271,7 @@ def main() -> int:
     parser.add_argument("--out", default="out/fuzz", help="where escaping inputs are saved")
     parser.add_argument("--results", default=str(RESULTS), help="results file, without extension (.md, .json)")
     parser.add_argument("--stall", type=float, default=120.0, help="seconds of silence that count as a hang")
+    parser.add_argument("--jobs", type=int, default=1, help="loaders fuzzed at once, a worker process each")
     parser.add_argument("--replay", nargs="+", metavar="FOLDER", help="run saved inputs again and print their outcomes")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--root", help=argparse.SUPPRESS)
@@ -260,25 +286,24 @@ def main() -> int:
 
     wanted = [w.strip().lower() for w in args.only.split(",")] if args.only else None
     where = machine()
-    rows = []
-    for target in TARGETS:
-        if wanted and not any(w in target.name.lower() for w in wanted):
-            continue
-        rows.append(fuzz_target(target.name, args.cases, args.seed, out, args.stall))
-    text = table(rows)
-    print(text)
-    print("\nEscapes:\n" + escapes_text(rows))
     results = Path(args.results)
-    results.parent.mkdir(parents=True, exist_ok=True)
-    command = "python benchmarks/fuzz_loaders.py " + " ".join(a for a in sys.argv[1:])
-    where["load_average_end"] = os.getloadavg()
-    head = (f"`{command.strip()}` at commit {where['commit']}"
-            + (" (with uncommitted changes to lift_gl/)" if where["uncommitted_loader_changes"] else "")
-            + f"; {where['cpu']}, {where['cores']} cores, load {where['load_average'][0]:.1f} at the start "
-              f"and {where['load_average_end'][0]:.1f} at the end, Python {where['python']}")
-    results.with_suffix(".md").write_text(f"{head}\n\n{text}\n\nEscapes:\n\n{escapes_text(rows)}\n")
-    results.with_suffix(".json").write_text(json.dumps({"command": command.strip(), "machine": where, "rows": rows},
-                                                       indent=1) + "\n")
+    command = ("python benchmarks/fuzz_loaders.py " + " ".join(sys.argv[1:])).strip()
+    names = [t.name for t in TARGETS if not wanted or any(w in t.name.lower() for w in wanted)]
+    done: dict[str, dict] = {}
+    lock = threading.Lock()
+
+    def run(name):
+        row = fuzz_target(name, args.cases, args.seed, out, args.stall)
+        with lock:  # after each loader: a long run's part survives
+            done[name] = row
+            write_results(results, command, where, [done[n] for n in names if n in done])
+
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        for future in [pool.submit(run, name) for name in names]:
+            future.result()
+    rows = [done[n] for n in names]
+    print(table(rows))
+    print("\nEscapes:\n" + escapes_text(rows))
     return 1 if any(r["escaped"] for r in rows) else 0
 
 

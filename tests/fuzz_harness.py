@@ -542,23 +542,30 @@ def check_reference(reference, path: Path) -> None:
         raise Escape("value", f"reference of shape {reference.image.shape}")
 
 
+def _strategy(name: str) -> Callable[[], object]:
+    """fuzz_strategies.NAME, imported when first asked for (that module imports this one)."""
+    def strategy():
+        import fuzz_strategies
+        return getattr(fuzz_strategies, name)()
+    return strategy
+
+
 def _targets() -> list[Target]:
-    import fuzz_strategies as fs
     stress_meshes = sorted((SCENES / "stress").glob("*.ply"))
     return [
-        Target("TOML scene", "scene.toml", load_scene_file, check_scene, fs.toml_scenes,
+        Target("TOML scene", "scene.toml", load_scene_file, check_scene, _strategy("toml_scenes"),
                siblings=stress_meshes),
-        Target("pbrt scene", "scene.pbrt", load_scene_file, check_scene, fs.pbrt_scenes,
+        Target("pbrt scene", "scene.pbrt", load_scene_file, check_scene, _strategy("pbrt_scenes"),
                siblings=sorted(FUZZ_DATA.glob("*.pbrt")) + sorted(FUZZ_DATA.glob("*.ply"))),
-        Target("Mitsuba XML scene", "scene.xml", load_scene_file, check_scene, fs.mitsuba_scenes),
-        Target("glTF scene", "scene.gltf", load_scene_file, check_scene, fs.gltf_scenes),  # and .glb
-        Target("OBJ mesh", "mesh.obj", load_scene_file, check_scene, fs.obj_meshes),
-        Target("PLY mesh", "mesh.ply", load_scene_file, check_scene, fs.ply_meshes),
-        Target("texture image", "scene.toml", load_scene_file, check_scene, fs.texture_cases),
-        Target("environment map", "scene.toml", load_scene_file, check_scene, fs.environment_cases),
-        Target("reference image", "reference.exr", load_reference_image, check_reference, fs.reference_cases),
-        Target("camera path", "path.toml", load_camera_path_file, check_camera_path, fs.camera_paths),
-        Target("plugin manifest", "plugin.toml", load_plugin, check_plugin, fs.plugin_manifests),
+        Target("Mitsuba XML scene", "scene.xml", load_scene_file, check_scene, _strategy("mitsuba_scenes")),
+        Target("glTF scene", "scene.gltf", load_scene_file, check_scene, _strategy("gltf_scenes")),  # and .glb
+        Target("OBJ mesh", "mesh.obj", load_scene_file, check_scene, _strategy("obj_meshes")),
+        Target("PLY mesh", "mesh.ply", load_scene_file, check_scene, _strategy("ply_meshes")),
+        Target("texture image", "scene.toml", load_scene_file, check_scene, _strategy("texture_cases")),
+        Target("environment map", "scene.toml", load_scene_file, check_scene, _strategy("environment_cases")),
+        Target("reference image", "reference.exr", load_reference_image, check_reference, _strategy("reference_cases")),
+        Target("camera path", "path.toml", load_camera_path_file, check_camera_path, _strategy("camera_paths")),
+        Target("plugin manifest", "plugin.toml", load_plugin, check_plugin, _strategy("plugin_manifests")),
     ]
 
 

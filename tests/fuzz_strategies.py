@@ -605,8 +605,9 @@ def ply_text(draw):
         count = len(face) if broken != "negative" else -1
         try:
             body += struct.pack(end + ctype, count) + b"".join(struct.pack(end + itype, i) for i in face)
-        except struct.error:
-            body += struct.pack(end + ctype, min(len(face), 255)) + b"\xff" * 4 * len(face)
+        except struct.error:  # an index or a count its type cannot hold: bytes that say as much
+            limit = {"B": 255, "b": 127, "H": 65535, "i": 2 ** 31 - 1}[ctype]
+            body += struct.pack(end + ctype, min(len(face), limit)) + b"\xff" * 4 * len(face)
     return head + body, broken
 
 
