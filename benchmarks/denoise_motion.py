@@ -41,10 +41,11 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from temporal_pan import mean_change, references, run_pan  # noqa: E402  (the pan and its references)
 
 from lift_gl import load_scene  # noqa: E402
+from lift_gl.frame_settings import DenoiseSettings, TemporalSettings  # noqa: E402
 from lift_gl.gl.context import create_context, describe  # noqa: E402
 from lift_gl.metrics import rel_mse, ssim  # noqa: E402
 
-TEMPORAL = {"reproject": dict(temporal="reproject", min_blend=0.1),
+TEMPORAL = {"reproject": dict(temporal=TemporalSettings("reproject", min_blend=0.1)),
             "reset": dict(temporal="reset", reseed=True)}
 
 
@@ -65,9 +66,8 @@ def evaluate(images, refs) -> dict:
 def settings_for(temporal: str, denoiser: str) -> dict:
     settings = dict(TEMPORAL[temporal])
     if denoiser != "none":
-        settings.update(denoise="every", denoiser=denoiser)
-        if denoiser == "onnx":
-            settings["denoiser_options"] = {"providers": ["CPUExecutionProvider"]}
+        options = {"providers": ["CPUExecutionProvider"]} if denoiser == "onnx" else {}
+        settings["denoise"] = DenoiseSettings("every", denoiser, options)
     return settings
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from lift_gl import metrics
+from lift_gl.frame_settings import DenoiseSettings
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 from lift_gl.tonemap import to_srgb8
@@ -71,7 +72,7 @@ def main() -> None:
     except ImportError:
         print("pyoidn is not installed: no OIDN column")
     else:
-        oidn = Renderer(scene, size=size, seed=1, denoise="final", denoiser="oidn")
+        oidn = Renderer(scene, size=size, seed=1, denoise=DenoiseSettings("final", "oidn"))
         image = oidn.render(spp=args.spp)
         columns.append(("OIDN on it", caption(image), image))
         oidn.release()

@@ -91,17 +91,17 @@ def timed_run(renderer, frames: int, wait_every: int, clock: ClockReader) -> dic
 
 
 def timed_renders(renderer, seconds: float, rounds: int) -> list[dict]:
-    """render(seconds=...) as it queues frames between waits (Renderer._frames_between_waits)
+    """render(seconds=...) as it queues frames between waits (lift_gl/gpu_waits.py)
     and with a wait after every frame (TIMED_WAIT_FRACTION 0, what it did before), interleaved:
     the frames each gets done in the same time."""
-    import lift_gl.renderer as renderer_module
+    import lift_gl.gpu_waits as gpu_waits
 
-    fraction = renderer_module.TIMED_WAIT_FRACTION
+    fraction = gpu_waits.TIMED_WAIT_FRACTION
     out = []
     try:
         for r in range(rounds):
             for way in (("queued", "each frame") if r % 2 == 0 else ("each frame", "queued")):
-                renderer_module.TIMED_WAIT_FRACTION = fraction if way == "queued" else 0.0
+                gpu_waits.TIMED_WAIT_FRACTION = fraction if way == "queued" else 0.0
                 renderer.reset()
                 renderer.render(seconds=seconds)
                 stats = renderer.stats
@@ -110,7 +110,7 @@ def timed_renders(renderer, seconds: float, rounds: int) -> list[dict]:
                 print(f"timed render, {way:>10}: {stats.frames} frames in {stats.render_seconds:.3f} s "
                       f"({out[-1]['ms_per_frame']:.3f} ms a frame)", flush=True)
     finally:
-        renderer_module.TIMED_WAIT_FRACTION = fraction
+        gpu_waits.TIMED_WAIT_FRACTION = fraction
     return out
 
 

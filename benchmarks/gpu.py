@@ -641,7 +641,7 @@ def measure(args) -> int:
                     runs[v, k]["results"].append(case)
                     save()
                     print(f"{name} {size[0]}x{size[1]} {integrator}{tag}: {case['frame_ms']:.2f} ms/frame "
-                          f"(carry {case.get('carry')} {case.get('carry_tuned_ms')}); passes "
+                          f"(carry {case.get('carry')}); passes "
                           "(query) " + ", ".join(f"{k_} {x:.3f}" for k_, x in case["pass_ms_query"].items())
                           + _clock_text(case), flush=True)
     save()

@@ -44,8 +44,8 @@ cost), groups8/16/24 trace with node-group stack entries (LIFT_BVH_GROUP_STACK) 
 Twelfth session (docs/gpu.md): occ_NAME is variant NAME with the occupancy probe of
 benchmarks/gpu_occupancy.py (NVIDIA only; the JSON's `occupancy`: the warps an SM held; the
 probe's atomics make its time meaningless); maxreg64/96 add NVIDIA's register pragma (ignored);
-with $LIFT_GL_CARRY_PATHS=on the base has the carry code and nocarry, slim_nocarry,
-carry_nostores, carry_nopark, carry_noresume take it or its parts out; queue_order_long_first,
+with --option carry_paths=on the base has the carry code and nocarry,
+carry_nostores, carry_nopark take it or its parts out; queue_order_long_first,
 _short_first and _identity hand out the pixel queue's tiles in an order computed from the
 G-buffer's albedo (tile_orders).
 
@@ -293,7 +293,10 @@ def _counting(text: str, edits) -> str:
     code put after it)); splats are off so nothing else lands in the frame, and pixels are not
     taken from a queue (a lane's counts would run on over its pixels)."""
     text = undefine("LIFT_PIXEL_QUEUE")(text)
-    text = _sub(text, "#line 200001\n", "float diag_r = 0.0, diag_g = 0.0, diag_b = 0.0;\n#line 200001\n")
+    # declared where the library starts, after its #extension if it has one (GLSL takes none later)
+    extension = "#extension GL_NV_shader_atomic_float : require\n#endif\n"   # lift/host.glsl's, in an #if
+    anchor = extension if extension in text else "#line 200001\n"
+    text = _sub(text, anchor, anchor + "float diag_r = 0.0, diag_g = 0.0, diag_b = 0.0;\n")
     text = _sub(text, "imageStore(u_frame_out, pixel, vec4(sum, valid));",
                 "imageStore(u_frame_out, pixel, vec4(diag_r, diag_g, diag_b, valid));", 0)
     if "void splat(vec2 pixel_pos, vec3 value) {" in text:
@@ -433,26 +436,6 @@ def regen_primary(text: str) -> str:
                 "            path = path_start(again, gbuffer_hit(pixel, again));\n            continue;")
 
 
-def sum_shared(text: str) -> str:
-    """The queued megakernel's per-pixel sum and sample count in shared memory (16 bytes an
-    invocation) instead of registers live across every traversal. The same image."""
-    n = _group_invocations(text)
-    text = _sub(text, "void lift_trace_pixel_queue() {",
-                f"shared vec4 lift_pixel_sums[{n}];\nvoid lift_trace_pixel_queue() {{")
-    text = _sub(text, "    vec3 sum = vec3(0.0);\n    float valid = 0.0;\n    bool busy = false;",
-                "    bool busy = false;")
-    text = _sub(text, "            sum = vec3(0.0);\n            valid = 0.0;\n",
-                "            lift_pixel_sums[gl_LocalInvocationIndex] = vec4(0.0);\n")
-    text = _sub(text, "        lift_add_sample(path_radiance(path), sum, valid);\n        ++s;\n        if (s < u_samples) {",
-                "        {\n            vec4 acc = lift_pixel_sums[gl_LocalInvocationIndex];\n            vec3 sum = acc.xyz;\n"
-                "            float valid = acc.w;\n            lift_add_sample(path_radiance(path), sum, valid);\n"
-                "            lift_pixel_sums[gl_LocalInvocationIndex] = vec4(sum, valid);\n        }\n        ++s;\n        if (s < u_samples) {")
-    text = text.replace("    if (busy) imageStore(u_frame_out, pixel, vec4(sum, valid));",   # LIFT_LOOP_LIMITED's
-                        "    if (busy) imageStore(u_frame_out, pixel, lift_pixel_sums[gl_LocalInvocationIndex]);")
-    return _sub(text, "        imageStore(u_frame_out, pixel, vec4(sum, valid));\n        busy = false;",
-                "        imageStore(u_frame_out, pixel, lift_pixel_sums[gl_LocalInvocationIndex]);\n        busy = false;")
-
-
 def pending_shared(text: str) -> str:
     """pt: what a vertex's light sample adds if its shadow ray is unblocked, kept in shared
     memory across the traversal instead of three registers. The same image."""
@@ -478,7 +461,7 @@ def drop_at_end(text: str) -> str:
 
 
 # Coherent sampling (thirteenth session): `coherent_tiles` is pt's parameter `coherent_sampling` on
-# (lift_gl/passes/common.py coherent_sampling_source: a tile's pixels draw the same random numbers);
+# (shaders/lift/host_tiles.glsl: a tile's pixels draw the same random numbers);
 # coherent_parts shares only some of a vertex's numbers.
 def fixed_tiles(text: str) -> str:
     """Coherent sampling's tiles in the image's grid in every frame (its first version: the
@@ -599,8 +582,8 @@ def occupancy(edit=None):
         text = edit(text) if edit else text
         enter, leave, decl = occupancy_probe()
         text = _after_version(text, "#extension GL_NV_shader_thread_group : require")
-        text = _sub(text, "void lift_report_invocation() {", decl + "void lift_report_invocation() {\n" + leave)
-        return _sub(text, "void main() {", "void main() {\n" + enter)
+        text = _sub(text, "void lift_report_invocation() {", "void lift_report_invocation() {\n" + leave)
+        return _sub(text, "void main() {", decl + "void main() {\n" + enter)
     probed.local = getattr(edit, "local", None)
     return probed
 
@@ -613,7 +596,7 @@ def variant(name: str):
     return VARIANTS[name]
 
 
-# What of the carry code (LIFT_CARRY_PATHS, with $LIFT_GL_CARRY_PATHS on) costs a frame that
+# What of the carry code (LIFT_CARRY_PATHS, with --option carry_paths=on) costs a frame that
 # parks nothing: each edit takes one part out (not exact where that part would run).
 def carry_no_extra_stores(text: str) -> str:
     """The carry code without its image stores besides the pixel's usual one: the parked
@@ -627,13 +610,6 @@ def carry_no_park(text: str) -> str:
     """The carry code without its park block."""
     start = text.index("            if (u_park != 0u && !late && LIFT_QUEUE_RAN_OUT) {")
     end = text.index("#endif\n            continue;", start)
-    return text[:start] + text[end:]
-
-
-def carry_no_resume(text: str) -> str:
-    """The carry code without its resume block."""
-    start = text.index("        if (!busy) {\n            uint side = 1u - u_carry_side;")
-    end = text.index("#endif\n        if (!busy) {\n            late = false;", start)
     return text[:start] + text[end:]
 
 
@@ -719,9 +695,7 @@ VARIANTS = {
     "queue_sm": (queue_per_sm, {}, True),
     "queue_morton": (queue_morton, {}, True),
     "regen_primary": (regen_primary, {}, True),
-    "sum_shared": (sum_shared, {}, True),
     "pending_shared": (pending_shared, {}, True),
-    "slim": (compose(regen_primary, sum_shared, pending_shared), {}, True),
     "drop_at_end": (drop_at_end, {}, False),
     "coherent_tiles": (define("LIFT_COHERENT_SAMPLING"), {}, False),
     "coherent_fixed": (compose(define("LIFT_COHERENT_SAMPLING"), fixed_tiles), {}, False),
@@ -743,12 +717,9 @@ VARIANTS = {
     "queue_order_long_first": (queue_tile_order, {}, True),
     "queue_order_short_first": (queue_tile_order, {}, True),
     "queue_order_identity": (queue_tile_order, {}, True),
-    "nocarry": (undefine("LIFT_CARRY_PATHS"), {}, True),   # with $LIFT_GL_CARRY_PATHS on: its code's cost
+    "nocarry": (undefine("LIFT_CARRY_PATHS"), {}, True),   # with --option carry_paths=on: its code's cost
     "carry_nostores": (carry_no_extra_stores, {}, True),
     "carry_nopark": (carry_no_park, {}, True),
-    "carry_noresume": (carry_no_resume, {}, True),
-    "carry_noresume_nopark": (compose(carry_no_resume, carry_no_park), {}, True),
-    "slim_nocarry": (compose(undefine("LIFT_CARRY_PATHS"), regen_primary, sum_shared, pending_shared), {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
     # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
     "nounroll": (pragma("unroll none"), {}, True),
@@ -889,6 +860,7 @@ def binary_summary(blob: bytes | None) -> dict:
 # ---- the measurement ----
 
 def trace_uniforms(renderer) -> dict:
+    from lift_gl.frame import compiled_pixel_filter
     from lift_gl.passes.camera import frame_jitter
     from lift_gl.passes.pixel_filter import filter_uniforms
     from lift_gl.passes.trace import param_uniforms
@@ -898,7 +870,7 @@ def trace_uniforms(renderer) -> dict:
     return dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
                 u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
                 u_jitter=frame_jitter(7, renderer.seed),
-                **filter_uniforms(renderer._compiled_pixel_filter(), renderer.scene.film_size, renderer.size))
+                **filter_uniforms(compiled_pixel_filter(renderer), renderer.scene.film_size, renderer.size))
 
 
 def camera_source(renderer):

@@ -111,7 +111,6 @@ def measure(path: str, size, reps: int, backend: str = "auto") -> dict | None:
     from lift_gl.gl.context import is_software
     from lift_gl.passes.camera import camera_uniforms
     from lift_gl.passes.common import set_uniforms
-    from lift_gl.passes.trace import trace_layout
     from lift_gl.renderer import Renderer
     from lift_gl.scene.loader import load_scene
     from lift_gl.shaders import assemble, compile_compute
@@ -128,7 +127,7 @@ def measure(path: str, size, reps: int, backend: str = "auto") -> dict | None:
         plain, local = gpu_bench.ray_program(ctx, defines)
         # the queued program in the same shape and stack placement as ray_program's
         queued_defines = dict(defines, LIFT_RAY_LOCAL_X=local[0], LIFT_RAY_LOCAL_Y=local[1])
-        if trace_layout(ctx)[1]:
+        if r.choices["bvh_stack"] == "shared":
             queued_defines["LIFT_BVH_SHARED_STACK"] = local[0] * local[1]
         queued = compile_compute(ctx, assemble(queued_source(), queued_defines, main_name="<queued bounce rays>"))
         w, h = size

@@ -19,6 +19,7 @@ import statistics
 import time
 from pathlib import Path
 
+from lift_gl.frame_settings import DenoiseSettings
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 
@@ -34,7 +35,7 @@ def timed(ctx, fn) -> float:
 
 
 def measure(size, repeat: int) -> dict:
-    r = Renderer(load_scene(SCENE), size=size, seed=1, denoise="final", denoiser="glsl")
+    r = Renderer(load_scene(SCENE), size=size, seed=1, denoise=DenoiseSettings("final", "glsl"))
     try:
         r.render(spp=1, final=False)
         gbuffer = r._guides()

@@ -34,14 +34,15 @@ import numpy as np
 from lift_gl import load_scene
 from lift_gl.gl.context import create_context, describe
 from lift_gl.metrics import rel_mse, ssim
+from lift_gl.frame_settings import TemporalSettings
 from lift_gl.renderer import Renderer
 
 ROOT = Path(__file__).resolve().parent.parent
 VARIANTS = {"reset": dict(temporal="reset"),
             "reset_reseeded": dict(temporal="reset", reseed=True),
-            "reproject": dict(temporal="reproject", min_blend=0.1),
-            "reproject_b0.2": dict(temporal="reproject", min_blend=0.2),
-            "clamp": dict(temporal="reproject", min_blend=0.1, clamp_sigma=1.0)}
+            "reproject": dict(temporal=TemporalSettings("reproject", min_blend=0.1)),
+            "reproject_b0.2": dict(temporal=TemporalSettings("reproject", min_blend=0.2)),
+            "clamp": dict(temporal=TemporalSettings("reproject", min_blend=0.1, clamp_sigma=1.0))}
 
 
 def pan_camera(camera, frame: int, step: float):
@@ -117,7 +118,7 @@ def ghosting(steps: int = 12) -> dict:
     out = {}
     for name, settings in {"min_blend 0.1": dict(min_blend=0.1), "min_blend 0.2": dict(min_blend=0.2),
                            "min_blend 0.1 + clamp": dict(min_blend=0.1, clamp_sigma=1.0)}.items():
-        r = Renderer(scene, size=scene.film_size, seed=3, temporal="reproject", **settings)
+        r = Renderer(scene, size=scene.film_size, seed=3, temporal=TemporalSettings("reproject", **settings))
         r.render(spp=16)
         was_ball = r.image()[..., 0] > 0.6
         interior, ring = [], []

@@ -79,6 +79,7 @@ def _add_render(sub):
 
 
 def cmd_render(args) -> int:
+    from .frame_settings import DenoiseSettings, TemporalSettings
     from .image_checks import check_render
     from .image_io import write_image, write_srgb8
     from .render_record import write_render_record
@@ -112,8 +113,8 @@ def cmd_render(args) -> int:
     renderer = Renderer(scene, size=args.size, integrator=args.integrator, backend=args.backend, seed=args.seed,
                         params=_settings(args.set, args.integrator), plugin_dirs=args.plugins,
                         features=SceneFeatures.everything() if args.all_features else None,
-                        temporal=temporal, clamp_sigma=args.clamp_sigma,
-                        denoise=args.denoise, denoiser=args.denoiser, options=options.from_args(args), **extra)
+                        temporal=TemporalSettings(temporal, clamp_sigma=args.clamp_sigma, **extra),
+                        denoise=DenoiseSettings(args.denoise, args.denoiser), options=options.from_args(args))
     if args.explain:
         print(renderer.explain())
         if args.out is None:

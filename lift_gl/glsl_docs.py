@@ -6,7 +6,8 @@ Each file of shaders/lift/ gets a section (its header comment), and each public 
 in it an entry: its signature and the comment written directly above it, the #if it is
 compiled under, its struct fields. Names beginning with lift_, Lift or LIFT_ are the library's
 internals, u_* uniforms and the buffers are the host's, HAS_* are the host's feature switches:
-those are left out. The path-step contract (LIFT_PATH_STEPS) is documented from
+those are left out, and so are the files of lift/accel/ (the acceleration structures behind
+lift/trace.glsl). The path-step contract (LIFT_PATH_STEPS) is documented from
 plugins/pt/pt.glsl, the plugin that defines it. tests/test_glsl_docs.py checks that the page
 in docs/ is what this makes now.
 """
@@ -22,8 +23,9 @@ REPO_ROOT = LIBRARY_DIR.parent.parent
 PATH_STEPS_FILE = REPO_ROOT / "plugins" / "pt" / "pt.glsl"
 PATH_STEPS_NAMES = ("LIFT_PATH_STEPS", "PathState", "path_start", "path_step", "path_radiance")
 INTERNAL_PREFIXES = ("lift_", "Lift", "LIFT_", "u_", "HAS_")
+INTERNAL_DIRS = ("accel",)   # folders of shaders/lift/ whose files are the library's internals
 # The files a plugin uses most come first; the others follow in alphabetical order.
-READING_ORDER = ("surface", "textures", "bsdf", "lights", "bvh", "rng", "sampling", "frame", "camera",
+READING_ORDER = ("surface", "textures", "bsdf", "lights", "trace", "rng", "sampling", "frame", "camera",
                  "scene_data", "fresnel", "microfacet", "emission", "camera_importance", "splat")
 KINDS = {"function", "prototype", "struct", "define", "constant", "variable"}
 
@@ -32,12 +34,19 @@ def public(decl: Declaration) -> bool:
     return decl.kind in KINDS and not decl.name.startswith(INTERNAL_PREFIXES)
 
 
+def documented(f: LibraryFile) -> bool:
+    """Whether a library file is on the page: not one of the internals' folders (lift/accel/)."""
+    return f.path.parent.name not in INTERNAL_DIRS and any(public(d) for d in f.declarations)
+
+
 def _markdown(comment: str) -> str:
     """A comment as Markdown: lines that go on a sentence join into paragraphs; indented
-    lines (tables, formulas, lists in the comment) keep their layout in a code block."""
+    lines (tables, formulas, lists in the comment) keep their layout in a code block; lines
+    that begin with `|` are a Markdown table (a file's table of its calls)."""
     out: list[str] = []
     paragraph: list[str] = []
     block: list[str] = []
+    table: list[str] = []
 
     def flush():
         if paragraph:
@@ -48,6 +57,13 @@ def _markdown(comment: str) -> str:
             block.clear()
 
     for line in comment.splitlines():
+        if line.startswith("|"):
+            flush()
+            table.append(line)
+            continue
+        if table:
+            out.append("\n".join(table))
+            table.clear()
         if not line.strip():
             flush()
         elif line.startswith("  ") or (block and line.startswith(" ")):
@@ -59,6 +75,8 @@ def _markdown(comment: str) -> str:
                 flush()
             paragraph.append(line.strip())
     flush()
+    if table:
+        out.append("\n".join(table))
     return "\n\n".join(out)
 
 
@@ -198,7 +216,7 @@ def generate() -> str:
     host = next((f for f in files if f.path.stem == "host"), None)
     sections, index = [], []
     for f in _ordered(files):
-        if not any(public(d) for d in f.declarations):
+        if not documented(f):
             continue
         text, entries = _file_section(f)
         sections.append(text)
@@ -226,7 +244,8 @@ def generate() -> str:
              "Conventions: world space unless a name or comment says *local* or *shading frame* (z is the "
              "shading normal; `wo` and `wi` both point away from the surface); radiance is linear RGB; "
              "a `pdf` is a solid-angle density unless it says area. Names beginning with `lift_` or `LIFT_`, "
-             "uniforms `u_*` and the buffers are the host's and the library's internals, and are not listed.")
+             "uniforms `u_*` and the buffers are the host's and the library's internals, and are not listed; "
+             "nor are the acceleration structures behind `lift/trace.glsl` (`shaders/lift/accel/`).")
     if host is not None and host.header:
         header = re.sub(r"^lift/host\.glsl:\s*", "", host.header)
         intro += "\n\n" + _markdown(header[:1].upper() + header[1:])
@@ -236,7 +255,7 @@ def generate() -> str:
 
 def documented_names() -> set[str]:
     """Every name the page documents."""
-    names = {d.name for f in library() for d in f.declarations if public(d)}
+    names = {d.name for f in library() if documented(f) for d in f.declarations if public(d)}
     return names | set(PATH_STEPS_NAMES)
 
 

@@ -52,7 +52,10 @@ class Declaration:
 
     @property
     def where(self) -> str:
-        return f"{self.path.name}:{self.line}"
+        """file:line, the file relative to the library's folder (accel/bvh4.glsl)."""
+        path = Path(self.path)
+        inside = LIBRARY_DIR in path.parents
+        return f"{path.relative_to(LIBRARY_DIR).as_posix() if inside else path.name}:{self.line}"
 
 
 @dataclass
@@ -320,11 +323,11 @@ def _fields(body_lines) -> list[Field]:
 
 @functools.lru_cache(maxsize=4)
 def _library(directory: str) -> tuple[LibraryFile, ...]:
-    return tuple(parse_file(p) for p in sorted(Path(directory).glob("*.glsl")))
+    return tuple(parse_file(p) for p in sorted(Path(directory).rglob("*.glsl")))   # lift/accel/ too
 
 
 def library(directory: Path = LIBRARY_DIR) -> tuple[LibraryFile, ...]:
-    """Every file of the library, parsed (read once a process)."""
+    """Every file of the library, its subfolders' (lift/accel/) too, parsed (read once a process)."""
     return _library(str(directory))
 
 

@@ -65,8 +65,8 @@ barrier memoryBarrier memoryBarrierAtomicCounter memoryBarrierBuffer memoryBarri
 memoryBarrierImage groupMemoryBarrier
 """.split())
 
-# What the host's generated main() declares besides the library: the plugin's entry points,
-# and its uniforms and helpers (u_frame, u_seed, lift_sample_rng, ...: lift_gl/passes/trace.py).
+# What the host's program declares besides the library: the plugin's entry points, and its
+# uniforms and helpers (u_frame, u_seed, lift_sample_rng, ...: shaders/lift/host_main.comp).
 # Defines of these prefixes are the host's feature switches (HAS_SPHERES, LIFT_PIXEL_QUEUE, ...),
 # and GLSL reserves gl_ and GL_.
 HOST_NAMES = frozenset({"main", "radiance"})

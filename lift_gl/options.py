@@ -61,10 +61,10 @@ class Options:
     pixel_queue: str = _option(AUTO, ON_OFF,
                                "a plugin that writes its paths as steps (pt) takes its next pixel from a queue as "
                                "its paths end (auto: on GPUs)")
-    carry_paths: str = _option(AUTO, ("on", "off", "faster", "always"),
+    carry_paths: str = _option(AUTO, ("on", "off", "always"),
                                "with the pixel queue, paths still under way when it runs out go on in the next "
-                               "frame; faster: timed both ways on a render's first frames; always: every path "
-                               "parks after its first vertex (tests) (auto: faster on GPUs, off on CPU rasterizers)")
+                               "frame; always: every path parks after its first vertex (tests) (auto: on GPUs for "
+                               "trees of 16 levels or more without coherent sampling, else off)")
     gbuffer: str = _option(AUTO, ("raster", "traced"),
                            "the G-buffer rasterized, or ray cast, one camera ray a pixel (auto: traced on GPUs "
                            "with few raster units: H100, H200, A100, ...; temporal reprojection rasterizes)")
@@ -231,6 +231,12 @@ GROUP_STACK_FROM = 32
 # One loop for a vertex's two rays: 1.11x (classroom, 16 levels), 1.04x (dining room, 18),
 # 0.92x (cornell-box, 4 levels) with the pixel queue on an H100; 5% slower on llvmpipe.
 PAIRED_FROM_LEVELS = 8
+# Carried paths, pt's frame on an H100 at 1080p against not carrying (pt's roulette / Lift's;
+# benchmarks/results/gpu/pt_h100.json): dining room (17 levels) 1.02x / 1.12x, classroom (16)
+# 1.00x / 1.02x; Covered Dragon (15) 0.87x / 0.89x, cornell-box (3) 0.85x / 0.93x, where the carry
+# code costs more than the tail of long paths it saves (on the dragon a step of occupancy). With
+# coherent sampling 0.39-0.96x in 7 cases of these 8 (coherent_h100.json).
+CARRY_FROM_LEVELS = 16
 # GPUs whose graphics units are few (NVIDIA's data-centre parts): an H100 rasterized the
 # 36-triangle cornell-box at 1080p in 2.8 ms, a camera ray a pixel takes a fraction of that.
 RASTER_POOR_GPUS = ("h100", "h200", "h800", "gh200", "a100", "a800")
@@ -324,12 +330,7 @@ def resolve(options: Options, device: Device, work: Workload = Workload()) -> Re
     gbuffer_stack = o.bvh_stack if o.bvh_stack != AUTO else ("local" if device.software else "shared")
     c["bvh_stack_entries"] = _stack_entries(o.bvh_stack_entries, device, work, wide)
     c["trace_paired"] = _paired(o.trace_paired, device, work, wide)
-    carry = _auto(o.carry_paths, device, "faster", "off",
-                  "carrying paths speeds some scenes' frames up and slows others': timed on the first frames",
-                  "on CPU rasterizers lanes rarely see the queue run out")
-    if not queued and carry.value != "off":
-        carry = Choice(o.carry_paths, "off", "only the queued megakernel carries paths")
-    c["carry_paths"] = carry
+    c["carry_paths"] = _carry(o.carry_paths, device, work, queued, o.coherent_sampling == "on")
     c["gbuffer"] = _gbuffer(o.gbuffer, device, work)
     c["uniform_blocks"] = _auto(o.uniform_blocks, device, "off", "on", "GPUs read storage buffers as fast",
                                 "llvmpipe reads uniform blocks faster than storage buffers")
@@ -402,6 +403,26 @@ def _paired(asked: str, device: Device, work: Workload, wide: bool) -> Choice:
     if tree.levels >= PAIRED_FROM_LEVELS:
         return Choice(asked, "on", f"the tree has {tree.levels} levels (from {PAIRED_FROM_LEVELS} the one loop pays)")
     return Choice(asked, "off", f"the tree has {tree.levels} levels: short traversals, the loop's setup costs more")
+
+
+def _carry(asked: str, device: Device, work: Workload, queued: bool, coherent: bool) -> Choice:
+    if not queued:
+        return Choice(asked, "off", "" if asked == "off" else "only the pixel queue's loop carries paths")
+    if asked != AUTO:
+        return Choice(asked, asked)
+    if device.software:
+        return Choice(asked, "off", "on CPU rasterizers lanes rarely see the queue run out")
+    if coherent:
+        return Choice(asked, "off", "with coherent sampling the carry code cost more than it saved")
+    tree = work.tree
+    if tree is None:
+        return Choice(asked, "off", "the tree is not built yet")
+    if tree.width == 2:
+        return Choice(asked, "off", "measured faster on 4-wide trees only")
+    if tree.levels >= CARRY_FROM_LEVELS:
+        return Choice(asked, "on", f"the tree has {tree.levels} levels (from {CARRY_FROM_LEVELS} the frame's tail of "
+                                   f"long paths is worth carrying)")
+    return Choice(asked, "off", f"the tree has {tree.levels} levels: the carry code costs more than the tail it saves")
 
 
 def _gbuffer(asked: str, device: Device, work: Workload) -> Choice:

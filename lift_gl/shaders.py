@@ -14,7 +14,8 @@ from pathlib import Path
 
 import moderngl
 
-from .errors import ShaderError
+from .bindings import binding_defines
+from .errors import ShaderError, read_utf8
 from .glsl_arrays import check_array_sizes
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -71,7 +72,8 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
     allowed = [d.resolve() for d in include_dirs] + [LIBRARY_DIR]  # for files outside SHADER_DIR
     src = ShaderSource(text="")
     open_files: list[Path] = []  # the include chain being expanded, to catch cycles
-    out: list[str] = [GLSL_VERSION, _defines_block(defines)]
+    # every program gets the buffer binding points (lift_gl/bindings.py) as LIFT_BINDING_<NAME>
+    out: list[str] = [GLSL_VERSION, _defines_block({**binding_defines(), **(defines or {})})]
 
     def add_file(text: str, path: Path):
         if path not in src.files:
@@ -99,14 +101,14 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
                 raise ShaderError(f'#include "{m.group(1)}" includes itself (through '
                                   f'{" -> ".join(p.name for p in open_files)})', path, lineno)
             open_files.append(target)
-            add_file(target.read_text(), target)
+            add_file(read_utf8(target, ShaderError), target)
             open_files.pop()
             out.append(f"#line {number * LINE_BLOCK + lineno + 1}")
 
     if isinstance(main, Path):
         allowed.append(main.resolve().parent)
         open_files.append(main.resolve())
-        add_file(main.read_text(), main.resolve())
+        add_file(read_utf8(main, ShaderError), main.resolve())
     else:
         add_file(main, Path(main_name))
     src.text = "\n".join(out) + "\n"

@@ -56,22 +56,6 @@ def test_bench_case_reports_passes_and_rates():
     assert result["dropped_samples"] == 0
 
 
-def test_bench_case_makes_the_carry_choice_before_its_timed_frames(monkeypatch):
-    """On GPUs the trace pass times the megakernel with and without the carry code on a render
-    long enough (passes/carry.py); bench's frames must start after that choice, which its
-    warm-up renders (16 frames) are too short to start."""
-    from lift_gl.passes import trace
-
-    from lift_gl.options import Options
-
-    monkeypatch.setattr(trace, "TUNING_DELAY_S", 0.0)
-    result = bench_case(sphere_filling_the_view(), (16, 16), frames=3, repeat=1,
-                        options=Options(pixel_queue="on", carry_paths="faster"))
-    assert set(result["carry_tuned_ms"]) == {"carry", "plain"}
-    assert isinstance(result["carry"], bool)
-    assert result["options"]["carry_paths"] == {"value": "faster", "asked": "faster"}
-
-
 def test_bench_command_writes_json_and_table(capsys, tmp_path):
     out = tmp_path / "bench.json"
     scene = REPO / "scenes" / "cornell.toml"

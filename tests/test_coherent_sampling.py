@@ -1,4 +1,4 @@
-"""Coherent sampling (the option coherent_sampling; lift_gl/passes/common.py coherent_sampling_source): the
+"""Coherent sampling (the option coherent_sampling; shaders/lift/host_tiles.glsl): the
 pixels of a work group's tile draw the same random numbers, so that a GPU warp's rays stay
 together. Each pixel's estimate keeps its distribution: the same expectation (checked against
 the independent sampler per block and over the whole image, and against the furnace's

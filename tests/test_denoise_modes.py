@@ -12,6 +12,7 @@ from lift_gl.denoise import get_denoiser
 from lift_gl.denoise.demodulate import safe_albedo
 from lift_gl.denoise.variance import LUMINANCE, luminance_variance
 from lift_gl.errors import DenoiserError
+from lift_gl.frame_settings import DenoiseSettings
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
 
@@ -123,7 +124,7 @@ def test_oidn_when_installed(scene):
     pytest.importorskip("pyoidn", reason="the oidn extra (pyoidn) is not installed: pip install 'lift-gl[oidn]'")
     reference = Renderer(scene, size=SIZE, seed=9)
     clean = reference.render(spp=256)
-    r = Renderer(scene, size=SIZE, seed=1, denoise="final", denoiser="oidn")
+    r = Renderer(scene, size=SIZE, seed=1, denoise=DenoiseSettings("final", "oidn"))
     denoised = r.render(spp=4)
     noisy = r.noisy_image()
     err = lambda x: float(np.mean((x - clean) ** 2))  # noqa: E731

@@ -26,12 +26,12 @@ def test_waits_change_the_timing_only():
 
 
 def test_timed_renders_both_ways_and_the_setting_restored():
-    import lift_gl.renderer as renderer_module
+    import lift_gl.gpu_waits as gpu_waits
 
-    before = renderer_module.TIMED_WAIT_FRACTION
+    before = gpu_waits.TIMED_WAIT_FRACTION
     record = frame_waits.measure(str(REPO / "scenes" / "cornell.toml"), "pt:max_depth=2", (16, 16), [1], 1, 2,
                                  timed_seconds=0.05)
     timed = record["timed_renders"]
     assert [t["waits"] for t in timed] == ["queued", "each frame", "each frame", "queued"]
     assert all(t["frames"] >= 1 and t["seconds"] >= 0.05 for t in timed)
-    assert renderer_module.TIMED_WAIT_FRACTION == before
+    assert gpu_waits.TIMED_WAIT_FRACTION == before

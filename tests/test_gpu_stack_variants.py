@@ -123,7 +123,7 @@ def test_live_state_variants_keep_the_image():
     from lift_gl.gl.context import create_context
 
     options = Options(pixel_queue="on", trace_paired="on")
-    names = ["base", "regen_primary", "sum_shared", "pending_shared", "slim", "live_plus8"]
+    names = ["base", "regen_primary", "pending_shared", "live_plus8"]
     base_text = None
     r = Renderer(load_scene(REPO / "scenes" / "cornell.toml"), size=(8, 8), integrator="pt", options=options)
     try:

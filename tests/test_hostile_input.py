@@ -72,7 +72,7 @@ def test_ply_header_claiming_more_than_the_file_holds_is_refused(tmp_path, monke
                                          ((16_000, 16_000), "MAX_FILM_BYTES")])
 def test_huge_film_is_refused_before_any_buffer(monkeypatch, size, limit):
     for target in ("lift_gl.renderer.pack_scene", "lift_gl.renderer.SceneBuffers",
-                   "lift_gl.renderer.TracePass", "lift_gl.renderer.AccumulatePass"):
+                   "lift_gl.frame_passes.TracePass", "lift_gl.frame_passes.AccumulatePass"):
         forbid(monkeypatch, target)
     with pytest.raises(LimitError, match=limit) as info:
         Renderer(load_scene(FURNACE), size=size)
@@ -127,7 +127,7 @@ def test_packed_buffers_are_checked_exactly(monkeypatch):
     each) pass the triangle estimate (there are none) but not the exact check."""
     real = limits.GlLimits.query(create_context())
     tiny = limits.GlLimits(real.renderer, real.max_texture_size, real.max_framebuffer, real.max_viewport, 1000)
-    monkeypatch.setattr("lift_gl.renderer.GlLimits.query", classmethod(lambda cls, ctx: tiny))
+    monkeypatch.setattr("lift_gl.renderer.GlLimits.query", classmethod(lambda cls, ctx, max_buffer_bytes=None: tiny))
     forbid(monkeypatch, "lift_gl.renderer.SceneBuffers")
     spheres = [Sphere([i, 0, 0], 0.4, 0) for i in range(40)]
     scene = Scene(camera=Camera([0, 0, 50], [0, 0, 0]), materials=[Material("m")], spheres=spheres)

@@ -14,6 +14,8 @@ import pytest
 pytest.importorskip("onnx")
 pytest.importorskip("onnxruntime")
 
+from lift_gl.frame import guides, guides_done  # noqa: E402
+from lift_gl.frame_settings import DenoiseSettings  # noqa: E402
 from lift_gl.renderer import Renderer  # noqa: E402
 from lift_gl.scene.loader import load_scene  # noqa: E402
 from test_glsl_net import SHIPPED, denoiser_bound  # noqa: E402
@@ -26,7 +28,7 @@ SIZE = (37, 29)  # odd: padded to 48x32, cropped back
 def renderer():
     if not SHIPPED.is_file():
         pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
-    r = Renderer(load_scene(SCENE), size=SIZE, seed=5, denoise="every", denoiser="glsl")
+    r = Renderer(load_scene(SCENE), size=SIZE, seed=5, denoise=DenoiseSettings("every", "glsl"))
     yield r
     r.release()
 
@@ -46,7 +48,7 @@ def test_gpu_path_equals_readback_path(renderer):
 
 def test_picture_smaller_than_an_exposure_block():
     """13x9: one exposure block of the whole picture (model_io.autoexposure's min(16, side))."""
-    r = Renderer(load_scene(SCENE), size=(13, 9), seed=2, denoise="final", denoiser="glsl")
+    r = Renderer(load_scene(SCENE), size=(13, 9), seed=2, denoise=DenoiseSettings("final", "glsl"))
     try:
         r.render(spp=1)
         compare_roads(r)
@@ -56,12 +58,12 @@ def test_picture_smaller_than_an_exposure_block():
 
 def compare_roads(renderer):
     assert renderer.denoise_pass.net is not None  # the GPU road is taken
-    gbuffer = renderer._guides()
+    gbuffer = guides(renderer)
     renderer.denoise_pass.run(renderer.accumulate, gbuffer)
     got = renderer.denoise_pass.read()
     color, albedo, normal = read_inputs(renderer, gbuffer)
-    renderer._guides_done()
-    want = renderer._numpy_denoiser.denoise(color, albedo, normal)
+    guides_done(renderer)
+    want = renderer.numpy_denoiser.denoise(color, albedo, normal)
     bound = denoiser_bound(color, albedo, normal, want)
     assert got.shape == want.shape == (renderer.size[1], renderer.size[0], 3)
     assert np.abs(want - color).mean() > 1e2 * bound.mean()  # denoising changed far more than the bound (~800x here)
@@ -98,8 +100,8 @@ def test_every_frame_reads_nothing_back(renderer, monkeypatch):
     assert reads == []  # ... without a readback
     # the counter sees the readback road's reads (the check can fail)
     inside.append(True)
-    denoise_pass._run_numpy(renderer.accumulate, renderer._guides())
-    renderer._guides_done()
+    denoise_pass._run_numpy(renderer.accumulate, guides(renderer))
+    guides_done(renderer)
     assert len(reads) >= 3
     monkeypatch.undo()
     assert np.isfinite(denoise_pass.read()).all()

@@ -59,7 +59,7 @@ def test_auto_resolves_per_device():
                   "bvh_stack": "local", "bvh_stack_entries": "children", "trace_paired": "off", "carry_paths": "off",
                   "gbuffer": "raster", "uniform_blocks": "on", "coherent_sampling": "off"}
     expect_gpu = {"bvh_width": "4", "bvh_slot_order": "area", "bvh_builder": "sah", "pixel_queue": "on",
-                  "bvh_stack": "local", "bvh_stack_entries": "groups", "trace_paired": "on", "carry_paths": "faster",
+                  "bvh_stack": "local", "bvh_stack_entries": "groups", "trace_paired": "on", "carry_paths": "on",
                   "gbuffer": "traced", "uniform_blocks": "off", "coherent_sampling": "off"}
     assert {k: cpu[k] for k in expect_cpu} == expect_cpu
     assert {k: gpu[k] for k in expect_gpu} == expect_gpu
@@ -78,6 +78,7 @@ def test_the_tree_and_the_plugin_refine_the_gpus_choices():
     shallow = resolve(Options(), GPU, Workload(path_steps=True, tree=CORNELL_BOX))
     assert shallow["bvh_stack_entries"] == "children" and "16 entries" in shallow.choices["bvh_stack_entries"].why
     assert shallow["trace_paired"] == "off" and "4 levels" in shallow.choices["trace_paired"].why
+    assert shallow["carry_paths"] == "off" and "4 levels" in shallow.choices["carry_paths"].why
     drt = resolve(Options(), GPU, Workload(path_steps=False, tree=DINING_ROOM))   # no path steps: no queue
     assert (drt["pixel_queue"], drt["carry_paths"], drt["bvh_stack"]) == ("off", "off", "shared")
     bdpt = resolve(Options(), GPU, Workload(splats=True, tree=DINING_ROOM))

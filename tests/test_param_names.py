@@ -44,7 +44,7 @@ def manifest_error(tmp_path, name: str) -> PluginError:
     ("mix", "is a GLSL built-in function"),
     ("sample_light", "is a function the GLSL library declares (shaders/lift/lights.glsl:"),
     ("surface_at", "is a function the GLSL library declares (shaders/lift/surface.glsl:"),
-    ("Ray", "is a struct the GLSL library declares (shaders/lift/bvh.glsl:"),
+    ("Ray", "is a struct the GLSL library declares (shaders/lift/trace.glsl:"),
     ("NO_HIT", "is a constant the GLSL library declares"),
     ("MAT_DIFFUSE", "is a #define the GLSL library declares (shaders/lift/scene_data.glsl:"),
     ("stats", "is a buffer the GLSL library declares"),   # a member of an unnamed block

@@ -21,9 +21,11 @@ def _renderers_split_with(monkeypatch, splits) -> None:
     import functools
 
     import lift_gl.renderer as renderer_mod
+    import lift_gl.scene_update as scene_update_mod
     from lift_gl.scene.pack import pack_scene
 
-    monkeypatch.setattr(renderer_mod, "pack_scene", functools.partial(pack_scene, bvh_splits=splits))
+    for module in (renderer_mod, scene_update_mod):   # a new renderer's packing, and an edit's
+        monkeypatch.setattr(module, "pack_scene", functools.partial(pack_scene, bvh_splits=splits))
 
 FORCED = ps.SplitSettings(budget=1.0, max_extent=np.inf, min_triangles=0, min_over_median=0.0, min_splits=0.0)
 

@@ -318,7 +318,7 @@ radius = 1.0
 def test_explain_prints_passes_and_features(capsys):
     assert main(["render", CORNELL, "--size", "16x16", "--explain"]) == 0
     out = capsys.readouterr().out
-    for word in ("passes:", "gbuffer", "trace", "accumulate", "integrator: pt", "features"):
+    for word in ("passes (inputs -> outputs", "gbuffer", "trace", "accumulate", "integrator: pt", "features"):
         assert word in out, word
     # Features the Cornell box has are compiled in; the environment it lacks is left out.
     assert "+ dielectric" in out and "+ spheres" in out and "- environment" in out

@@ -63,9 +63,9 @@ def test_a_timed_render_adds_at_least_one_frame():
 def test_a_long_render_waits_for_the_gpu_every_few_frames(monkeypatch):
     """render(spp=N) waits for the GPU (ctx.finish) at least every MAX_QUEUED_FRAMES frames, not
     only at its end: an H100 handed 8192 queued frames at once returned a black image."""
-    import lift_gl.renderer as renderer_module
+    import lift_gl.gpu_waits as gpu_waits
 
-    monkeypatch.setattr(renderer_module, "MAX_QUEUED_FRAMES", 4)
+    monkeypatch.setattr(gpu_waits, "MAX_QUEUED_FRAMES", 4)
     r = Renderer(load_scene(CORNELL), size=(16, 16), seed=5)
     finishes = []
     real_finish = type(r.ctx).finish
@@ -81,6 +81,7 @@ def test_a_timed_render_queues_frames_between_its_waits(monkeypatch):
     take TIMED_WAIT_FRACTION of S at the frame time measured so far (a wait after every frame
     costs a GPU the submission of the next). A fake clock makes each frame take 10 ms: with a
     5 s budget it waits every 10 frames after the first, and stops at the first wait past 5 s."""
+    import lift_gl.gpu_waits as gpu_waits
     import lift_gl.renderer as renderer_module
 
     r = Renderer(load_scene(CORNELL), size=(8, 8), seed=2)
@@ -99,7 +100,7 @@ def test_a_timed_render_queues_frames_between_its_waits(monkeypatch):
     r.render(seconds=5.0)
     r.release()
     frames = r.stats.frames
-    assert renderer_module.TIMED_WAIT_FRACTION * 5.0 / 0.01 == 10
+    assert gpu_waits.TIMED_WAIT_FRACTION * 5.0 / 0.01 == 10
     gaps = np.diff(waits)
     assert waits[0] == 1 and gaps.max() <= 10 and (gaps == 10).sum() >= 45, str(waits)
     assert 500 <= frames <= 510   # past the budget by under a batch (the last ones shrink to fit it)

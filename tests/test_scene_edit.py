@@ -170,6 +170,7 @@ def test_a_live_geometry_edit_builds_the_bvh_once(monkeypatch):
     import dataclasses
 
     import lift_gl.renderer as renderer_mod
+    import lift_gl.scene_update as scene_update_mod
     from lift_gl.accel.bvh import SAH_BINS
 
     asked = []
@@ -179,7 +180,8 @@ def test_a_live_geometry_edit_builds_the_bvh_once(monkeypatch):
         asked.append(kw.get("bvh_bins"))
         return real(scene, **kw)
 
-    monkeypatch.setattr(renderer_mod, "pack_scene", spy)
+    monkeypatch.setattr(renderer_mod, "pack_scene", spy)         # the scene's load
+    monkeypatch.setattr(scene_update_mod, "pack_scene", spy)     # an edit's
     scene = load_scene(CORNELL)
     moved = dataclasses.replace(scene, meshes=[dataclasses.replace(m, positions=m.positions + [0.0, 0.01, 0.0])
                                                if k == 0 else m for k, m in enumerate(scene.meshes)])

@@ -14,6 +14,7 @@ from conftest import REPO
 from lift_gl.camera_path import load_camera_path
 from lift_gl.cli import main
 from lift_gl.errors import SceneError
+from lift_gl.frame_settings import TemporalSettings
 from lift_gl.passes.camera import frame_jitter
 from lift_gl.renderer import Renderer
 from lift_gl.scene import Camera, Material, Scene
@@ -157,7 +158,7 @@ def test_ghost_of_a_moving_object_fades_within_the_bound():
     frame, so below 2% within N = ceil(log(0.02) / log(1 - 0.1)) = 38 frames."""
     scene = occluder_scene(size=(48, 32))
     min_blend = 0.1
-    r = Renderer(scene, size=scene.film_size, seed=3, temporal="reproject", min_blend=min_blend)
+    r = Renderer(scene, size=scene.film_size, seed=3, temporal=TemporalSettings("reproject", min_blend=min_blend))
     r.render(spp=16)
     was_ball = r.image()[..., 0] > 0.6  # the ball's pixels (red) before it moves
     wall = np.array([0.2, 0.3, 1.0])
@@ -306,9 +307,12 @@ def test_render_sequence_cli(tmp_path, capsys):
     assert main(["render", str(CORNELL), "--frames", "2", "--out", str(out)]) == 2  # --frames needs a path
     assert main(["render", str(CORNELL), "--camera-path", str(f), "--out", str(tmp_path / "one.png")]) == 2
     assert main(["render", str(CORNELL), "--clamp-sigma", "1", "--out", str(tmp_path / "x.png")]) == 2
-    assert main(["render", str(CORNELL), "--camera-path", str(f), "--min-blend", "0", "--out", str(out)]) == 2
+    with pytest.raises(SystemExit) as exit_:   # refused as the command line is read
+        main(["render", str(CORNELL), "--camera-path", str(f), "--min-blend", "0", "--out", str(out)])
+    assert exit_.value.code == 2
     err = capsys.readouterr().err
-    assert "a pattern with {frame}" in err and "need --temporal reproject" in err and "(0, 1]" in err
+    assert "a pattern with {frame}" in err and "need --temporal reproject" in err
+    assert "argument --min-blend: must be above 0" in err
 
 
 def test_shipped_camera_path_fits_the_cornell_box():

@@ -8,6 +8,7 @@ import pytest
 
 from conftest import REPO
 from lift_gl.errors import LiftError
+from lift_gl.frame import guides
 from lift_gl.options import Device, Options, Workload, parse_options, resolve
 from lift_gl.passes.gbuffer import GBufferPass, TracedGBufferPass
 from lift_gl.renderer import Renderer
@@ -29,7 +30,7 @@ def _render(mode, scene, **kw):
         image = r.render(spp=2)
         w, h = SIZE
         frame_vis = _visibility(r.gbuffer)  # the last frame's (jittered)
-        g = r._guides()  # every output, through the pixel centres (a frame writes only the visibility)
+        g = guides(r)  # every output, through the pixel centres (a frame writes only the visibility)
         out = {"image": image, "kind": type(g), "frame_vis": frame_vis, "vis": _visibility(g),
                "nd": np.frombuffer(g.normal_depth.read(), np.float32).reshape(h, w, 4).copy(),
                "albedo": np.frombuffer(g.albedo.read(), np.float16).reshape(h, w, 4).astype(np.float32),

@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import metrics
 from ..errors import DenoiserError, LiftError
+from ..frame_settings import DenoiseSettings
 from ..image_io import read_image, write_image, write_srgb8
 from ..plugins import discover
 from ..renderer import Renderer
@@ -157,8 +158,8 @@ class ViewSession:
         try:
             return Renderer(scene or self.scene, size=self.resolution.render_size(self.moving), integrator=integrator,
                             seed=self.seed, params=params, plugin_dirs=self.plugin_dirs, timers=self.timers,
-                            ctx=self.ctx, temporal=self.temporal, denoise=self.denoise.mode, denoiser=self.denoise.denoiser,
-                            denoiser_options=self.denoise.options, options=self.options)
+                            ctx=self.ctx, temporal=self.temporal, options=self.options,
+                            denoise=DenoiseSettings(self.denoise.mode, self.denoise.denoiser, self.denoise.options))
         except DenoiserError as exc:  # the denoiser went away (a missing package): render without it
             self.errors.add(exc)
             self.denoise = Denoise()

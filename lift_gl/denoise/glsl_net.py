@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import shaders
+from ..bindings import STORAGE_BUFFERS
 from .onnx_graph import ModelError, Plan, Step
 
 SHADER_DIR = shaders.SHADER_DIR / "denoise"
@@ -193,8 +194,8 @@ class GlslNet:
             z = out_layers
             if step.kind == "conv":
                 weights, bias = self._weights[id(step)]
-                weights.bind_to_storage_buffer(0)
-                bias.bind_to_storage_buffer(1)
+                weights.bind_to_storage_buffer(STORAGE_BUFFERS["net_weights"])
+                bias.bind_to_storage_buffer(STORAGE_BUFFERS["net_bias"])
                 set_uniform(program, "u_out_layers", out_layers)
                 part_layers = [layers(c) for c in step.params["part_channels"]]
                 set_uniform(program, "u_part_layers", tuple(part_layers + [0] * (4 - len(part_layers))))

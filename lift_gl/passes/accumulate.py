@@ -1,7 +1,8 @@
 """Accumulate pass: exact running mean of all frames since the last reset (still camera),
 or of the frame added to the reprojected history (passes/reproject.py runs first then).
 
-inputs:  frame (RGBA32F: radiance sum, valid sample count)
+inputs:  frame (RGBA32F: radiance sum, valid sample count); with temporal reprojection, history
+         (the accumulation as the reproject pass rewrote it for this frame's view: the same textures)
 outputs: accumulation (sum and compensation, RGBA32F each); mean = (sum + c).rgb / (sum + c).a
          half difference (RGBA32F): frames of half A minus frames of half B since the reset
          (half_sign), for the error estimate without a reference (lift_gl/error_estimate.py)
@@ -36,7 +37,7 @@ def half_sign(frame: int) -> float:
 
 class AccumulatePass:
     name = "accumulate"
-    inputs = ("frame",)
+    inputs = ("frame", "history?")
     outputs = ("accumulation", "half difference", "moments")
 
     def __init__(self, ctx, size):

@@ -5,14 +5,10 @@ import time
 
 import numpy as np
 
+from ..bindings import HEAP_FIRST_BINDING, SCENE_BINDINGS, STORAGE_BUFFERS
 from ..scene.pack import PackedScene, still_motion
-from ..scene.split import HEAP_ARRAYS, HEAP_FIRST_BINDING, BufferPlan, heap_chunks, plan_buffers
+from ..scene.split import HEAP_ARRAYS, BufferPlan, heap_chunks, plan_buffers
 
-# Binding points declared in shaders/lift/scene_data.glsl.
-SCENE_BINDINGS = {
-    "bvh_nodes": 0, "tri_pos": 1, "tri_normal": 2, "tri_uv": 3, "tri_info": 4,
-    "materials": 5, "lights": 6, "spheres": 7, "images": 9, "instances": 10,
-}
 # Arrays that may go into a uniform block on a CPU rasterizer (shaders/lift/scene_data.glsl):
 # name -> (the define that switches it over and holds its length, vec4 rows per GLSL element).
 UNIFORM_ARRAYS = {
@@ -23,8 +19,8 @@ UNIFORM_ARRAYS = {
     "instances": ("LIFT_UBO_INSTANCES", 1),
 }
 NO_INSTANCES = np.zeros((2, 4), np.float32)  # an empty TLAS, for shaders compiled with HAS_INSTANCES anyway
-STATS_BINDING = 8
-MOTION_BINDING = 16  # `motion`, declared (and bound) only with HAS_MOTION
+STATS_BINDING = STORAGE_BUFFERS["stats"]
+MOTION_BINDING = STORAGE_BUFFERS["motion"]  # declared (and bound) only with HAS_MOTION
 STAT_DROPPED = 0
 STAT_DROPPED_SPLATS = 1  # splats dropped as NaN/Inf (plugins with splats = true)
 STAT_RAYS_LOW, STAT_RAYS_HIGH = 2, 3  # rays traced (LIFT_COUNT_RAYS), a 64-bit count in two words
@@ -32,7 +28,7 @@ STAT_LOOP_LIMITED = 4  # pixel-frames cut short by the driver's loop limit (pass
 NUM_STATS = 5
 LOCAL_SIZE = 8  # compute passes run 8x8 work groups
 # Coherent sampling (the options coherent_sampling and coherent_interleave, lift_gl/options.py):
-# the trace programs are compiled with these (coherent_sampling_source).
+# the trace programs are compiled with these (shaders/lift/host_tiles.glsl).
 COHERENT_DEFINE = "LIFT_COHERENT_SAMPLING"
 INTERLEAVE_DEFINE = "LIFT_COHERENT_INTERLEAVE"
 
@@ -43,17 +39,6 @@ def coherent_defines(coherent_sampling: str, interleave: int) -> dict:
     if coherent_sampling != "on":
         return {}
     return {COHERENT_DEFINE: 1, INTERLEAVE_DEFINE: max(1, int(interleave))}
-
-
-def fastest_half_mean(seconds) -> float:
-    """What a way's timed frames (or blocks of frames) say when two ways are timed against
-    each other (passes/trace.py, passes/carry.py): the mean of the faster half. A transient
-    stall (seen on an H100: four frames in a row of the classroom's tuning at 4x their time,
-    both ways alike) drops out, and under a steady drift the A B B A order still weighs both
-    ways alike (the faster half of A's frames 0, 3, 4, 7 is 4 and 7; of B's 1, 2, 5, 6 it is 5
-    and 6)."""
-    fast = np.sort(np.asarray(seconds, dtype=np.float64))
-    return float(fast[: max(1, (len(fast) + 1) // 2)].mean())
 
 
 def groups(width: int, height: int, local=(LOCAL_SIZE, LOCAL_SIZE)) -> tuple[int, int, int]:
@@ -319,59 +304,6 @@ class GpuTimer:
     @property
     def last_ms(self) -> float:
         return self.last_ns / 1e6
-
-
-def coherent_sampling_source(tile: tuple[int, int]) -> str:
-    """GLSL for the host's pixel loop: `lift_tile_pixel(group, lane, tile)`, the pixel a work
-    group's (or the pixel queue's tile's) lane takes; `lift_tile_groups(resolution, tile)`, how
-    many such tiles cover the image; `lift_rng_key(pixel)`, what a pixel's random numbers are
-    keyed on (tiles of `tile`, the work group's shape).
-
-    Without COHERENT_DEFINE: tiles of the work group's shape in the image's grid, and the
-    pixel itself as the key. With it (the option coherent_sampling on: coherent_defines),
-    coherent sampling (Sadeghi, Chen and Jensen 2009): the
-    pixels of a tile, which run in one warp on a GPU (and the pixel queue hands out a tile at a
-    time), draw the same numbers, so their light samples, bounce directions and Russian
-    roulette agree and the warp's rays travel together through the BVH. Each pixel's own
-    numbers are as random as before (the estimate is unbiased and its variance per pixel the
-    same); what changes is that the noise of a tile's pixels is correlated. Two things spread
-    that correlation out:
-    - the grid moves: each frame's is offset by a hash of the frame and the seed, so the
-      accumulated noise keeps no fixed grid;
-    - with LIFT_COHERENT_INTERLEAVE k > 1 (the paper's interleaved sampling), a tile's pixels
-      are every k-th pixel of a block k times its size, and the block's k x k tiles draw
-      different numbers: neighbouring pixels are independent, and a pixel's noise is
-      correlated with pixels k apart (docs/gpu.md "Thirteenth session").
-    Off, the program is the one without any of this (a compile-time switch: no cost)."""
-    w, h = tile
-    return f"""#ifdef {COHERENT_DEFINE}
-#ifndef {INTERLEAVE_DEFINE}
-#define {INTERLEAVE_DEFINE} 1
-#endif
-const uint lift_interleave = uint({INTERLEAVE_DEFINE});
-ivec2 lift_tile_offset(uvec2 tile) {{  // this frame's offset of the grid of blocks (k x k tiles)
-    uvec2 block = lift_interleave * tile;
-    uint bits = pcg_hash(u_frame ^ pcg_hash(u_seed + 0x2545f491u));
-    return ivec2(int(bits % block.x), int((bits / block.x) % block.y));
-}}
-uvec2 lift_tile_groups(ivec2 resolution, uvec2 tile) {{  // whole blocks over the moved image
-    uvec2 block = lift_interleave * tile;
-    return (uvec2(resolution + lift_tile_offset(tile)) + block - 1u) / block * lift_interleave;
-}}
-ivec2 lift_tile_pixel(uvec2 group, uvec2 lane, uvec2 tile) {{
-    uvec2 block = group / lift_interleave, phase = group % lift_interleave;
-    return ivec2(block * lift_interleave * tile + phase + lift_interleave * lane) - lift_tile_offset(tile);
-}}
-uvec2 lift_rng_key(uvec2 pixel) {{  // its tile: its block and its phase in the block
-    const uvec2 tile = uvec2({w}u, {h}u);
-    uvec2 p = pixel + uvec2(lift_tile_offset(tile));
-    return p / (lift_interleave * tile) * lift_interleave + p % lift_interleave;
-}}
-#else
-uvec2 lift_tile_groups(ivec2 resolution, uvec2 tile) {{ return (uvec2(resolution) + tile - 1u) / tile; }}
-ivec2 lift_tile_pixel(uvec2 group, uvec2 lane, uvec2 tile) {{ return ivec2(group * tile + lane); }}
-uvec2 lift_rng_key(uvec2 pixel) {{ return pixel; }}
-#endif"""
 
 
 def tile_dispatch_size(defines: dict, size, tile) -> tuple[int, int]:

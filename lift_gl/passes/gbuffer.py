@@ -31,7 +31,7 @@ SHADER_DIR = shaders.SHADER_DIR / "passes"
 class GBufferPass:
     name = "gbuffer"
     inputs = ("scene", "camera", "jitter")
-    outputs = ("visibility", "normal_depth", "albedo")
+    outputs = ("visibility", "normal_depth", "albedo", "motion?")   # motion: with motion_vectors
 
     def __init__(self, ctx: moderngl.Context, size, defines: dict, num_triangles: int, num_spheres: int,
                  motion_vectors: bool = False, instance_draws=(), raster_rows=None):
@@ -152,7 +152,7 @@ class TracedGBufferPass:
     renderer's frames but a [reduced] plugin's) runs a second program that leaves normal_depth
     and albedo unwritten, and with them the surface's normal and the material's textures: 8-11%
     of the pass on an H100 (docs/gpu.md, Fourteenth session). The guides (the denoiser's, the
-    AOVs: Renderer._guides) and picking run the full one."""
+    AOVs: lift_gl/frame.py guides) and picking run the full one."""
 
     name = "gbuffer"
     inputs = ("scene", "camera", "jitter")

@@ -14,11 +14,13 @@ net_output.comp    cropped, divided by the exposure, times the albedo, y flipped
 from __future__ import annotations
 
 from .. import shaders
+from ..bindings import STORAGE_BUFFERS
 from ..denoise.demodulate import EPS
 from ..denoise.model_io import EXPOSURE_BLOCK, EXPOSURE_KEY, EXPOSURE_RANGE
 from .common import groups, set_uniforms
 
 SHADER_DIR = shaders.SHADER_DIR / "passes"
+EXPOSURE_BINDING = STORAGE_BUFFERS["net_exposure"]   # apart from the convs' weights (0, 1)
 
 
 class NetDenoise:
@@ -56,7 +58,7 @@ class NetDenoise:
         accumulate.compensation.bind_to_image(1, read=True, write=False)
         gbuffer.albedo.use(location=0)
         gbuffer.normal_depth.use(location=1)
-        self.exposure_buffer.bind_to_storage_buffer(0)
+        self.exposure_buffer.bind_to_storage_buffer(EXPOSURE_BINDING)
         set_uniforms(self.exposure, {**common, **self._block_uniforms()})
         self.exposure.run(1, 1, 1)
         self.ctx.memory_barrier()
@@ -65,7 +67,6 @@ class NetDenoise:
         self.input.run(*groups(*self.padded))
         self.ctx.memory_barrier()
         self.net.run()
-        self.exposure_buffer.bind_to_storage_buffer(0)  # the net's convs bound their weights there
         gbuffer.albedo.use(location=0)
         self.net.output_texture.bind_to_image(6, read=True, write=False)
         self.output.bind_to_image(7, read=False, write=True)

@@ -13,71 +13,20 @@ albedo of the surface it starts from) so that the upsampling pass can multiply e
 own albedo back in: material and texture edges stay sharp. Both passes take that albedo from
 the G-buffer (textures applied, as the denoiser's guide), so that demodulating and remodulating
 one pixel cancel exactly. The upsampling pass (passes/upsample.py) reads the guides (normal,
-depth) of the same representative pixels from the G-buffer.
+depth) of the same representative pixels from the G-buffer. The program is
+shaders/lift/host_reduced.comp after the trace programs' generated head (passes/trace.py).
 """
 from __future__ import annotations
 
 import moderngl
 
 from .. import shaders
-from ..plugins import GLSL_TYPES, Plugin
+from ..plugins import Plugin
 from .camera import halton
 from .common import LOCAL_SIZE, groups, set_uniforms
+from .trace import program_head
 
-MAIN_TEMPLATE = """
-layout(local_size_x = {local}, local_size_y = {local}) in;
-#include "lift/host.glsl"
-layout(rgba32f, binding = 0) uniform writeonly image2D u_reduced_out;
-uniform usampler2D u_visibility;
-uniform sampler2D u_albedo;  // G-buffer: the first hit's albedo, textures applied
-uniform uint u_frame;
-uniform uint u_seed;
-uniform uint u_samples;
-uniform uint u_sample_base;
-uniform uint u_stream;  // the error estimate's half this frame belongs to (lift/rng.glsl)
-uniform vec2 u_jitter;
-uniform int u_scale;          // full-resolution pixels per reduced pixel, along each axis
-uniform ivec2 u_block_offset; // this frame's representative pixel inside every block
-
-// ---- plugin parameters ----
-{params}
-// ---- plugin ----
-#include "{entry}"
-// ---- host ----
-#include "lift/primary_hit.glsl"  // gbuffer_hit: the first hit at a full-resolution pixel
-
-void main() {{
-    ivec2 block = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 blocks = imageSize(u_reduced_out);
-    if (any(greaterThanEqual(block, blocks))) return;
-    ivec2 pixel = min(block * u_scale + u_block_offset, ivec2(u_resolution) - 1);
-    vec3 sum = vec3(0.0);
-    float valid = 0.0;
-    Ray ray = camera_ray(vec2(pixel) + u_jitter);
-    Hit first = gbuffer_hit(pixel, ray);
-    vec3 albedo = first.prim != NO_HIT ? texelFetch(u_albedo, pixel, 0).rgb : vec3(0.0);
-    if (max(albedo.r, max(albedo.g, albedo.b)) <= 1e-6) {{
-        // Black (an emitter's face, the background): it tells its neighbours nothing about
-        // their indirect light, so it must not count as zero in their filter.
-        imageStore(u_reduced_out, block, vec4(0.0));
-        return;
-    }}
-    for (uint s = 0u; s < u_samples; ++s) {{
-        // Another seed than the full-resolution pass's: the two estimates stay independent.
-        Rng rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x5bd1e995u, u_stream);
-        Hit hit = first;
-        vec3 L = {function}(ray, hit, rng);
-        if (!lift_is_finite(L)) {{
-            atomicAdd(stats[0], 1u);  // dropped and counted, as the full-resolution pass does
-            continue;
-        }}
-        // Demodulated; a channel the surface does not reflect carries no indirect light.
-        sum += mix(vec3(0.0), L / max(albedo, vec3(1e-6)), greaterThan(albedo, vec3(1e-6)));
-        valid += 1.0;
-    }}
-    imageStore(u_reduced_out, block, vec4(sum, valid));
-}}
-"""
+HOST_REDUCED = "lift/host_reduced.comp"   # the program's host file: the sample loop, the guard
 
 OFFSET_BASES = (5, 7)  # Halton bases for the block offsets: unlike the subpixel jitter's (2, 3)
 
@@ -93,9 +42,10 @@ def reduced_size(size, scale: int) -> tuple[int, int]:
 
 
 def generate_main(plugin: Plugin) -> str:
-    params = "\n".join(f"uniform {GLSL_TYPES[p.type]} {p.name};  // {p.help}" for p in plugin.params.values())
-    return MAIN_TEMPLATE.format(local=LOCAL_SIZE, params=params, entry=plugin.entry_path.as_posix(),
-                                function=plugin.reduced.function)
+    """The reduced pass's program: the trace programs' head, then its host file, which calls
+    the manifest's [reduced] function."""
+    return (program_head(plugin, (LOCAL_SIZE, LOCAL_SIZE))
+            + f'\n// ---- host ----\n#define LIFT_REDUCED_RADIANCE {plugin.reduced.function}\n#include "{HOST_REDUCED}"\n')
 
 
 class ReducedTracePass:

@@ -1,10 +1,10 @@
 """Reproject pass (temporal): the accumulation rewritten as the new camera sees it; runs
 only on frames where the camera or an object moved since the previous frame.
 
-inputs:  accumulation, half difference, moments (of the previous frame); the G-buffer's
+inputs:  previous accumulation (sum, compensation, half difference, moments); the G-buffer's
          normal_depth, previous normal_depth and motion; the frame (neighbourhood clamp only)
-outputs: the same accumulation buffers, reprojected (the accumulate pass then adds the
-         frame); rejection (RGBA32F: bilinear weight rejected by depth, by normal, off
+outputs: history: the same accumulation buffers, reprojected (the accumulate pass then adds
+         the frame); rejection (RGBA32F: bilinear weight rejected by depth, by normal, off
          screen or no surface here)
 
 Written into a second set of textures, which then change places with the accumulate
@@ -25,8 +25,8 @@ NORMAL_COS = 0.9    # normals within 25.8 degrees match
 
 class ReprojectPass:
     name = "reproject"
-    inputs = ("accumulation", "normal_depth", "previous normal_depth", "motion")
-    outputs = ("accumulation (reprojected)", "rejection")
+    inputs = ("previous accumulation", "normal_depth", "previous normal_depth", "motion", "frame")
+    outputs = ("history", "rejection")
 
     def __init__(self, ctx, size):
         self.ctx = ctx

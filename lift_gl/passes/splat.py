@@ -1,6 +1,6 @@
 """Splat buffer: lets a trace plugin add to any pixel of the frame (light tracing).
 
-inputs:  frame (RGBA32F, written by the trace pass), splats (SSBO at binding 9: r, g, b
+inputs:  frame (RGBA32F, written by the trace pass), splats (the `splats` SSBO, lift_gl/bindings.py: r, g, b
          float sums per pixel, filled by splat() in shaders/lift/splat.glsl)
 outputs: frame with the splats added to its radiance sums; splats cleared for the next frame
 
@@ -11,9 +11,10 @@ loop on the bits (the define LIFT_SPLATS_CAS), which any OpenGL 4.3 driver runs.
 from __future__ import annotations
 
 from .. import shaders
+from ..bindings import STORAGE_BUFFERS
 from .common import groups
 
-SPLAT_BINDING = 17
+SPLAT_BINDING = STORAGE_BUFFERS["splats"]
 FLOAT_ATOMICS = "GL_NV_shader_atomic_float"
 RESOLVE_SOURCE = shaders.SHADER_DIR / "passes" / "splat_resolve.comp"
 

@@ -1,6 +1,6 @@
 """Tonemap pass: accumulated mean radiance -> display sRGB (RGBA8), as lift_gl/tonemap.py.
 
-inputs:  accumulation (sum, compensation)
+inputs:  accumulation (sum, compensation), or the denoised image where it is current
 outputs: display (RGBA8, sRGB-encoded)
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ SOURCE = shaders.SHADER_DIR / "passes" / "tonemap.comp"
 
 class TonemapPass:
     name = "tonemap"
-    inputs = ("accumulation",)
+    inputs = ("accumulation", "denoised?")
     outputs = ("display",)
 
     def __init__(self, ctx, size):

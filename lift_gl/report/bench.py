@@ -147,7 +147,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
                denoisers=(), options=None) -> dict:
     """Timings of one scene at one size; see the module's docstring. `options`: lift_gl/options.py
     Options (None: the defaults)."""
-    from ..passes.carry import CARRY_TUNING_FRAMES
+    from ..frame_settings import DenoiseSettings
     from ..renderer import Renderer
 
     def make(**kw):
@@ -166,13 +166,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     # steps of at least 16 frames and WARM_STEP_S: a step of a few frames of a small scene left
     # the GPU idle between calls, and its clock then stayed down
     warm = warm_up(growing_step(lambda n: (renderer.render(spp=n * spf), renderer.ctx.finish())), clock)
-    # On a GPU the trace pass may time the megakernel with and without the carry code on its
-    # first frames that may park (renders of several frames; passes/trace.py, CarryTuning): those
-    # end before the timed frames start.
     trace = getattr(renderer, "trace", None)
-    give_up = time.perf_counter() + 20.0
-    while getattr(trace, "carry_tuning", None) is not None and time.perf_counter() < give_up:
-        renderer.render(spp=(CARRY_TUNING_FRAMES + 1) * spf)   # long enough to start the carry choice
     frame_seconds, frame_mhz, frame_reasons = [], [], []
     peak = clock.max_sm_mhz()
     while len(frame_seconds) < max(repeat, 1) or more_runs(frame_mhz, peak, repeat):
@@ -192,8 +186,6 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
     pass_query = {name: t.query.mean_ms for name, t in renderer.timers.items() if t.count}
     choices = renderer.choices.record()   # how the frames ran (lift_gl/options.py)
     carry = getattr(trace, "carry", None) is not None   # paths carried into the next frame
-    carry_tuned_ms = getattr(trace, "carry_tuned_ms", None)
-    carry_tuning_blocks_ms = getattr(trace, "carry_tuning_blocks_ms", None)
     renderer.release()
 
     counting = make(count_rays=True)
@@ -205,7 +197,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
 
     denoise_ms = {}
     for name in denoisers:
-        denoising = make(denoise="final", denoiser=name)
+        denoising = make(denoise=DenoiseSettings("final", name))
         denoising.render(spp=max(2, min(frames, 8)) * spf, final=False)  # both half-buffers hold samples
         denoise_ms[name] = 1e3 * denoise_seconds(denoising, 3 * max(repeat, 1))
         denoising.release()
@@ -224,8 +216,7 @@ def bench_case(scene, size, integrator="pt", params=None, frames=16, repeat=3, b
             # the tree traversed: children a node (2 or 4), its nodes and levels (4-wide: wide nodes)
             "bvh": {"width": int(renderer.packed.bvh_width), "quantized": bool(renderer.packed.bvh_quantized),
                     "nodes": int(renderer.packed.bvh_nodes.shape[0]), "levels": int(renderer.packed.bvh_levels)},
-            "options": choices, "carry": carry, "carry_tuned_ms": carry_tuned_ms,
-            "carry_tuning_blocks_ms": carry_tuning_blocks_ms,
+            "options": choices, "carry": carry,
             # NVIDIA only (else None): the SM clock after each timed run of frames and after
             # the per-pass run, and the warm-up before them
             "sm_clock": {"frames_mhz": frame_mhz, "frames_reasons": frame_reasons, "passes_mhz": pass_mhz,

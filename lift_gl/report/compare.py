@@ -133,13 +133,13 @@ class Session:
             self.mode, self.spp_targets, self.time_targets = "time", None, time_checkpoints(args.seconds, args.points_per_doubling)
 
     def renderer(self, config: Configuration, seed: int):
+        from ..frame_settings import DenoiseSettings
+        from ..options import from_args
         from ..renderer import Renderer
 
-        from ..options import from_args
-
         return Renderer(self.scene, size=self.size, integrator=config.integrator, backend=self.args.backend,
-                        seed=seed, params=config.params, plugin_dirs=self.args.plugins, denoise=config.denoise,
-                        denoiser=config.denoiser, options=from_args(self.args))
+                        seed=seed, params=config.params, plugin_dirs=self.args.plugins,
+                        denoise=DenoiseSettings(config.denoise, config.denoiser), options=from_args(self.args))
 
     def run(self, config: Configuration, seed: int, reference: np.ndarray, keep_images: bool):
         """One progressive run: its rows (one per checkpoint), images if asked, total wall time,

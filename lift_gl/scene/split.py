@@ -18,12 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..bindings import HEAP_FIRST_BINDING, MAX_HEAP_CHUNKS  # the heap's buffers, declared in scene_data.glsl
+
 # Arrays that go into the heap, in heap order; tri_info (uvec2) takes two triangles a row.
 HEAP_ARRAYS = ("bvh_nodes", "tri_pos", "tri_normal", "tri_uv", "tri_info")
-HEAP_FIRST_BINDING = 24
-# Declared in scene_data.glsl. The scene's other blocks (materials, lights, spheres, images,
-# stats, motion, splats) leave 16 - 7 = 9 of llvmpipe's 16 compute blocks; one spare.
-MAX_HEAP_CHUNKS = 8
 ROW_BYTES = 16
 HEAP_UNIFORMS = {"bvh_nodes": "u_heap_nodes", "tri_pos": "u_heap_pos", "tri_normal": "u_heap_normal",
                  "tri_uv": "u_heap_uv", "tri_info": "u_heap_info"}

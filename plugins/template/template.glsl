@@ -4,11 +4,11 @@
 //   lift-gl render scenes/cornell.toml --integrator mine --spp 64 --out mine.png
 //   python -m pytest plugins/mine            runs the test that came with it
 //
-// THE CONTRACT. The host writes main() (pixels, seeds, averaging, the NaN/Inf guard) and
-// calls radiance() once per sample. `ray` is the camera ray, `hit` its first hit
-// (hit.prim == NO_HIT: the ray left the scene). Return the radiance arriving at the camera
-// along `ray`: linear RGB, world units. Parameters from plugin.toml are uniforms of the same
-// name (max_depth, min_bounce, only_bounce below).
+// THE CONTRACT. The host writes main() (pixels, seeds, averaging, the NaN/Inf guard:
+// shaders/lift/host_main.comp) and calls radiance() once per sample. `ray` is the camera ray,
+// `hit` its first hit (hit.prim == NO_HIT: the ray left the scene). Return the radiance
+// arriving at the camera along `ray`: linear RGB, world units. Parameters from plugin.toml
+// are uniforms of the same name (max_depth, min_bounce, only_bounce below).
 //
 // THE LIBRARY (shaders/lift/*.glsl, already included; docs/glsl-library.md is the
 // reference: every function, its arguments and what it returns, every struct's fields):

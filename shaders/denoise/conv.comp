@@ -9,8 +9,8 @@
 // part count and epilogue (llvmpipe compiles each variant for seconds).
 #include "tensor.glsl"
 
-layout(std430, binding = 0) readonly buffer Weights { mat4 weights[]; };
-layout(std430, binding = 1) readonly buffer Bias { vec4 bias[]; };
+layout(std430, binding = LIFT_BINDING_NET_WEIGHTS) readonly buffer Weights { mat4 weights[]; };
+layout(std430, binding = LIFT_BINDING_NET_BIAS) readonly buffer Bias { vec4 bias[]; };
 layout(rgba32f, binding = 0) readonly uniform image2DArray part0;
 #if NUM_PARTS > 1
 layout(rgba32f, binding = 1) readonly uniform image2DArray part1;

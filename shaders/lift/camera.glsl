@@ -3,7 +3,7 @@
 // Pixel positions are in pixels with y up (OpenGL window convention), (0,0) = bottom-left corner.
 #ifndef LIFT_CAMERA_GLSL
 #define LIFT_CAMERA_GLSL
-#include "lift/bvh.glsl"
+#include "lift/trace.glsl"
 #include "lift/sampling.glsl"
 
 uniform vec3 u_cam_pos;

@@ -1,4 +1,4 @@
-// lift/finite.glsl: the NaN/Inf test the hosts' guards and the splats use.
+// lift/finite.glsl: the NaN/Inf test of the hosts' guard (lift/sample_guard.glsl) and the splats.
 #ifndef LIFT_FINITE_GLSL
 #define LIFT_FINITE_GLSL
 // False when any component is NaN or infinite. Two tests, because two compilers each defeat

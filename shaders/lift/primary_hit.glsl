@@ -1,5 +1,5 @@
-// lift/primary_hit.glsl: for the hosts' generated main() only (lift_gl/passes/trace.py,
-// reduced_trace.py), included after the plugin and after `uniform usampler2D u_visibility`.
+// lift/primary_hit.glsl: for the trace hosts only (lift/host_main.comp, lift/host_reduced.comp),
+// included after the plugin and after `uniform usampler2D u_visibility`.
 #ifndef LIFT_PRIMARY_HIT_GLSL
 #define LIFT_PRIMARY_HIT_GLSL
 

@@ -27,34 +27,34 @@
 // them all in a heap of several buffers (LIFT_SPLIT_SCENE, lift_gl/scene/split.py).
 #ifndef LIFT_SPLIT_SCENE
 #ifdef LIFT_UBO_BVH_NODES
-layout(std140, binding = 0) uniform BvhNodes { vec4 bvh_nodes[LIFT_UBO_BVH_NODES]; };
+layout(std140, binding = LIFT_BINDING_BVH_NODES) uniform BvhNodes { vec4 bvh_nodes[LIFT_UBO_BVH_NODES]; };
 #else
-layout(std430, binding = 0) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
+layout(std430, binding = LIFT_BINDING_BVH_NODES) readonly buffer BvhNodes { vec4 bvh_nodes[]; };
 #endif
 // Three vec4 per triangle: corner positions (xyz); w unused.
 #ifdef LIFT_UBO_TRI_POS
-layout(std140, binding = 1) uniform TriPositions { vec4 tri_pos[LIFT_UBO_TRI_POS]; };
+layout(std140, binding = LIFT_BINDING_TRI_POS) uniform TriPositions { vec4 tri_pos[LIFT_UBO_TRI_POS]; };
 #else
-layout(std430, binding = 1) readonly buffer TriPositions { vec4 tri_pos[]; };
+layout(std430, binding = LIFT_BINDING_TRI_POS) readonly buffer TriPositions { vec4 tri_pos[]; };
 #endif
 // Three vec4 per triangle: corner shading normals (xyz); w unused.
 #ifdef LIFT_UBO_TRI_NORMAL
-layout(std140, binding = 2) uniform TriNormals { vec4 tri_normal[LIFT_UBO_TRI_NORMAL]; };
+layout(std140, binding = LIFT_BINDING_TRI_NORMAL) uniform TriNormals { vec4 tri_normal[LIFT_UBO_TRI_NORMAL]; };
 #else
-layout(std430, binding = 2) readonly buffer TriNormals { vec4 tri_normal[]; };
+layout(std430, binding = LIFT_BINDING_TRI_NORMAL) readonly buffer TriNormals { vec4 tri_normal[]; };
 #endif
 // Three vec4 per triangle: corner texture coordinates (xy); zw unused.
 #ifdef LIFT_UBO_TRI_UV
-layout(std140, binding = 3) uniform TriUVs { vec4 tri_uv[LIFT_UBO_TRI_UV]; };
+layout(std140, binding = LIFT_BINDING_TRI_UV) uniform TriUVs { vec4 tri_uv[LIFT_UBO_TRI_UV]; };
 #else
-layout(std430, binding = 3) readonly buffer TriUVs { vec4 tri_uv[]; };
+layout(std430, binding = LIFT_BINDING_TRI_UV) readonly buffer TriUVs { vec4 tri_uv[]; };
 #endif
 // One uvec2 per triangle: (material id, uint bits of the probability that light sampling
 // picks this triangle; 0 for triangles that do not emit).
 #ifdef LIFT_UBO_TRI_INFO
-layout(std140, binding = 4) uniform TriInfo { uvec2 tri_info[LIFT_UBO_TRI_INFO]; };
+layout(std140, binding = LIFT_BINDING_TRI_INFO) uniform TriInfo { uvec2 tri_info[LIFT_UBO_TRI_INFO]; };
 #else
-layout(std430, binding = 4) readonly buffer TriInfo { uvec2 tri_info[]; };
+layout(std430, binding = LIFT_BINDING_TRI_INFO) readonly buffer TriInfo { uvec2 tri_info[]; };
 #endif
 // Row r of each array (see above), wherever the host put it.
 vec4 bvh_node_row(uint r) { return bvh_nodes[r]; }
@@ -63,29 +63,29 @@ vec4 tri_normal_row(uint r) { return tri_normal[r]; }
 vec4 tri_uv_row(uint r) { return tri_uv[r]; }
 uvec2 tri_info_at(uint t) { return tri_info[t]; }
 #else
-// The heap: vec4 rows, LIFT_HEAP_CHUNKS buffers of 2^LIFT_HEAP_SHIFT rows from binding 24
+// The heap: vec4 rows, LIFT_HEAP_CHUNKS buffers of 2^LIFT_HEAP_SHIFT rows from LIFT_BINDING_HEAP0 on
 // (lift_gl/scene/split.py HEAP_FIRST_BINDING); each array starts at the row in its uniform.
-layout(std430, binding = 24) readonly buffer Heap0 { vec4 heap0[]; };
+layout(std430, binding = LIFT_BINDING_HEAP0) readonly buffer Heap0 { vec4 heap0[]; };
 #if LIFT_HEAP_CHUNKS > 1
-layout(std430, binding = 25) readonly buffer Heap1 { vec4 heap1[]; };
+layout(std430, binding = LIFT_BINDING_HEAP1) readonly buffer Heap1 { vec4 heap1[]; };
 #endif
 #if LIFT_HEAP_CHUNKS > 2
-layout(std430, binding = 26) readonly buffer Heap2 { vec4 heap2[]; };
+layout(std430, binding = LIFT_BINDING_HEAP2) readonly buffer Heap2 { vec4 heap2[]; };
 #endif
 #if LIFT_HEAP_CHUNKS > 3
-layout(std430, binding = 27) readonly buffer Heap3 { vec4 heap3[]; };
+layout(std430, binding = LIFT_BINDING_HEAP3) readonly buffer Heap3 { vec4 heap3[]; };
 #endif
 #if LIFT_HEAP_CHUNKS > 4
-layout(std430, binding = 28) readonly buffer Heap4 { vec4 heap4[]; };
+layout(std430, binding = LIFT_BINDING_HEAP4) readonly buffer Heap4 { vec4 heap4[]; };
 #endif
 #if LIFT_HEAP_CHUNKS > 5
-layout(std430, binding = 29) readonly buffer Heap5 { vec4 heap5[]; };
+layout(std430, binding = LIFT_BINDING_HEAP5) readonly buffer Heap5 { vec4 heap5[]; };
 #endif
 #if LIFT_HEAP_CHUNKS > 6
-layout(std430, binding = 30) readonly buffer Heap6 { vec4 heap6[]; };
+layout(std430, binding = LIFT_BINDING_HEAP6) readonly buffer Heap6 { vec4 heap6[]; };
 #endif
 #if LIFT_HEAP_CHUNKS > 7
-layout(std430, binding = 31) readonly buffer Heap7 { vec4 heap7[]; };
+layout(std430, binding = LIFT_BINDING_HEAP7) readonly buffer Heap7 { vec4 heap7[]; };
 #endif
 uniform uint u_heap_nodes;
 uniform uint u_heap_pos;
@@ -164,26 +164,26 @@ struct Material {
     vec4 k_pad;           // rgb: conductor k / plastic specular tint; w: base colour texture + 1 (0: none)
 };
 #ifdef LIFT_UBO_MATERIALS
-layout(std140, binding = 5) uniform Materials { Material materials[LIFT_UBO_MATERIALS]; };
+layout(std140, binding = LIFT_BINDING_MATERIALS) uniform Materials { Material materials[LIFT_UBO_MATERIALS]; };
 #else
-layout(std430, binding = 5) readonly buffer Materials { Material materials[]; };
+layout(std430, binding = LIFT_BINDING_MATERIALS) readonly buffer Materials { Material materials[]; };
 #endif
 
 // One vec4 per emissive primitive, in light-sampling order:
 // (uint bits of primitive id, cumulative selection probability up to and including this
 // one, selection probability, area). Primitive ids >= u_num_triangles are spheres.
 #ifdef LIFT_UBO_LIGHTS
-layout(std140, binding = 6) uniform Lights { vec4 lights[LIFT_UBO_LIGHTS]; };
+layout(std140, binding = LIFT_BINDING_LIGHTS) uniform Lights { vec4 lights[LIFT_UBO_LIGHTS]; };
 #else
-layout(std430, binding = 6) readonly buffer Lights { vec4 lights[]; };
+layout(std430, binding = LIFT_BINDING_LIGHTS) readonly buffer Lights { vec4 lights[]; };
 #endif
 
 // Two vec4 per sphere: (center.xyz, radius), (uint bits of material id, uint bits of
 // light selection probability, 0, 0).
 #ifdef LIFT_UBO_SPHERES
-layout(std140, binding = 7) uniform Spheres { vec4 spheres[LIFT_UBO_SPHERES]; };
+layout(std140, binding = LIFT_BINDING_SPHERES) uniform Spheres { vec4 spheres[LIFT_UBO_SPHERES]; };
 #else
-layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
+layout(std430, binding = LIFT_BINDING_SPHERES) readonly buffer Spheres { vec4 spheres[]; };
 #endif
 
 #ifdef HAS_INSTANCES
@@ -197,9 +197,9 @@ layout(std430, binding = 7) readonly buffer Spheres { vec4 spheres[]; };
 // Each BLAS's nodes and object-space triangles follow the world geometry's in bvh_nodes and
 // the triangle arrays; the world BVH (node 0) holds triangles 0 .. u_world_triangles - 1.
 #ifdef LIFT_UBO_INSTANCES
-layout(std140, binding = 10) uniform Instances { vec4 instances[LIFT_UBO_INSTANCES]; };
+layout(std140, binding = LIFT_BINDING_INSTANCES) uniform Instances { vec4 instances[LIFT_UBO_INSTANCES]; };
 #else
-layout(std430, binding = 10) readonly buffer Instances { vec4 instances[]; };
+layout(std430, binding = LIFT_BINDING_INSTANCES) readonly buffer Instances { vec4 instances[]; };
 #endif
 #define INSTANCE_ROWS 7u            // rows of one instance record
 #define NO_INSTANCE 0xffffffffu     // Hit.instance, Surface.instance of world geometry
@@ -244,22 +244,22 @@ uint instance_material(uint k, uint tri) {
 // from shutter open to shutter close; then, from row u_num_triangles + u_num_spheres, two
 // vec4 per BVH node: its box at shutter close (bmin.xyz), (bmax.xyz). Motion is a
 // translation, so normals, areas and light selection probabilities do not change.
-layout(std430, binding = 16) readonly buffer Motion { vec4 motion[]; };
+layout(std430, binding = LIFT_BINDING_MOTION) readonly buffer Motion { vec4 motion[]; };
 #endif
 
 // Counters the host reads back: [0] samples dropped as NaN/Inf, [1] splats dropped as NaN/Inf,
 // [2..3] rays traced (LIFT_COUNT_RAYS), [4] pixel-frames whose paths the driver's loop limit
 // cut short (lift_gl/passes/trace.py).
-layout(std430, binding = 8) buffer Stats { uint stats[]; };
+layout(std430, binding = LIFT_BINDING_STATS) buffer Stats { uint stats[]; };
 
 #if defined(HAS_TEXTURES) || defined(HAS_ENVIRONMENT_MAP)
 // Textures and the environment map as 32-bit words (lift_gl/scene/images.py has the layout;
 // lift/textures.glsl and lift/lights.glsl read it).
-layout(std430, binding = 9) readonly buffer Images { uint images[]; };
+layout(std430, binding = LIFT_BINDING_IMAGES) readonly buffer Images { uint images[]; };
 #endif
 #ifdef HAS_ENVIRONMENT_MAP
 // The same buffer read 16 bytes at a time: the environment map's RGBA float texels.
-layout(std430, binding = 9) readonly buffer Images4 { uvec4 images4[]; };
+layout(std430, binding = LIFT_BINDING_IMAGES) readonly buffer Images4 { uvec4 images4[]; };
 #endif
 
 // The G-buffer visibility texel's material, and its instance record (NO_INSTANCE: world

@@ -23,9 +23,9 @@
 
 // Three floats per pixel (r, g, b), row-major with row 0 at the bottom (pixel y up).
 #ifdef LIFT_SPLATS_CAS
-layout(std430, binding = 17) buffer LiftSplats { uint lift_splats[]; };
+layout(std430, binding = LIFT_BINDING_SPLATS) buffer LiftSplats { uint lift_splats[]; };
 #else
-layout(std430, binding = 17) buffer LiftSplats { float lift_splats[]; };
+layout(std430, binding = LIFT_BINDING_SPLATS) buffer LiftSplats { float lift_splats[]; };
 #endif
 
 void lift_splat_add(uint index, float value) {

@@ -2,7 +2,7 @@
 // and robust ray offsets for rays that leave that surface.
 #ifndef LIFT_SURFACE_GLSL
 #define LIFT_SURFACE_GLSL
-#include "lift/bvh.glsl"
+#include "lift/trace.glsl"
 #include "lift/frame.glsl"
 #include "lift/textures.glsl"
 

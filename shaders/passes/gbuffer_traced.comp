@@ -4,7 +4,7 @@
 // The ray is the one the trace pass rebuilds the primary hit along (lift/primary_hit.glsl),
 // so the two agree by construction.
 #include "lift/scene_data.glsl"
-#include "lift/bvh.glsl"
+#include "lift/trace.glsl"
 #include "lift/camera.glsl"
 #include "lift/surface.glsl"
 #include "lift/bsdf.glsl"

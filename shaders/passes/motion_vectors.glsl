@@ -8,7 +8,7 @@
 // object's rows equal its current position (or zero displacement).
 #ifndef LIFT_MOTION_VECTORS_GLSL
 #define LIFT_MOTION_VECTORS_GLSL
-layout(std430, binding = 17) readonly buffer PrevPositions { vec4 prev_positions[]; };
+layout(std430, binding = LIFT_BINDING_PREV_POSITIONS) readonly buffer PrevPositions { vec4 prev_positions[]; };
 #ifndef LIFT_VERTEX_STAGE  // the vertex shader reads prev_positions only
 uniform mat4 u_cur_view_proj;   // this frame's camera, without the subpixel jitter
 uniform mat4 u_prev_view_proj;  // the previous frame's camera, without jitter

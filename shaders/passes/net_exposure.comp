@@ -4,7 +4,7 @@
 // log-average of the blocks above 1e-8 and stores 0.18 / key, clipped, in u_exposure.
 layout(local_size_x = 256) in;
 #include "passes/net_input.glsl"
-layout(std430, binding = 0) writeonly buffer Exposure { float u_exposure; };
+layout(std430, binding = LIFT_BINDING_NET_EXPOSURE) writeonly buffer Exposure { float u_exposure; };
 uniform ivec2 u_size;        // the picture
 uniform ivec2 u_block;       // block size (16, or the picture's side when smaller)
 uniform ivec2 u_block_count;

@@ -5,7 +5,7 @@
 // repeating the edge pixel (tiling.pad_to_multiple).
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "passes/net_input.glsl"
-layout(std430, binding = 0) readonly buffer Exposure { float u_exposure; };
+layout(std430, binding = LIFT_BINDING_NET_EXPOSURE) readonly buffer Exposure { float u_exposure; };
 layout(rgba32f, binding = 7) uniform writeonly image2DArray u_input;
 uniform sampler2D u_normal_depth;  // G-buffer normal (xyz), depth (w)
 uniform ivec2 u_size;              // the picture; the tensor is imageSize(u_input)

@@ -3,7 +3,7 @@
 // renderer's row order; alpha 1 (the tonemap pass reads it as sum with count 1).
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "passes/net_input.glsl"
-layout(std430, binding = 0) readonly buffer Exposure { float u_exposure; };
+layout(std430, binding = LIFT_BINDING_NET_EXPOSURE) readonly buffer Exposure { float u_exposure; };
 layout(rgba32f, binding = 6) uniform readonly image2DArray u_output;
 layout(rgba32f, binding = 7) uniform writeonly image2D u_radiance;
 uniform ivec2 u_size;

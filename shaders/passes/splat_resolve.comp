@@ -3,7 +3,7 @@
 // are averaged over the pixel's own samples, one light subpath having been traced per sample.
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = 0) uniform image2D u_frame;
-layout(std430, binding = 17) buffer LiftSplats { float lift_splats[]; };
+layout(std430, binding = LIFT_BINDING_SPLATS) buffer LiftSplats { float lift_splats[]; };
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
