@@ -138,6 +138,9 @@ def load_camera_path(path) -> CameraPath:
     if unknown:
         raise SceneError(f"unknown table(s) {', '.join(sorted(unknown))}: a camera path has [[keyframe]] "
                          "and [[move]] tables", path)
+    for table in ("keyframe", "move"):
+        if not (isinstance(data.get(table, []), list) and all(isinstance(t, dict) for t in data.get(table, []))):
+            raise SceneError(f"'{table}' must be an array of tables ([[{table}]]), not {data[table]!r}", path)
     keyframes = []
     for i, k in enumerate(data.get("keyframe", [])):
         where = f"keyframe {i + 1}"

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import base64
 import functools
+import io
 import json
 import re
 import struct
@@ -364,6 +365,40 @@ v = [2e10, 0, 0]
 ]
 
 
+def _truncated_png() -> bytes:
+    """A 16x16 PNG cut in the middle of its pixel data (pillow reads its header, not its pixels)."""
+    from PIL import Image
+    out = io.BytesIO()
+    Image.fromarray(np.arange(16 * 16 * 3, dtype=np.uint8).reshape(16, 16, 3)).save(out, format="PNG")
+    data = out.getvalue()
+    return data[:data.index(b"IDAT") + 24]
+
+
+def _gltf_index_past_positions() -> dict:
+    """The triangle with its third index 3, past its 3 positions."""
+    doc = gltf_triangle()
+    blob = bytearray(base64.b64decode(doc["buffers"][0]["uri"].split(",", 1)[1]))
+    blob[36 + 4:36 + 6] = struct.pack("<H", 3)
+    doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()
+    return doc
+
+
+# Escapes the fuzzer found, each fixed and kept as a regression case.
+FUZZ_FOUND = [
+    Seed("fuzz-path-keyframe-not-tables", "camera path", _text("keyframe = nan\n"), expect="refused",
+         mentions="array of tables"),
+    Seed("fuzz-pbrt-nul-in-include", "pbrt scene", _text(PBRT_HEAD + 'Include "a\0b.pbrt"\n'), expect="refused",
+         line=6, mentions="NUL"),
+    Seed("fuzz-gltf-truncated-png", "glTF scene", lambda: _gltf(gltf_triangle(images=[
+        {"uri": "data:image/png;base64," + base64.b64encode(_truncated_png()).decode()}]))(), expect="warns"),
+    Seed("fuzz-gltf-index-past-positions", "glTF scene", lambda: _gltf(_gltf_index_past_positions())(),
+         expect="refused", mentions="vertex indices outside"),
+    Seed("fuzz-plugin-entry-latin1", "plugin manifest",
+         _plugin(files={"main.glsl": "// caf\xe9\n".encode("latin-1") + ENTRY.format(include="").encode()}),
+         expect="refused", mentions="UTF-8"),
+]
+
+
 def _bad_exr() -> bytes:
     """sky.exr with a data window far larger than its pixels (OpenEXR prints a warning)."""
     import tempfile
@@ -383,45 +418,11 @@ def _bad_exr() -> bytes:
 # fails its (strict xfail) test until its name is removed here.
 OPEN: dict[str, str] = {}
 
-# Cases that parts A and B of issue 32 handle in changes not yet committed (at commit 3b0e4e0
-# they fail): their tests may fail (a non-strict xfail) until those changes are committed;
-# then this set is emptied and the cases hold like the rest.
-PENDING = {
-    "i32-1-toml-film-1e12-triangle", "i32-2-toml-instance-at-3.5e38", "i32-3-env-texel-minus-100",
-    "i32-3-env-texel-nan", "i32-3-env-all-nan", "i32-4-pbrt-negative-area-light",
-    "i32-4-mitsuba-negative-area-emitter", "i32-4-gltf-negative-directional-light", "i32-5-path-looks-along-up",
-    "i32-6-pbrt-include-fanout-20", "i32-6-pbrt-200000-instances", "i32-8-texture-decompression-bomb",
-    "i32-8-pbrt-include-symlink-loop", "i32-8-mitsuba-include-symlink-loop", "i32-8-gltf-top-level-array",
-    "i32-8-gltf-emissive-strength-string", "i32-8-gltf-light-intensity-string", "i32-10-texture-10000x10000",
-    "i32-11-plugin-entry-outside", "i32-11-plugin-include-outside", "i32-11-plugin-entry-links-outside",
-    "i32-12-toml-bom", "i32-12-pbrt-bom", "i32-12-manifest-bom", "i32-12-path-bom", "i32-12-gltf-bom",
-    "i32-12-obj-latin1-comment", "i32-12-env-bad-exr-header", "i32-12-pbrt-nan", "i32-12-pbrt-xresolution-0", "i32-12-toml-unknown-table",
-    "i32-13-toml-empty-scene", "i32-13-pbrt-repeated-index", "i32-13-gltf-negative-roughness",
-    "i32-13-gltf-missing-texture", "i32-13-pbrt-projective-transform", "i32-13-mitsuba-projective-transform",
-}
 
-# Escapes the fuzzer still finds, known and left to parts A and B of issue 32: (target, kind,
-# a regular expression of the message, who). The test suite's sample tolerates these (and
-# counts them); the benchmark counts them as escapes.
-KNOWN_ESCAPES: list[tuple[str, str, str, str]] = [
-    # Pending: handled by parts A and B in changes not yet committed (see PENDING).
-    ("texture image", "internal", r"DecompressionBombError", "pending: pillow's size limit, before reading"),
-    ("environment map", "internal", r"DecompressionBombError", "pending: pillow's size limit, before reading"),
-    ("environment map", "value", r"non-finite environment map texels", "pending: NaN/Inf texels repaired"),
-    ("environment map", "value", r"negative environment map texels", "pending: negative texels repaired"),
-    ("environment map", "printed", r"Exception raised reading pixel data", "pending: EXR size checked first"),
-    ("reference image", "memory", r"Unable to allocate", "pending: the image's size checked before reading"),
-    ("camera path", "value", r"camera basis", "pending: keyframes validated as scene cameras"),
-    # Open: no part has a change for these yet.
-    ("camera path", "exception", r"TypeError: ('\w+' object is not iterable|unhashable type)",
-     "lift_gl/camera_path.py: 'keyframe' or 'move' that is not an array of tables ('keyframe = nan')"),
-    ("pbrt scene", "internal", r"ValueError: embedded null byte",
-     "lift_gl/scene/pbrt_loader.py: a file name with a NUL byte (Include, plymesh) reaches Path.resolve()"),
-    ("glTF scene", "internal", r"OSError: image file is truncated",
-     "lift_gl/scene/gltf_loader.py _texture: an embedded image pillow cannot decode"),
-    ("plugin manifest", "exception", r"UnicodeDecodeError",
-     "lift_gl/shaders.py assemble: an entry or #include file that is not UTF-8 (read_text)"),
-]
+# Escapes the fuzzer still finds, known and not fixed yet: (target, kind, a regular expression
+# of the message, where the fix belongs). The test suite's sample tolerates these (and counts
+# them); the benchmark counts them as escapes.
+KNOWN_ESCAPES: list[tuple[str, str, str, str]] = []
 
 
 def known_escape(target: str, escape) -> bool:
@@ -467,7 +468,7 @@ def _repository_seeds() -> list[Seed]:
     return out
 
 
-SEEDS = _repository_seeds() + ISSUE_CASES
+SEEDS = _repository_seeds() + ISSUE_CASES + FUZZ_FOUND
 
 
 def seeds_for(target: str, mutable: bool = False) -> list[Seed]:

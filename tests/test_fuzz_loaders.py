@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 
-from fuzz_corpus import KNOWN_ESCAPES, OPEN, PENDING, SEEDS, known_escape
+from fuzz_corpus import KNOWN_ESCAPES, OPEN, SEEDS, known_escape
 import fuzz_harness
 from fuzz_harness import BY_NAME, TARGETS, Case, Escape, Target, check_case
 from lift_gl.errors import SceneError
@@ -60,9 +60,6 @@ def _check_expectation(seed, outcome) -> None:
 def _marked(seed):
     if seed.name in OPEN:
         return pytest.param(seed, marks=pytest.mark.xfail(strict=True, reason=OPEN[seed.name]))
-    if seed.name in PENDING:
-        return pytest.param(seed, marks=pytest.mark.xfail(strict=False, reason="handled by issue 32 parts A and B "
-                                                          "in changes not yet committed"))
     return seed
 
 
@@ -74,10 +71,10 @@ def test_corpus_case(seed, tmp_path):
     _check_expectation(seed, outcome)
 
 
-def test_known_and_pending_lists_name_real_targets_and_cases():
+def test_known_and_open_lists_name_real_targets_and_cases():
     for target, kind, _pattern, _who in KNOWN_ESCAPES:
         assert target in BY_NAME and kind in Escape.KINDS
-    assert (set(OPEN) | PENDING) <= {s.name for s in SEEDS}
+    assert set(OPEN) <= {s.name for s in SEEDS}
 
 
 def _no_check(result, path):

@@ -204,3 +204,18 @@ def test_bad_gltf_is_one_clear_error(tmp_path, content, ext, text):
     with pytest.raises(SceneError) as info:
         load_quietly(path)
     assert text in info.value.message and str(path) in str(info.value)
+
+
+def test_vertex_index_past_the_positions_is_one_clear_error(tmp_path):
+    """A triangle naming vertex 4 of a quad's 4 (the fuzzer's case: trimesh keeps such faces
+    and its normals then fail with an IndexError)."""
+    doc, data = gltf_document()
+    data = bytearray(data)
+    last_index = 48 + 48 + 32 + 10   # positions, normals, uvs, then the sixth uint16 index
+    data[last_index:last_index + 2] = struct.pack("<H", 4)
+    doc["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(bytes(data)).decode()
+    path = tmp_path / "bad_index.gltf"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(SceneError) as info:
+        load_quietly(path)
+    assert "vertex indices outside 0..3" in info.value.message and str(path) in str(info.value)

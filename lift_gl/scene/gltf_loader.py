@@ -243,6 +243,9 @@ class _Gltf:
     def _mesh(self, geometry, matrix: np.ndarray, source: str) -> None:
         positions = np.asarray(geometry.vertices, dtype=np.float64)
         indices = np.asarray(geometry.faces, dtype=np.int64)
+        if indices.min() < 0 or indices.max() >= len(positions):  # before trimesh computes normals from them
+            raise SceneError(f"mesh {Path(source).name!r}: triangles use vertex indices outside "
+                             f"0..{len(positions) - 1} (from {indices.min()} to {indices.max()})", self.path)
         uv = getattr(geometry.visual, "uv", None)
         uvs = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(positions) else None
         normals = np.asarray(geometry.vertex_normals, dtype=np.float64) if self.use_normals else None
@@ -331,7 +334,13 @@ class _Gltf:
                               "their constant factors")
                 self.textures[id(image)] = None
                 return None
-            rgba = np.asarray(image.convert("RGBA"), dtype=np.uint8)
+            try:
+                rgba = np.asarray(image.convert("RGBA"), dtype=np.uint8)  # decoded here, on first use
+            except (OSError, ValueError, SyntaxError) as e:  # pillow's kinds for a broken image
+                self.warn(f"a texture image that cannot be decoded ({type(e).__name__}: {e}): the materials "
+                          "using it get their constant factors")
+                self.textures[id(image)] = None
+                return None
             self.scene.textures.append(Texture(f"{self.path.stem}-texture{len(self.textures)}", rgba, srgb=True,
                                                source=str(self.path)))
             self.textures[id(image)] = len(self.scene.textures) - 1

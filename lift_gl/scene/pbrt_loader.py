@@ -69,6 +69,8 @@ def tokenize(text: str, path) -> list[Token]:
         if kind == "nl":
             line += 1
         elif kind == "str":
+            if "\0" in m.group():  # no file or name holds one (and Path refuses it)
+                raise SceneError("a string holds a NUL character", path, line)
             tokens.append(Token("str", m.group()[1:-1], line))
         elif kind == "num":
             tokens.append(Token("num", float(m.group()), line))
