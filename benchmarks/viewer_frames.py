@@ -67,12 +67,14 @@ def viewer_runs(args) -> list[dict]:
     return results
 
 
-def headless_run(args) -> dict:
+def headless_run(args, size) -> dict:
+    """The Renderer alone at `size`: the viewer's render size (its panels take part of the
+    window), so that its passes are timed on the same pixels."""
     from lift_gl import load_scene
     from lift_gl.gl.context import describe
     from lift_gl.renderer import Renderer
 
-    renderer = Renderer(load_scene(args.scene), size=args.size, timers=True)
+    renderer = Renderer(load_scene(args.scene), size=tuple(size), timers=True)
     renderer.render(spp=args.warmup)
     renderer.display()
     renderer.reset()
@@ -99,7 +101,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
 
     rows = [] if args.no_viewer else viewer_runs(args)
-    rows.append(headless_run(args))
+    rows.append(headless_run(args, rows[0]["render_size"] if rows else args.size))
     print(f"scene {args.scene.name}, window {args.size[0]}x{args.size[1]}, pt 1 spp/frame, median of {args.frames} frames")
     print(f"device: {rows[-1]['device']}")
     print("| run | render size | frame (ms) | Renderer step (ms) | per pass (ms) |")
