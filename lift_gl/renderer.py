@@ -342,6 +342,10 @@ class Renderer:
         denoised one when the denoiser ran on the mean as it is now (image())."""
         if spp is None and seconds is None:
             spp = 16
+        if spp is not None and not (isinstance(spp, (int, np.integer)) and spp >= 1):
+            raise ValueError(f"spp must be a whole number of at least 1, not {spp!r}")
+        if seconds is not None and not (isinstance(seconds, (int, float)) and 0 < seconds < float("inf")):
+            raise ValueError(f"seconds must be finite and above 0, not {seconds!r}")
         start = time.perf_counter()
         done = frames = queued = 0
         batch = frames_between_waits(seconds, progress is not None, 0.0, 0)   # frames before the next wait

@@ -302,6 +302,19 @@ def test_pbrt_includes_are_also_limited_in_bytes(tmp_path, monkeypatch):
     assert info.value.line == 3
 
 
+
+def test_mitsuba_includes_are_limited_as_pbrt_s(tmp_path, monkeypatch):
+    """Mitsuba's <include> reads each file once, but many files are many bytes: the same
+    budget as pbrt's Include, refused at the element over it."""
+    monkeypatch.setattr(limits, "MAX_INCLUDED_BYTES", 1000)
+    for k in range(3):
+        (tmp_path / f"part{k}.xml").write_text('<scene version="0.5.0">\n<!-- ' + "x" * 400 + ' -->\n</scene>\n')
+    includes = "".join(f'  <include filename="part{k}.xml"/>\n' for k in range(3))
+    (tmp_path / "main.xml").write_text(f'<scene version="0.5.0">\n{includes}  <shape type="sphere"/>\n</scene>\n')
+    with pytest.raises(LimitError, match=r"MAX_INCLUDED_BYTES = 1,000") as info:
+        load_scene(tmp_path / "main.xml")
+    assert info.value.path.endswith("main.xml") and info.value.line == 4   # the third include
+
 def test_200000_object_instances_are_refused_before_the_file_is_parsed(tmp_path, monkeypatch):
     lines = ['LookAt 0 0 5 0 0 0 0 1 0', 'Camera "perspective"', 'WorldBegin', 'ObjectBegin "o"',
              'Shape "trianglemesh" "integer indices" [0 1 2] "point P" [0 0 0 1 0 0 0 1 0]', 'ObjectEnd',
@@ -601,3 +614,16 @@ def test_the_largest_hostile_inputs_are_refused_well_under_a_gigabyte(tmp_path):
         print(f"{name}: {report['outcome'][:90]}... {report['seconds']:.1f} s, peak {report['peak_mib']:.0f} MiB")
         assert report["outcome"].startswith(outcome) and words in report["outcome"], (name, report)
         assert report["peak_mib"] < 1024, (name, report)
+
+
+@pytest.mark.parametrize("kwargs", [{"spp": 0}, {"spp": -3}, {"spp": 2.5}, {"seconds": 0.0}, {"seconds": float("nan")}])
+def test_render_refuses_counts_and_times_it_cannot_run(kwargs):
+    """Renderer.render as the CLI's arguments are checked: no frame runs on a count below 1
+    or a time that is not finite and positive (spp=0 returned the empty image as if rendered)."""
+    r = Renderer(load_scene(FURNACE), size=(8, 8))
+    try:
+        with pytest.raises(ValueError, match="spp|seconds"):
+            r.render(**kwargs)
+        assert r.stats.spp == 0
+    finally:
+        r.release()

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SceneError
+from ..limits import IncludeBudget
 from . import primitives as prim
 from .loader import warn_at
 from .mesh_io import load_mesh_file
@@ -60,6 +61,7 @@ class _Loader:
         self.version = 3
         self.sensor: Node | None = None
         self.included: set[Path] = set()
+        self.include_budget = IncludeBudget()  # pbrt's limits: inclusions and bytes, all files together
 
     # ---- messages, references ------------------------------------------------------------
     def warn(self, node: Node, message: str, key=None) -> None:
@@ -153,6 +155,7 @@ class _Loader:
             raise SceneError(f"{filename} is included twice (or includes itself)", *node.where)
         if not path.is_file():
             raise SceneError(f"included file not found: {path}", *node.where)
+        self.include_budget.add(path, node.where)
         self.included.add(path)
         self._top_level(self._read(path))
 
