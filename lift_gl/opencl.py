@@ -17,8 +17,8 @@ import re
 import warnings
 from pathlib import Path
 
-from .errors import LiftError, ShaderError
-from .shaders import SHADER_DIR, ShaderSource
+from .errors import LiftError, ShaderError, read_utf8
+from .shaders import SHADER_DIR, ShaderSource, _find, _within
 
 CL_LIBRARY_DIR = SHADER_DIR / "opencl"
 _INCLUDE = re.compile(r'^\s*#\s*include\s+[<"]([^">]+)[">]')
@@ -64,8 +64,11 @@ def describe_device() -> str:
 
 
 def assemble(main: str, defines: dict | None = None, include_dirs=(), *, main_name: str = "<generated>") -> ShaderSource:
-    """`main` (source text) with its includes inlined once each and `#line` markers."""
+    """`main` (source text) with its includes inlined once each and `#line` markers. As for
+    GLSL (shaders.assemble), a plugin's file may include only files inside `include_dirs`
+    (the plugin's folder) or the OpenCL library, links followed."""
     search = [Path(d) for d in include_dirs] + [CL_LIBRARY_DIR]
+    allowed = [d.resolve() for d in include_dirs] + [CL_LIBRARY_DIR.resolve()]
     src = ShaderSource(text="")
     seen: set[Path] = set()
     out = [f"#define {name}" if value is True else f"#define {name} {value}"
@@ -83,21 +86,19 @@ def assemble(main: str, defines: dict | None = None, include_dirs=(), *, main_na
             if target is None:
                 raise ShaderError(f'#include "{m.group(1)}" not found (searched {", ".join(map(str, search))})',
                                   path, lineno)
+            if not path.is_absolute():  # the host's generated text: its includes are the host's choice
+                allowed.append(target.parent)
+            elif not any(_within(target, d) for d in allowed):
+                raise ShaderError(f'#include "{m.group(1)}" is {target}, outside the plugin\'s folder and the '
+                                  f'OpenCL library ({CL_LIBRARY_DIR}): a plugin may include only those', path, lineno)
             if target not in seen:
                 seen.add(target)
-                add_file(target.read_text(), target)
+                add_file(read_utf8(target, ShaderError), target)
             out.append(f'#line {lineno + 1} "{path.as_posix()}"')
 
     add_file(main, Path(main_name))
     src.text = "\n".join(out) + "\n"
     return src
-
-
-def _find(name: str, here: Path | None, search: list[Path]) -> Path | None:
-    for candidate in ([here / name] if here is not None else []) + [d / name for d in search]:
-        if candidate.is_file():
-            return candidate.resolve()
-    return None
 
 
 def build(source: ShaderSource, needed_by=None):

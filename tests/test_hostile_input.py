@@ -525,6 +525,25 @@ def test_a_plugin_include_outside_its_folder_and_the_library_is_refused(tmp_path
     shaders.assemble('#include "inc.glsl"\n', include_dirs=[folder])  # its own files and the library
 
 
+
+def test_an_opencl_plugin_include_outside_its_folder_and_the_library_is_refused(tmp_path):
+    """The OpenCL assembler holds a plugin's includes to the same rule (no pyopencl needed)."""
+    from lift_gl import opencl
+    from lift_gl.errors import ShaderError
+
+    (tmp_path / "outside.cl").write_text("float stolen(void) { return 1.0f; }\n")
+    folder = tmp_path / "plugins" / "inc_cl"
+    folder.mkdir(parents=True)
+    (folder / "link.cl").symlink_to(tmp_path / "outside.cl")
+    (folder / "helpers.cl").write_text('#include "lift/rng.h"\nfloat helper(void) { return 1.0f; }\n')
+    for include in ("../../outside.cl", "link.cl", "../../../../../../etc/hostname"):
+        (folder / "inc.cl").write_text(f'#include "helpers.cl"\n#include "{include}"\n')
+        with pytest.raises(ShaderError, match=r"outside the plugin's folder and the OpenCL library") as info:
+            opencl.assemble(f'#include "{folder / "inc.cl"}"\n', include_dirs=[folder])
+        assert info.value.path == str((folder / "inc.cl").resolve()) and info.value.line == 2
+    (folder / "inc.cl").write_text('#include "helpers.cl"\n#include "lift/host.h"\n')
+    opencl.assemble(f'#include "{folder / "inc.cl"}"\n', include_dirs=[folder])  # its own files and the library
+
 def test_a_plugin_that_shadows_a_built_in_is_reported_naming_both_folders(tmp_path):
     from lift_gl.plugins import BUILTIN_DIR, ShadowedPluginWarning, discover
 
