@@ -389,6 +389,9 @@ FUZZ_FOUND = [
          mentions="array of tables"),
     Seed("fuzz-pbrt-nul-in-include", "pbrt scene", _text(PBRT_HEAD + 'Include "a\0b.pbrt"\n'), expect="refused",
          line=6, mentions="NUL"),
+    Seed("fuzz-pbrt-string-parameter-given-a-number", "pbrt scene",
+         _text(PBRT_HEAD + 'Shape "plymesh" "string filename" [ -1e10 ]\n'), expect="refused", line=6,
+         mentions="quoted strings"),
     Seed("fuzz-gltf-truncated-png", "glTF scene", lambda: _gltf(gltf_triangle(images=[
         {"uri": "data:image/png;base64," + base64.b64encode(_truncated_png()).decode()}]))(), expect="warns"),
     Seed("fuzz-gltf-index-past-positions", "glTF scene", lambda: _gltf(_gltf_index_past_positions())(),

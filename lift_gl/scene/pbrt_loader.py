@@ -175,6 +175,8 @@ class ParamSet:
         numeric = p.type not in ("string", "texture", "bool")
         if numeric and not all(isinstance(v, float) for v in p.values):
             raise SceneError(f"parameter '{name}' needs numbers", *self.where)
+        if not numeric and not all(isinstance(v, str) for v in p.values):
+            raise SceneError(f"parameter '{name}' ({p.type}) needs quoted strings", *self.where)
         if count is not None and len(p.values) % count:
             raise SceneError(f"parameter '{name}' needs a multiple of {count} values, "
                              f"got {len(p.values)}", *self.where)
@@ -546,8 +548,7 @@ class _Builder:
         check_instance_count(max(self.placements, len(self.scene.instances) + len(meshes)), (st.path, st.line))
         for k in meshes:
             self.scene.instances.append(Instance(k, m.copy(), name=name, source=f"{st.path}:{st.line}"))
-        for sphere in spheres:
-            self.scene.spheres.append(prim.transform_sphere(sphere, m))
+        self.scene.spheres.extend(prim.transform_spheres(spheres, m))
 
     def do_WorldBegin(self, st):
         self.coord_systems["world"] = np.eye(4)

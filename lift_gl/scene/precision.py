@@ -159,8 +159,10 @@ def sphere_problem(scene, extents: list[Extent], origin: np.ndarray) -> tuple[st
     lo = np.array([e.lo for e in extents])
     hi = np.array([e.hi for e in extents])
     sizes = (hi - lo).max(axis=1)
-    for i, s in enumerate(scene.spheres):
-        scale = float(np.abs(s.center - origin).max()) + s.radius
+    centres = np.array([s.center for s in scene.spheres], dtype=np.float64)
+    scales = np.abs(centres - origin).max(axis=1) + np.array([s.radius for s in scene.spheres])
+    for i in np.flatnonzero(scales > sizes.min() * MAX_DISTANCE_PER_SIZE):   # only these can be too large
+        s, scale = scene.spheres[i], float(scales[i])
         small = sizes * MAX_DISTANCE_PER_SIZE < scale
         if not small.any():
             continue

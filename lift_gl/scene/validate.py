@@ -233,13 +233,29 @@ def _check_geometry(scene: Scene, fail, warn) -> None:
             warn(f"mesh '{mesh.name}': NaN/Inf texture coordinates; it is drawn without them (its texture's "
                  "corner texel)", mesh.source)
             mesh.uvs = None
-    for s in scene.spheres:
+    if scene.spheres and _spheres_sound(scene.spheres, count):
+        return
+    for s in scene.spheres:   # the first unsound one, with its message
         if not 0 <= s.material < count:
             fail(f"sphere uses material #{s.material}, but there are {count}", s.source)
         if not _finite(s.center, MAX_COORDINATE) or not (_finite(s.radius, MAX_COORDINATE) and s.radius > 0):
             fail(f"sphere needs a finite centre and a finite radius > 0, got {s.center}, {s.radius}", s.source)
         if s.velocity is not None and not _finite(s.velocity, MAX_COORDINATE):
             fail(f"sphere: its velocity must be finite, got {s.velocity.tolist()}", s.source)
+
+
+def _spheres_sound(spheres, count: int) -> bool:
+    """Whether every sphere passes the checks below, all at once (a scene of 40,000 instanced
+    spheres took seconds one by one)."""
+    try:
+        material = np.fromiter((s.material for s in spheres), dtype=np.int64, count=len(spheres))
+        numbers = np.array([(*s.center, s.radius) for s in spheres], dtype=np.float64).reshape(len(spheres), 4)
+        moving = [s.velocity for s in spheres if s.velocity is not None]
+    except (TypeError, ValueError, OverflowError):   # a value of the wrong kind or shape: the loop says which
+        return False
+    return bool(((material >= 0) & (material < count)).all() and _finite(numbers, MAX_COORDINATE)
+                and (numbers[:, 3] > 0).all() and (not moving or _finite(np.array(moving, dtype=np.float64),
+                                                                        MAX_COORDINATE)))
 
 
 def _check_precision(scene: Scene, fail, warn) -> None:
