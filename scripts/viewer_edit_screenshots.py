@@ -48,6 +48,7 @@ def main(out_dir: Path) -> int:
     window = ViewerWindow(ViewOptions(scene=str(REPO / "scenes" / "cornell.toml"), window_size=(960, 540),
                                       render_scale=0.5, samples_per_frame=2, panels=("edit", "statistics")))
     session, editor = window.session, window.session.editor
+    editor.save_path = Path("scenes") / "cornell-edited.toml"  # as a user's own clone shows it, not this machine's path
     frames(window, FRAMES)
     before = edit.object_center(session.scene, LIGHT)
     x, y = window_point(window, before)
