@@ -27,7 +27,7 @@ from typing import Callable
 
 import numpy as np
 
-from fuzz_harness import DATA, FUZZ_DATA, REPO, SCENES, Case, Link
+from fuzz_harness import DATA, FUZZ_DATA, REPO, SCENES, Case, Fifo, Link
 
 
 @dataclass
@@ -383,6 +383,14 @@ def _gltf_index_past_positions() -> dict:
     return doc
 
 
+
+def _gltf_external_buffer() -> dict:
+    """The triangle with its buffer in a file beside it, scene.bin."""
+    doc = gltf_triangle()
+    doc["buffers"][0]["uri"] = "scene.bin"
+    return doc
+
+
 # Escapes the fuzzer found, each fixed and kept as a regression case.
 FUZZ_FOUND = [
     Seed("fuzz-path-keyframe-not-tables", "camera path", _text("keyframe = nan\n"), expect="refused",
@@ -392,6 +400,8 @@ FUZZ_FOUND = [
     Seed("fuzz-pbrt-string-parameter-given-a-number", "pbrt scene",
          _text(PBRT_HEAD + 'Shape "plymesh" "string filename" [ -1e10 ]\n'), expect="refused", line=6,
          mentions="quoted strings"),
+    Seed("fuzz-gltf-buffer-is-a-fifo", "glTF scene", lambda: _gltf(_gltf_external_buffer(), {"scene.bin": Fifo()})(),
+         expect="refused", mentions="not a regular file"),
     Seed("fuzz-gltf-truncated-png", "glTF scene", lambda: _gltf(gltf_triangle(images=[
         {"uri": "data:image/png;base64," + base64.b64encode(_truncated_png()).decode()}]))(), expect="warns"),
     Seed("fuzz-gltf-index-past-positions", "glTF scene", lambda: _gltf(_gltf_index_past_positions())(),

@@ -164,7 +164,23 @@ class _Gltf:
         for extension in f.items(self.doc, "extensionsUsed", "glTF"):
             if extension not in SUPPORTED_EXTENSIONS:
                 self.warn(f"extension {extension} is not supported; ignored")
+        self._special_files()
         self._missing_images()
+
+    def _special_files(self) -> None:
+        """A buffer or image uri that names a FIFO, a device or a folder is refused before
+        trimesh opens it (reading a FIFO waits for a writer for ever)."""
+        from urllib.parse import unquote
+
+        for kind in ("buffers", "images"):
+            for i, item in enumerate(self.fields.objects(self.doc, kind, "glTF")):
+                uri = item.get("uri")
+                if not isinstance(uri, str) or uri.startswith("data:"):
+                    continue
+                target = self.path.parent / unquote(uri)
+                if target.exists() and not target.is_file():
+                    raise SceneError(f"{kind}[{i}].uri: {target} is not a regular file (a FIFO, a device or a "
+                                     "folder)", self.path)
 
     def _missing_images(self) -> None:
         """trimesh drops an image file it cannot find without a word: say so; and an image file
