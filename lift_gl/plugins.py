@@ -211,6 +211,10 @@ def load_manifest(folder: Path) -> Plugin:
     splats = data.get("splats", False)
     if not isinstance(splats, bool):
         fail(f"splats must be true or false, not {splats!r}", r"^\s*splats\s*=")
+    try:
+        (Path(folder) / data["entry"]).resolve()
+    except (RuntimeError, OSError) as e:  # Python raises RuntimeError for a symlink loop
+        fail(f"entry {data['entry']!r} cannot be followed ({e})", r"^\s*entry\s*=")
     if not inside(Path(folder) / data["entry"], Path(folder)):
         fail(f"entry {data['entry']!r} is outside the plugin's folder {Path(folder).resolve()}: a plugin's files "
              "must be in its folder", r"^\s*entry\s*=")
@@ -312,7 +316,7 @@ def inside(path: Path, folder: Path) -> bool:
     """Whether `path`, links followed, is in `folder` (or below it)."""
     try:
         path.resolve().relative_to(folder.resolve())
-    except ValueError:
+    except (ValueError, RuntimeError, OSError):  # elsewhere, or a symlink loop
         return False
     return True
 

@@ -402,6 +402,9 @@ FUZZ_FOUND = [
          mentions="quoted strings"),
     Seed("fuzz-gltf-buffer-is-a-fifo", "glTF scene", lambda: _gltf(_gltf_external_buffer(), {"scene.bin": Fifo()})(),
          expect="refused", mentions="not a regular file"),
+    Seed("fuzz-plugin-entry-symlink-loop", "plugin manifest",
+         _plugin(files={"main.glsl": Link("loop-b.glsl"), "loop-b.glsl": Link("main.glsl")}), expect="refused",
+         mentions="cannot be followed"),
     Seed("fuzz-gltf-truncated-png", "glTF scene", lambda: _gltf(gltf_triangle(images=[
         {"uri": "data:image/png;base64," + base64.b64encode(_truncated_png()).decode()}]))(), expect="warns"),
     Seed("fuzz-gltf-index-past-positions", "glTF scene", lambda: _gltf(_gltf_index_past_positions())(),
