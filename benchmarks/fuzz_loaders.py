@@ -214,8 +214,10 @@ def escapes_text(rows) -> str:
     lines = []
     for r in rows:
         for e in r["escapes"]:
-            lines.append(f"- {r['target']}, {e['kind']} ({e['count']}): {e['message'][:240]} — input: {e['how'][:160]}"
-                         + (f" (saved: {e['saved']})" if e["saved"] else ""))
+            message = re.sub(r"/\S*?/case/", "CASE/", e["message"])  # the run's temporary folder
+            saved = e["saved"] and os.path.relpath(e["saved"], ROOT)   # not this machine's path
+            lines.append(f"- {r['target']}, {e['kind']} ({e['count']}): {message[:240]} — input: {e['how'][:160]}"
+                         + (f" (saved: {saved})" if saved else ""))
     return "\n".join(lines) or "None."
 
 

@@ -548,7 +548,8 @@ class _Builder:
         check_instance_count(max(self.placements, len(self.scene.instances) + len(meshes)), (st.path, st.line))
         for k in meshes:
             self.scene.instances.append(Instance(k, m.copy(), name=name, source=f"{st.path}:{st.line}"))
-        self.scene.spheres.extend(prim.transform_spheres(spheres, m))
+        for sphere in spheres:
+            self.scene.spheres.append(prim.transform_sphere(sphere, m))
 
     def do_WorldBegin(self, st):
         self.coord_systems["world"] = np.eye(4)

@@ -124,20 +124,9 @@ def transform_mesh(mesh: Mesh, m: np.ndarray, flip: bool = False) -> Mesh:
 
 def transform_sphere(s: Sphere, m: np.ndarray) -> Sphere:
     """Spheres stay exact only under uniform scale; callers check `uniform_scale` first."""
-    a = m[:3, :3]
-    center = a @ s.center + m[:3, 3]
-    radius = s.radius * float(np.sqrt(np.einsum("ij,ij->j", a, a)).sum()) / 3.0  # the columns' mean length
+    center = m[:3, :3] @ s.center + m[:3, 3]
+    radius = s.radius * float(np.mean(np.linalg.norm(m[:3, :3], axis=0)))
     return Sphere(center, radius, s.material, source=s.source)
-
-
-def transform_spheres(spheres: list[Sphere], m: np.ndarray) -> list[Sphere]:
-    """transform_sphere of each, the matrix's scale taken once (an instance's spheres)."""
-    if not spheres:
-        return []
-    a = m[:3, :3]
-    scale = float(np.sqrt(np.einsum("ij,ij->j", a, a)).sum()) / 3.0
-    centres = np.array([s.center for s in spheres]) @ a.T + m[:3, 3]
-    return [Sphere(c, s.radius * scale, s.material, source=s.source) for s, c in zip(spheres, centres)]
 
 
 def uniform_scale(m: np.ndarray, tol: float = 1e-4) -> bool:
