@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import limits
 from .errors import SceneError, read_utf8
 from .scene.model import Camera, Scene
 from .scene.primitives import translate_matrix
@@ -129,6 +130,7 @@ def load_camera_path(path) -> CameraPath:
     """Read a camera path file; a bad one raises SceneError naming the file."""
     path = Path(path)
     try:
+        limits.check_settings_file(path)
         data = tomllib.loads(read_utf8(path, SceneError))
     except (FileNotFoundError, IsADirectoryError):
         raise SceneError("camera path file not found", path) from None

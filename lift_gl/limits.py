@@ -49,6 +49,7 @@ MAX_INCLUDES = 2048              # Include/Import directives run (a file include
 MAX_INCLUDED_BYTES = 64 << 20    # text read through them (64 MiB; pbrt text parses at about 1 MB/s)
 MAX_TEXTURE_PIXELS = 1 << 24     # 4096 x 4096 (64 MiB as RGBA8; the images buffer holds 128 MiB)
 MAX_IMAGE_PIXELS = 1 << 26       # 8192 x 8192: any image read (768 MiB as float32 RGB)
+MAX_SETTINGS_BYTES = 4 << 20     # a camera path or plugin manifest: text a person writes (TOML parses at ~2 MB/s)
 MAX_SHADER_ARRAY_COMPONENTS = 4096  # scalars of one GLSL array (16 KiB of floats an invocation)
 
 
@@ -158,6 +159,14 @@ def _over(what: str, name: str, limit: int, where) -> LimitError:
     """`what` states the count; the error adds the limit's name and value."""
     path, line = where if isinstance(where, tuple) else (where, None)
     return LimitError(f"{what}, over the limit lift_gl.limits.{name} = {limit:,}", path, line)
+
+
+def check_settings_file(path) -> None:
+    """A camera path or plugin manifest is refused from its size before it is read (a 9 MB one
+    of nested arrays took more than 5 s to parse)."""
+    size = os.path.getsize(path)
+    if size > MAX_SETTINGS_BYTES:
+        raise _over(f"a file of {size:,} bytes", "MAX_SETTINGS_BYTES", MAX_SETTINGS_BYTES, path)
 
 
 class IncludeBudget:

@@ -41,6 +41,7 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import limits
 from .errors import PluginError, read_utf8
 from .glsl_names import name_conflict
 
@@ -171,6 +172,7 @@ def load_manifest(folder: Path) -> Plugin:
     path = Path(folder) / "plugin.toml"
     if not path.is_file():
         raise PluginError("plugin.toml not found", path)
+    limits.check_settings_file(path)
     text = read_utf8(path, PluginError)
     try:
         data = tomllib.loads(text)
@@ -211,6 +213,8 @@ def load_manifest(folder: Path) -> Plugin:
     splats = data.get("splats", False)
     if not isinstance(splats, bool):
         fail(f"splats must be true or false, not {splats!r}", r"^\s*splats\s*=")
+    if "\0" in data["entry"]:
+        fail(f"entry {data['entry']!r} holds a NUL character", r"^\s*entry\s*=")
     try:
         (Path(folder) / data["entry"]).resolve()
     except (RuntimeError, OSError) as e:  # Python raises RuntimeError for a symlink loop

@@ -120,6 +120,8 @@ def _within(path: Path, folder: Path) -> bool:
 
 
 def _find(name: str, here: Path | None, search: list[Path]) -> Path | None:
+    if "\0" in name:  # no file has one (and Path refuses it): not found
+        return None
     candidates = ([here / name] if here is not None else []) + [d / name for d in search]
     for c in candidates:
         if c.is_file():

@@ -405,6 +405,12 @@ FUZZ_FOUND = [
     Seed("fuzz-plugin-entry-symlink-loop", "plugin manifest",
          _plugin(files={"main.glsl": Link("loop-b.glsl"), "loop-b.glsl": Link("main.glsl")}), expect="refused",
          mentions="cannot be followed"),
+    Seed("fuzz-plugin-entry-with-nul", "plugin manifest", _plugin(entry="main\\u0000.glsl"), expect="refused",
+         line=4, mentions="NUL"),
+    Seed("fuzz-plugin-include-with-nul", "plugin manifest", _plugin(include='#include "a\0b.glsl"\n'),
+         expect="refused", mentions="not found"),
+    Seed("fuzz-path-of-9-megabytes", "camera path", _text(PATH + "# " + "x" * (5 << 20) + "\n"), expect="refused",
+         mentions="MAX_SETTINGS_BYTES"),
     Seed("fuzz-gltf-truncated-png", "glTF scene", lambda: _gltf(gltf_triangle(images=[
         {"uri": "data:image/png;base64," + base64.b64encode(_truncated_png()).decode()}]))(), expect="warns"),
     Seed("fuzz-gltf-index-past-positions", "glTF scene", lambda: _gltf(_gltf_index_past_positions())(),
