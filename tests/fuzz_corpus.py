@@ -411,6 +411,9 @@ FUZZ_FOUND = [
          expect="refused", mentions="not found"),
     Seed("fuzz-path-of-9-megabytes", "camera path", _text(PATH + "# " + "x" * (5 << 20) + "\n"), expect="refused",
          mentions="MAX_SETTINGS_BYTES"),
+    Seed("fuzz-obj-vt-of-one-number", "OBJ mesh",
+         _text("v -1 0 -1\nv 1 0 -1\nv 0 0 1\nvt 0\nvt 0.3 0.6\nvt 0.5 0.9\nf 1/1 2/2 3/3\n"), expect="warns",
+         mentions="texture coordinates"),
     Seed("fuzz-gltf-truncated-png", "glTF scene", lambda: _gltf(gltf_triangle(images=[
         {"uri": "data:image/png;base64," + base64.b64encode(_truncated_png()).decode()}]))(), expect="warns"),
     Seed("fuzz-gltf-index-past-positions", "glTF scene", lambda: _gltf(_gltf_index_past_positions())(),

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import SceneError
 from .loader import framing_camera, warn_at
-from .mesh_io import clean_triangles
+from .mesh_io import clean_triangles, texture_coordinates
 from .model import Camera, DistantLight, Environment, Material, Mesh, Scene, Texture
 
 SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_ior",
@@ -262,8 +262,10 @@ class _Gltf:
         if indices.min() < 0 or indices.max() >= len(positions):  # before trimesh computes normals from them
             raise SceneError(f"mesh {Path(source).name!r}: triangles use vertex indices outside "
                              f"0..{len(positions) - 1} (from {indices.min()} to {indices.max()})", self.path)
-        uv = getattr(geometry.visual, "uv", None)
-        uvs = np.asarray(uv, dtype=np.float64) if uv is not None and len(uv) == len(positions) else None
+        uvs = texture_coordinates(getattr(geometry.visual, "uv", None), len(positions))
+        if uvs is None and getattr(geometry.visual, "uv", None) is not None:
+            self.warn(f"mesh {Path(source).name!r}: texture coordinates are not one (u, v) pair per vertex; it is "
+                      "drawn without them")
         normals = np.asarray(geometry.vertex_normals, dtype=np.float64) if self.use_normals else None
         positions, indices, normals, uvs = clean_triangles(positions, indices, normals, uvs, source)
         material = self._material(getattr(geometry.visual, "material", None))

@@ -66,15 +66,27 @@ def load_mesh_file(path, ref: tuple | None = None, material: int = 0) -> Mesh:
         n = np.asarray(tm.vertex_normals, dtype=np.float64)
         if n.shape == positions.shape:
             normals = n
-    uvs = None
-    uv = getattr(tm.visual, "uv", None)
-    if uv is not None and len(uv) == len(positions):
-        uvs = np.asarray(uv, dtype=np.float64)
+    uvs = texture_coordinates(getattr(tm.visual, "uv", None), len(positions))
+    if uvs is None and getattr(tm.visual, "uv", None) is not None:
+        warnings.warn(f"{path}: texture coordinates are not one (u, v) pair per vertex; the mesh is drawn "
+                      "without them", SceneWarning, stacklevel=2)
 
     positions, indices, normals, uvs = clean_triangles(positions, indices, normals, uvs, path)
     source = f"{ref[0]}:{ref[1]}" if ref is not None else str(path)
     return Mesh(path.stem, positions, indices, material, normals=normals, uvs=uvs,
                 source=source)
+
+
+def texture_coordinates(uv, vertices: int) -> np.ndarray | None:
+    """(u, v) per vertex from what trimesh read, or None where it is not one pair (or more: a
+    third coordinate is dropped) per vertex (an OBJ's odd `vt` lines give other shapes)."""
+    try:
+        uv = None if uv is None else np.asarray(uv, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    if uv is None or uv.ndim != 2 or uv.shape[0] != vertices or uv.shape[1] < 2:
+        return None
+    return uv[:, :2]
 
 
 def _obj_as_utf8(path: Path) -> bytes | None:
