@@ -18,7 +18,7 @@ import warnings
 from pathlib import Path
 
 from .errors import LiftError, ShaderError, read_utf8
-from .shaders import SHADER_DIR, ShaderSource, _find, _within
+from .shaders import SHADER_DIR, ShaderSource, _find, check_contained
 
 CL_LIBRARY_DIR = SHADER_DIR / "opencl"
 _INCLUDE = re.compile(r'^\s*#\s*include\s+[<"]([^">]+)[">]')
@@ -88,9 +88,8 @@ def assemble(main: str, defines: dict | None = None, include_dirs=(), *, main_na
                                   path, lineno)
             if not path.is_absolute():  # the host's generated text: its includes are the host's choice
                 allowed.append(target.parent)
-            elif not any(_within(target, d) for d in allowed):
-                raise ShaderError(f'#include "{m.group(1)}" is {target}, outside the plugin\'s folder and the '
-                                  f'OpenCL library ({CL_LIBRARY_DIR}): a plugin may include only those', path, lineno)
+            else:
+                check_contained(m.group(1), target, allowed, f"OpenCL library ({CL_LIBRARY_DIR})", path, lineno)
             if target not in seen:
                 seen.add(target)
                 add_file(read_utf8(target, ShaderError), target)

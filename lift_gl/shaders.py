@@ -94,9 +94,8 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
                                   path, lineno)
             if not path.is_absolute():  # the host's generated text: its includes are the host's choice
                 allowed.append(target.parent)
-            elif SHADER_DIR not in path.parents and not any(_within(target, d) for d in allowed):
-                raise ShaderError(f'#include "{m.group(1)}" is {target}, outside the plugin\'s folder and the GLSL '
-                                  f'library ({LIBRARY_DIR}): a plugin may include only those', path, lineno)
+            elif SHADER_DIR not in path.parents:
+                check_contained(m.group(1), target, allowed, f"GLSL library ({LIBRARY_DIR})", path, lineno)
             if target in open_files:
                 raise ShaderError(f'#include "{m.group(1)}" includes itself (through '
                                   f'{" -> ".join(p.name for p in open_files)})', path, lineno)
@@ -113,6 +112,14 @@ def assemble(main: str | Path, defines: dict | None = None, include_dirs=(), *,
         add_file(main, Path(main_name))
     src.text = "\n".join(out) + "\n"
     return src
+
+
+def check_contained(include: str, target: Path, allowed: list[Path], library: str, path: Path, lineno: int) -> None:
+    """A plugin file's `#include "include"` (found at `target`) must lie inside `allowed`: the
+    plugin's folder or the library (GLSL's and OpenCL's assemblers alike)."""
+    if not any(_within(target, d) for d in allowed):
+        raise ShaderError(f'#include "{include}" is {target}, outside the plugin\'s folder and the {library}: '
+                          'a plugin may include only those', path, lineno)
 
 
 def _within(path: Path, folder: Path) -> bool:
