@@ -4,14 +4,16 @@ naming the file only, and escaped, by kind (an exception that is not a LiftError
 marked internal or naming no file, a non-finite or negative value reaching the GPU, a hang,
 more than 1 GiB, text printed by a library, a plugin file from outside its folder).
 
-Each loader runs in a worker process of its own (hypothesis, seeded), which reports every
-case on a pipe; a worker silent for --stall seconds (a hang the harness's timers cannot
+A loader's cases are split into shards of --shard-size (each a hypothesis run of its own
+seed), and each shard runs in a worker process of its own, which reports every case on a pipe; a worker silent for --stall seconds (a hang the harness's timers cannot
 interrupt, inside a C library) or one that dies (a crash) is counted as one escape, its input
 kept, and a new worker goes on with the remaining cases. Escaping inputs are saved under
 --out (the first few of each kind and message). Prints a table, writes it with the escapes
-to --results (markdown and JSON), exits 1 if anything escaped.
+to --results (markdown and JSON) after every shard, exits 1 if anything escaped. --resume
+runs only the shards that the results file does not hold yet: a run cut short (a time limit,
+Ctrl-C) goes on where it stopped, on this machine or another.
 
-    nice -n 19 python benchmarks/fuzz_loaders.py [--cases 10000] [--seed 0] [--only NAME] [--jobs 2]
+    nice -n 19 python benchmarks/fuzz_loaders.py [--cases 10000] [--seed 0] [--only NAME] [--jobs 2] [--resume]
     python benchmarks/fuzz_loaders.py --replay out/fuzz/FOLDER...   # saved inputs again
 """
 from __future__ import annotations
@@ -199,6 +201,36 @@ def _lost(current, kind, message, name, root, out, seed, restarts, counts, escap
     counts["escaped"] += 1
 
 
+SHARD_SEED_STRIDE = 1_000_003  # shards' seeds far apart from a worker's restarts (seed + 1000 * restarts)
+
+
+def shard_plan(cases: int, size: int) -> list[int]:
+    """The cases of each shard: `cases` split into shards of `size`, the last one smaller."""
+    return [min(size, cases - start) for start in range(0, cases, size)]
+
+
+def merge_rows(name: str, rows: list[dict]) -> dict:
+    """One loader's row from its shards' rows: counts summed, escapes merged by signature."""
+    merged = {"target": name, "slowest": "", "fuzzer_errors": []}
+    for key in ("cases", "loaded", "refused", "refused_no_line", "escaped", "warned", "numpy_warnings", "restarts"):
+        merged[key] = sum(r[key] for r in rows)
+    merged["seconds"] = round(sum(r["seconds"] for r in rows), 1)  # worker time, summed over shards
+    slowest = max(rows, key=lambda r: r["max_cpu_s"], default=None)
+    merged["max_cpu_s"] = slowest["max_cpu_s"] if slowest else 0.0
+    merged["slowest"] = slowest["slowest"] if slowest else ""
+    escapes: dict[str, dict] = {}
+    for r in rows:
+        merged["fuzzer_errors"] += r["fuzzer_errors"]
+        for e in r["escapes"]:
+            sig = signature(name, e["kind"], e["message"])
+            kept = escapes.setdefault(sig, dict(e, count=0))
+            kept["count"] += e["count"]
+            kept["saved"] = kept["saved"] or e["saved"]
+    merged["escapes"] = sorted(escapes.values(), key=lambda e: -e["count"])
+    merged["signatures"] = {sig: e["count"] for sig, e in escapes.items()}
+    return merged
+
+
 def table(rows) -> str:
     lines = ["| loader | inputs | loaded | refused: file:line | refused: file only | escaped | loaded with a warning "
              "| numpy warnings | slowest case (CPU s) | seconds |",
@@ -238,7 +270,7 @@ def replay(folders: list[Path]) -> int:
     return 1 if escaped else 0
 
 
-def machine() -> dict:
+def machine(commit: str | None = None) -> dict:
     """Where the run was made: CPU, cores, load, Python, the commit and whether the tree was clean."""
     import platform
 
@@ -248,12 +280,15 @@ def machine() -> dict:
 
     def git(*args):
         return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    if not (ROOT / ".git").exists():  # a copy of the tree without its history (another machine)
+        return {"cpu": cpu, "cores": os.cpu_count(), "load_average": os.getloadavg(),
+                "python": platform.python_version(), "commit": commit or "unknown", "uncommitted_loader_changes": False}
     return {"cpu": cpu, "cores": os.cpu_count(), "load_average": os.getloadavg(), "python": platform.python_version(),
             "commit": git("rev-parse", "--short", "HEAD"),
             "uncommitted_loader_changes": bool(git("status", "--porcelain", "--", "lift_gl"))}
 
 
-def write_results(results: Path, command: str, where: dict, rows: list) -> None:
+def write_results(results: Path, command: str, where: dict, rows: list, shards: list) -> None:
     where = dict(where, load_average_end=os.getloadavg())
     head = (f"`{command}` at commit {where['commit']}"
             + (" (with uncommitted changes to lift_gl/)" if where["uncommitted_loader_changes"] else "")
@@ -261,20 +296,46 @@ def write_results(results: Path, command: str, where: dict, rows: list) -> None:
               f"and {where['load_average_end'][0]:.1f} at the end, Python {where['python']}")
     results.parent.mkdir(parents=True, exist_ok=True)
     results.with_suffix(".md").write_text(f"{head}\n\n{table(rows)}\n\nEscapes:\n\n{escapes_text(rows)}\n")
-    results.with_suffix(".json").write_text(json.dumps({"command": command, "machine": where, "rows": rows},
-                                                       indent=1) + "\n")
+    results.with_suffix(".json").write_text(json.dumps({"command": command, "machine": where, "rows": rows,
+                                                       "shards": shards}, indent=1) + "\n")
+
+
+def _command_args(argv: list[str]) -> list[str]:
+    """The command line as recorded: without --resume, and without this machine's paths."""
+    kept, skip = [], False
+    for arg in argv:
+        if skip:
+            skip = False
+        elif arg in ("--results", "--out", "--commit"):
+            skip = True
+        elif arg != "--resume" and not arg.startswith(("--results=", "--out=", "--commit=")):
+            kept.append(arg)
+    return kept
+
+
+def finished_shards(results: Path, plan_key: dict) -> list[dict]:
+    """The shards an earlier run of the same plan (cases, seed, shard size) wrote to `results`."""
+    path = results.with_suffix(".json")
+    if not path.exists():
+        return []
+    shards = json.loads(path.read_text()).get("shards", [])
+    return [sh for sh in shards if all(sh.get(k) == v for k, v in plan_key.items())]
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cases", type=int, default=10000, help="inputs per loader (default 10000)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--shard-size", type=int, default=1000, help="inputs per worker run (default 1000)")
     parser.add_argument("--only", help="fuzz only the loaders whose name contains this (comma-separated)")
     parser.add_argument("--out", default="out/fuzz", help="where escaping inputs are saved")
     parser.add_argument("--results", default=str(RESULTS), help="results file, without extension (.md, .json)")
+    parser.add_argument("--resume", action="store_true",
+                        help="keep the shards already in --results (same --cases, --seed, --shard-size), run the rest")
     parser.add_argument("--stall", type=float, default=120.0, help="seconds of silence that count as a hang")
-    parser.add_argument("--jobs", type=int, default=1, help="loaders fuzzed at once, a worker process each")
+    parser.add_argument("--jobs", type=int, default=1, help="shards fuzzed at once, a worker process each")
     parser.add_argument("--replay", nargs="+", metavar="FOLDER", help="run saved inputs again and print their outcomes")
+    parser.add_argument("--commit", help="the commit to record where the tree is a copy without .git")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--root", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -287,23 +348,33 @@ def main() -> int:
     from fuzz_harness import TARGETS
 
     wanted = [w.strip().lower() for w in args.only.split(",")] if args.only else None
-    where = machine()
+    where = machine(args.commit)
     results = Path(args.results)
-    command = ("python benchmarks/fuzz_loaders.py " + " ".join(sys.argv[1:])).strip()
+    command = ("python benchmarks/fuzz_loaders.py " + " ".join(_command_args(sys.argv[1:]))).strip()
     names = [t.name for t in TARGETS if not wanted or any(w in t.name.lower() for w in wanted)]
-    done: dict[str, dict] = {}
+    plan_key = {"cases": args.cases, "seed": args.seed, "shard_size": args.shard_size}
+    shards = finished_shards(results, plan_key) if args.resume else []
+    have = {(sh["target"], sh["index"]) for sh in shards}
+    todo = [(name, index, size) for name in names
+            for index, size in enumerate(shard_plan(args.cases, args.shard_size)) if (name, index) not in have]
+    if shards:
+        print(f"resuming: {len(shards)} shards done, {len(todo)} to run", file=sys.stderr)
     lock = threading.Lock()
 
-    def run(name):
-        row = fuzz_target(name, args.cases, args.seed, out, args.stall)
-        with lock:  # after each loader: a long run's part survives
-            done[name] = row
-            write_results(results, command, where, [done[n] for n in names if n in done])
+    def rows_now() -> list[dict]:
+        return [merge_rows(n, [sh["row"] for sh in shards if sh["target"] == n]) for n in names
+                if any(sh["target"] == n for sh in shards)]
+
+    def run(name, index, size):
+        row = fuzz_target(name, size, args.seed + SHARD_SEED_STRIDE * index, out, args.stall)
+        with lock:  # after each shard: a long run's part survives
+            shards.append(dict(plan_key, target=name, index=index, row=row))
+            write_results(results, command, where, rows_now(), shards)
 
     with ThreadPoolExecutor(max_workers=args.jobs) as pool:
-        for future in [pool.submit(run, name) for name in names]:
+        for future in [pool.submit(run, *task) for task in todo]:
             future.result()
-    rows = [done[n] for n in names]
+    rows = rows_now()
     print(table(rows))
     print("\nEscapes:\n" + escapes_text(rows))
     return 1 if any(r["escaped"] for r in rows) else 0
