@@ -116,6 +116,18 @@ def _name(sphere) -> str:
     return (sphere.authored or {}).get("name", "")
 
 
+def _finite_number(value) -> float | None:
+    """A TOML number as a finite float (None: not one). TOML integers have no size limit, and
+    numpy cannot test one past int64 (isfinite raised TypeError); true and false are not numbers."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if np.isfinite(number) else None
+
+
 def _vec3(value, what: str, path) -> np.ndarray:
     try:
         v = np.asarray(value, dtype=np.float64).reshape(3)
@@ -149,15 +161,16 @@ def load_camera_path(path) -> CameraPath:
         missing = {"time", "position", "target"} - set(k)
         if missing:
             raise SceneError(f"{where} lacks {', '.join(sorted(missing))}", path)
-        if not isinstance(k["time"], (int, float)) or not np.isfinite(k["time"]):
-            raise SceneError(f"{where}: time must be a number, not {k['time']!r}", path)
+        time = _finite_number(k["time"])
+        if time is None:
+            raise SceneError(f"{where}: time must be a finite number, not {k['time']!r}", path)
         fov = k.get("fov")
         if fov is not None and not (isinstance(fov, (int, float)) and 0 < fov < 180):
             raise SceneError(f"{where}: fov must be in (0, 180) degrees, not {fov!r}", path)
         position, target = _vec3(k["position"], f"{where} position", path), _vec3(k["target"], f"{where} target", path)
         if np.array_equal(position, target):
             raise SceneError(f"{where}: position and target are the same point", path)
-        keyframes.append(Keyframe(float(k["time"]), position, target, None if fov is None else float(fov)))
+        keyframes.append(Keyframe(time, position, target, None if fov is None else float(fov)))
     if not keyframes:
         raise SceneError("a camera path needs at least one [[keyframe]] (time, position, target)", path)
     if any(b.time <= a.time for a, b in zip(keyframes, keyframes[1:])):

@@ -238,9 +238,12 @@ def _read_npy(path: Path, limit_name: str) -> np.ndarray:
     """An .npy file, mapped first (header read, no data) so that its shape is checked before
     the data is read."""
     mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+    if mapped.dtype.kind not in "biuf":  # complex, strings, records: no pixel values
+        raise ImageError(f"an .npy of {mapped.dtype} values; an image's are real numbers", path)
     if mapped.ndim >= 2:
         check_image_pixels(int(mapped.shape[1]), int(mapped.shape[0]), path, limit_name=limit_name)
-    return np.array(mapped)
+    with np.errstate(over="ignore"):  # float64 beyond float32's range becomes Inf: judged as non-finite later
+        return np.array(mapped, dtype=np.float32)
 
 
 # ---- what a library prints --------------------------------------------------------------

@@ -49,7 +49,9 @@ MAX_INCLUDES = 2048              # Include/Import directives run (a file include
 MAX_INCLUDED_BYTES = 64 << 20    # text read through them (64 MiB; pbrt text parses at about 1 MB/s)
 MAX_TEXTURE_PIXELS = 1 << 24     # 4096 x 4096 (64 MiB as RGBA8; the images buffer holds 128 MiB)
 MAX_IMAGE_PIXELS = 1 << 26       # 8192 x 8192: any image read (768 MiB as float32 RGB)
+MAX_SCENE_TEXT_BYTES = 32 << 20  # a glTF's JSON (Python holds about 10x its size as objects)
 MAX_SETTINGS_BYTES = 4 << 20     # a camera path or plugin manifest: text a person writes (TOML parses at ~2 MB/s)
+MAX_ENVIRONMENT_SIDE = 1 << 16   # texels of an environment map's side (its sampler's guides are 16-bit)
 MAX_SHADER_ARRAY_COMPONENTS = 4096  # scalars of one GLSL array (16 KiB of floats an invocation)
 
 
@@ -161,6 +163,12 @@ def _over(what: str, name: str, limit: int, where) -> LimitError:
     return LimitError(f"{what}, over the limit lift_gl.limits.{name} = {limit:,}", path, line)
 
 
+def check_scene_text(size: int, path, *, what: str = "a file") -> None:
+    """A glTF's JSON is refused from its size before it is parsed (a 1.5 GB one ran past 1 GiB)."""
+    if size > MAX_SCENE_TEXT_BYTES:
+        raise _over(f"{what} of {size:,} bytes", "MAX_SCENE_TEXT_BYTES", MAX_SCENE_TEXT_BYTES, path)
+
+
 def check_settings_file(path) -> None:
     """A camera path or plugin manifest is refused from its size before it is read (a 9 MB one
     of nested arrays took more than 5 s to parse)."""
@@ -200,6 +208,9 @@ def check_image_pixels(width: int, height: int, where=None, *, what: str = "an i
     """Refuse an image from the size its header claims, before its pixels are decoded;
     textures and environment maps are held to limit_name = "MAX_TEXTURE_PIXELS"."""
     limit = globals()[limit_name]  # looked up when called: tests lower it
+    if width <= 0 or height <= 0:  # a header of 0 rows decoded to an array no sampler can index
+        path, line = where if isinstance(where, tuple) else (where, None)
+        raise LimitError(f"{what} of {width:,}x{height:,} pixels has no pixels", path, line)
     if width * height > limit:
         raise _over(f"{what} of {width:,}x{height:,} pixels ({width * height:,})", limit_name, limit, where)
 

@@ -421,7 +421,37 @@ FUZZ_FOUND = [
     Seed("fuzz-plugin-entry-latin1", "plugin manifest",
          _plugin(files={"main.glsl": "// caf\xe9\n".encode("latin-1") + ENTRY.format(include="").encode()}),
          expect="refused", mentions="UTF-8"),
+    Seed("fuzz-path-time-past-float64", "camera path",
+         _text(PATH.replace("time = 1.0", "time = 1" + "0" * 400)), expect="refused", line=None,
+         mentions="finite number"),
+    Seed("fuzz-path-time-past-int64", "camera path", _text(PATH.replace("time = 1.0", "time = 1" + "0" * 30)),
+         expect="loads"),
+    Seed("fuzz-hdr-texture-of-no-rows", "texture image",
+         _text(TEXTURE_SCENE.replace("tex.png", "tex.hdr"),
+               {"tex.hdr": b"#?RGBE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 4\n" + bytes(16)}),
+         expect="warns", mentions="no pixels"),
+    Seed("fuzz-environment-map-side-over-limit", "environment map",
+         _text(ENV_SCENE.replace("sky.pfm", "sky.png"), {"sky.png": _png(100_000, 1)}), expect="refused",
+         mentions="MAX_ENVIRONMENT_SIDE"),
+    Seed("fuzz-glb-chunk-longer-than-file", "glTF scene",
+         lambda: _glb(gltf_triangle(), bin_length=2_700_000_000), expect="refused", mentions="claims"),
+    Seed("fuzz-glb-json-chunk-over-limit", "glTF scene",
+         lambda: _glb(gltf_triangle(), json_length=1_500_000_000), expect="refused", mentions="MAX_SCENE_TEXT_BYTES"),
+    Seed("fuzz-gltf-extension-name-an-array", "glTF scene",
+         _gltf(dict(gltf_triangle(), extensionsUsed=[["KHR_lights_punctual"]])), expect="refused",
+         mentions="must be a string"),
 ]
+
+
+def _glb(doc: dict, json_length: int | None = None, bin_length: int | None = None) -> Case:
+    """A .glb of the document and a small BIN chunk, with the chunks' lengths as claimed."""
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    binary = bytes(16)
+    body = (struct.pack("<I", len(text) if json_length is None else json_length) + b"JSON" + text
+            + struct.pack("<I", len(binary) if bin_length is None else bin_length) + b"BIN\0" + binary)
+    return Case(b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body, {}, "glb of claimed chunk lengths",
+                name="scene.glb")
 
 
 def _bad_exr() -> bytes:

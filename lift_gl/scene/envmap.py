@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..limits import MAX_ENVIRONMENT_SIDE
+
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -110,7 +112,7 @@ def _density_and_cdf(weights: np.ndarray):
 
 
 # A guide word packs its bucket's first cell (low 16 bits) and how many more it may need.
-GUIDE_MAX_CELLS = 1 << 16
+GUIDE_MAX_CELLS = MAX_ENVIRONMENT_SIDE  # a guide word holds two 16-bit cell numbers
 
 
 def search_cdf(cdf: np.ndarray, u) -> np.ndarray:

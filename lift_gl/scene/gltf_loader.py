@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import io
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 
+from .. import limits
 from ..errors import SceneError
 from .loader import framing_camera, warn_at
 from .mesh_io import clean_triangles, texture_coordinates
@@ -36,17 +38,23 @@ SUPPORTED_EXTENSIONS = {"KHR_lights_punctual", "KHR_materials_emissive_strength"
 
 def read_gltf_json(path: Path) -> dict:
     """The JSON of a .gltf file, or the JSON chunk of a .glb (a UTF-8 byte order mark allowed)."""
-    data = path.read_bytes()
     try:
-        if path.suffix.lower() == ".glb":
-            if data[:4] != b"glTF" or len(data) < 20:
-                raise ValueError("not a binary glTF (no 'glTF' magic)")
-            length = int.from_bytes(data[12:16], "little")
-            if data[16:20] != b"JSON":
-                raise ValueError("the first chunk of a .glb must be JSON")
-            doc = json.loads(data[20:20 + length].decode("utf-8-sig"))
-        else:
-            doc = json.loads(data.decode("utf-8-sig"))
+        with open(path, "rb") as f:
+            if path.suffix.lower() == ".glb":  # the JSON chunk alone: the binary one is trimesh's to read
+                head = f.read(20)
+                if head[:4] != b"glTF" or len(head) < 20:
+                    raise ValueError("not a binary glTF (no 'glTF' magic)")
+                length = int.from_bytes(head[12:16], "little")
+                if head[16:20] != b"JSON":
+                    raise ValueError("the first chunk of a .glb must be JSON")
+                limits.check_scene_text(length, path, what="a JSON chunk")
+                _check_glb_chunks(f, os.fstat(f.fileno()).st_size, length)
+                f.seek(20)
+                text = f.read(length)
+            else:
+                limits.check_scene_text(os.fstat(f.fileno()).st_size, path)
+                text = f.read()
+        doc = json.loads(text.decode("utf-8-sig"))
     except (ValueError, UnicodeDecodeError, RecursionError) as e:
         line = getattr(e, "lineno", None)
         raise SceneError(f"not a readable glTF file ({e})", path, line) from None
@@ -55,9 +63,37 @@ def read_gltf_json(path: Path) -> dict:
     return doc
 
 
+def _check_glb_chunks(f, size: int, json_length: int) -> None:
+    """Every chunk of a .glb must fit in the file: trimesh reads a chunk's claimed length in one
+    call, and a length of 2.7 GB in a 4 KB file ran out of memory instead of being refused."""
+    start, length, number = 20, json_length, 0
+    while True:
+        if start + length > size:
+            raise ValueError(f"chunk {number} claims {length:,} bytes, and the file has {size - start:,} after "
+                             "its header")
+        start += length
+        if start + 8 > size:
+            return
+        f.seek(start)
+        head = f.read(8)
+        length, start, number = int.from_bytes(head[:4], "little"), start + 8, number + 1
+
+
 def _json_type(value) -> str:
     return {dict: "an object", list: "an array", str: "a string", bool: "true/false"}.get(
         type(value), "null" if value is None else "a number")
+
+
+def _is_double(value) -> bool:
+    """A JSON number that a float64 holds (JSON integers have no size limit: float() of one
+    with 400 digits raises OverflowError); true and false are not numbers."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        float(value)
+    except OverflowError:
+        return False
+    return True
 
 
 class _Fields:
@@ -89,16 +125,22 @@ class _Fields:
                 self.fail(f"{where}.{key}[{i}]", f"must be a JSON object, not {_json_type(v)}")
         return values
 
+    def strings(self, obj: dict, key: str, where: str) -> list[str]:
+        values = self.items(obj, key, where)
+        for i, v in enumerate(values):
+            if not isinstance(v, str):
+                self.fail(f"{where}.{key}[{i}]", f"must be a string, not {_json_type(v)}")
+        return values
+
     def number(self, obj: dict, key: str, default: float, where: str) -> float:
         value = obj.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+        if not _is_double(value):
             self.fail(f"{where}.{key}", f"must be a number, not {_json_type(value)} {value!r:.40}")
         return float(value)
 
     def numbers(self, obj: dict, key: str, count: int, default, where: str) -> np.ndarray:
         value = obj.get(key, default)
-        if not (isinstance(value, list) and len(value) == count
-                and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+        if not (isinstance(value, list) and len(value) == count and all(_is_double(v) for v in value)):
             self.fail(f"{where}.{key}", f"must be an array of {count} numbers, not {value!r:.60}")
         return np.asarray(value, dtype=np.float64)
 
@@ -161,7 +203,7 @@ class _Gltf:
         self.use_normals = bool(with_normals) and all(with_normals)
         if any(with_normals) and not self.use_normals:
             self.warn("some primitives have normals and some not: all are flat-shaded")
-        for extension in f.items(self.doc, "extensionsUsed", "glTF"):
+        for extension in f.strings(self.doc, "extensionsUsed", "glTF"):
             if extension not in SUPPORTED_EXTENSIONS:
                 self.warn(f"extension {extension} is not supported; ignored")
         self._special_files()

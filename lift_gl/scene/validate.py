@@ -24,6 +24,7 @@ import warnings
 
 import numpy as np
 
+from .. import limits
 from ..errors import SceneError
 from . import precision
 from .instances import check_instances
@@ -163,6 +164,9 @@ def _repair_environment_image(env, fail, warn) -> None:
     name = f"environment map {env.image_file}" if env.image_file else "environment map"
     if image.ndim != 3 or image.shape[2] != 3 or not image.size:
         fail(f"{name}: must be an H x W x 3 image, got shape {image.shape}", env.source)
+    if max(image.shape[:2]) > limits.MAX_ENVIRONMENT_SIDE:  # the sampler's guides are 16-bit cell numbers
+        fail(f"{name}: {image.shape[1]:,}x{image.shape[0]:,} texels, over the limit "
+             f"lift_gl.limits.MAX_ENVIRONMENT_SIDE = {limits.MAX_ENVIRONMENT_SIDE:,} a side", env.source)
     finite = np.isfinite(image)
     if not finite.any():
         fail(f"{name}: no texel is a finite number (all NaN or Inf)", env.source)
