@@ -17,13 +17,12 @@ from .passes.trace import plugin_path_steps
 from .plugins import Plugin, param_defines
 
 
-def resolve_choices(options, device, plugin: Plugin, features, scene, temporal_mode: str,
-                    packed=None) -> ResolvedOptions:
+def resolve_choices(options, device, plugin: Plugin, features, scene, packed=None) -> ResolvedOptions:
     """The options' choices for this device, plugin and scene; before the scene is packed
     (packed None) those that depend on its tree are provisional."""
     work = Workload(language=plugin.language, path_steps=plugin_path_steps(plugin, features.defines()),
                     splats=plugin.splats, motion=features.motion, instances=features.instances,
-                    motion_vectors=temporal_mode == "reproject", triangles=scene.triangle_count,
+                    triangles=scene.triangle_count,
                     tree=TreeShape.of(packed) if packed is not None else None)
     return resolve(options, device, work)
 

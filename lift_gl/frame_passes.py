@@ -58,7 +58,7 @@ def asked(r) -> tuple[str, ...]:
 # ---- the G-buffer ----
 def gbuffer_node(r, choices) -> Node:
     motion_vectors = r.temporal.reproject
-    traced = not motion_vectors and choices["gbuffer"] == "traced"
+    traced = choices["gbuffer"] == "traced"
     return Node("gbuffer", TracedGBufferPass if traced else GBufferPass,
                 lambda: make_gbuffer(r, choices, motion_vectors),
                 uses=("motion",) if motion_vectors else (), why=lambda made: gbuffer_why(r, made))
@@ -66,9 +66,10 @@ def gbuffer_node(r, choices) -> Node:
 
 def make_gbuffer(r, choices, motion_vectors: bool):
     """The raster G-buffer, or on GPUs with few raster units its ray-cast equivalent
-    (passes/gbuffer.py; the option gbuffer); motion vectors only come from the raster."""
-    if not motion_vectors and choices["gbuffer"] == "traced":
-        return TracedGBufferPass(r.ctx, r.size, r.defines, stack=choices.gbuffer_stack)
+    (passes/gbuffer.py; the option gbuffer), each with motion vectors where the frame reprojects."""
+    if choices["gbuffer"] == "traced":
+        return TracedGBufferPass(r.ctx, r.size, r.defines, stack=choices.gbuffer_stack,
+                                 motion_vectors=motion_vectors)
     p = r.packed
     return GBufferPass(r.ctx, r.size, r.defines, p.num_world_triangles, p.num_spheres,
                        motion_vectors=motion_vectors, instance_draws=p.instance_draws, raster_rows=p.raster_rows)
@@ -191,4 +192,6 @@ def denoise_why(r, made) -> str:
                f"{s.sigma_normal}, depth {s.sigma_depth}), x albedo")
     else:
         how = f"{r.denoise.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
-    return f"--denoise {mode}: {how}, {when}; guides from an unjittered G-buffer"
+    guides = ("the frame's own G-buffer (jittered as its samples)" if mode == "every" and r.graph.per_frame("gbuffer")
+              else "a G-buffer through the pixel centres")
+    return f"--denoise {mode}: {how}, {when}; guides from {guides}"

@@ -67,7 +67,7 @@ class Options:
                                "trees of 16 levels or more without coherent sampling, else off)")
     gbuffer: str = _option(AUTO, ("raster", "traced"),
                            "the G-buffer rasterized, or ray cast, one camera ray a pixel (auto: traced on GPUs "
-                           "with few raster units: H100, H200, A100, ...; temporal reprojection rasterizes)")
+                           "with few raster units: H100, H200, A100, ...)")
     uniform_blocks: str = _option(AUTO, ON_OFF,
                                   "the small scene arrays in uniform blocks instead of storage buffers (auto: on "
                                   "CPU rasterizers, which read them faster)")
@@ -210,7 +210,6 @@ class Workload:
     splats: bool = False
     motion: bool = False           # shaders compiled with motion blur
     instances: bool = False        # ... or with traced instances
-    motion_vectors: bool = False   # temporal reprojection: the G-buffer must rasterize
     triangles: int = 0
     tree: TreeShape | None = None  # None: before the scene is packed
 
@@ -426,8 +425,6 @@ def _carry(asked: str, device: Device, work: Workload, queued: bool, coherent: b
 
 
 def _gbuffer(asked: str, device: Device, work: Workload) -> Choice:
-    if work.motion_vectors:
-        return Choice(asked, "raster", "temporal reprojection needs the raster's motion vectors")
     if asked != AUTO:
         return Choice(asked, asked)
     renderer = device.renderer.lower()

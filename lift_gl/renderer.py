@@ -140,7 +140,7 @@ class Renderer:
     # ---- what the shaders are compiled with (compile_settings.py) ----
     def resolve_choices(self, plugin: Plugin, features: SceneFeatures, packed=None) -> ResolvedOptions:
         """The options' choices for this device, plugin and scene (provisional before packing)."""
-        return resolve_choices(self.options, self.device, plugin, features, self.scene, self.temporal.mode, packed)
+        return resolve_choices(self.options, self.device, plugin, features, self.scene, packed)
 
     def _shader_defines(self) -> dict:
         """Every program's defines for this scene (a subclass may add its own)."""
@@ -310,18 +310,21 @@ class Renderer:
         the last)."""
         frame.render_frame(self, samples or self.samples_per_frame, park)
         if self.denoise.mode == "every":
-            self.run_denoiser()
+            self.run_denoiser(frame_guides=frame.frame_guides(self))
 
-    def run_denoiser(self) -> None:
+    def run_denoiser(self, frame_guides: bool = False) -> None:
         """Denoise the mean so far (what denoise="every" does after each frame and "final"
-        at the end of render()); the viewer calls it for its final frame."""
+        at the end of render()); the viewer calls it for its final frame. frame_guides: the
+        guides are the last frame's G-buffer (frame.frame_guides), not a G-buffer through the
+        pixel centres."""
         if self.denoise_pass is None:
             raise DenoiserError("this renderer was made with denoise='off'")
         start = time.perf_counter()
-        gbuffer = frame.guides(self)
+        gbuffer = self.gbuffer if frame_guides else frame.guides(self)
         with self.timed("denoise"):
             self.denoise_pass.run(self.accumulate, gbuffer)
-        frame.guides_done(self)
+        if not frame_guides:
+            frame.guides_done(self)
         self.ctx.finish()
         self.stats.denoise_seconds += time.perf_counter() - start
         self.stats.denoise_runs += 1

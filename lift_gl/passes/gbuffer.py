@@ -144,9 +144,11 @@ class GBufferPass:
 class TracedGBufferPass:
     """The G-buffer's visibility, normal_depth and albedo by one camera ray per pixel (a
     compute pass over lift/bvh.glsl) instead of the raster: the same outputs, for GPUs whose
-    raster units are the bottleneck (the option gbuffer, lift_gl/options.py). No motion vectors: temporal
-    reprojection keeps the raster pass. The primary hit is then the traced camera ray's,
-    which the trace pass rebuilds exactly (lift/primary_hit.glsl).
+    raster units are the bottleneck (the option gbuffer, lift_gl/options.py), motion vectors
+    included (temporal reprojection): the hit point's previous position projected by the
+    previous camera, and the depth gradient from the neighbouring pixels' rays on the hit's
+    tangent plane. The primary hit is then the traced camera ray's, which the trace pass
+    rebuilds exactly (lift/primary_hit.glsl).
 
     A frame whose other passes read only the visibility (run(visibility_only=True): the
     renderer's frames but a [reduced] plugin's) runs a second program that leaves normal_depth
@@ -156,11 +158,10 @@ class TracedGBufferPass:
 
     name = "gbuffer"
     inputs = ("scene", "camera", "jitter")
-    outputs = ("visibility", "normal_depth", "albedo")
-    motion_vectors = False
-    motion = prev_normal_depth = None
+    outputs = ("visibility", "normal_depth", "albedo", "motion?")   # motion: with motion_vectors
 
-    def __init__(self, ctx: moderngl.Context, size, defines: dict, stack: str | None = None):
+    def __init__(self, ctx: moderngl.Context, size, defines: dict, stack: str | None = None,
+                 motion_vectors: bool = False):
         """`stack`: where the traversal keeps its stack, shared or local (the resolved options'
         gbuffer_stack; None: this device's default)."""
         from ..options import Device, Options, resolve, work_group
@@ -169,10 +170,18 @@ class TracedGBufferPass:
         stack = stack or resolve(Options(), device).gbuffer_stack
         self.ctx = ctx
         self.size = size
+        self.motion_vectors = motion_vectors
         self.visibility = ctx.texture(size, 4, dtype="u4")
         self.normal_depth = ctx.texture(size, 4, dtype="f4")
         self.albedo = ctx.texture(size, 4, dtype="f2")
-        for t in (self.visibility, self.normal_depth, self.albedo):
+        textures = [self.visibility, self.normal_depth, self.albedo]
+        self.motion = self.prev_normal_depth = None
+        if motion_vectors:
+            defines = dict(defines, LIFT_MOTION_VECTORS=True)
+            self.motion = ctx.texture(size, 4, dtype="f4")
+            self.prev_normal_depth = ctx.texture(size, 4, dtype="f4")
+            textures += [self.motion, self.prev_normal_depth]
+        for t in textures:
             t.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.local_size = work_group(stack, device)
         defines = dict(defines, LIFT_GBUFFER_LOCAL_X=self.local_size[0], LIFT_GBUFFER_LOCAL_Y=self.local_size[1])
@@ -196,17 +205,31 @@ class TracedGBufferPass:
             self._fbo = self.ctx.framebuffer([self.visibility, self.normal_depth, self.albedo])
         return self._fbo
 
+    def swap_history(self) -> None:
+        """Before a frame (motion vectors only): this frame's normal_depth becomes the
+        previous one, and the next run writes into the older texture."""
+        self.normal_depth, self.prev_normal_depth = self.prev_normal_depth, self.normal_depth
+        if self._fbo is not None:  # it holds the other normal_depth now
+            self._fbo.release()
+            self._fbo = None
+
     def run(self, camera, bounds, jitter, scene_uniforms: dict, camera_uniforms: dict,
             motion_uniforms: dict | None = None, visibility_only: bool = False) -> None:
-        program = self.program(visibility_only)
-        set_uniforms(program, dict(scene_uniforms, **camera_uniforms, u_jitter=tuple(float(v) for v in jitter)))
+        """visibility_only: the caller reads only the visibility (not with motion vectors: the
+        reprojection reads normal_depth)."""
+        program = self.program(visibility_only and not self.motion_vectors)
+        set_uniforms(program, dict(scene_uniforms, **camera_uniforms, **(motion_uniforms or {}),
+                                   u_jitter=tuple(float(v) for v in jitter)))
         self.visibility.bind_to_image(0, read=False, write=True)
         self.normal_depth.bind_to_image(1, read=False, write=True)
         self.albedo.bind_to_image(2, read=False, write=True)
+        if self.motion_vectors:
+            self.motion.bind_to_image(3, read=False, write=True)
         program.run(*groups(*self.size, self.local_size))
         self.ctx.memory_barrier()  # the trace pass fetches these images: no overlap on a GPU
 
     def release(self) -> None:
-        for obj in (self.visibility, self.normal_depth, self.albedo, self._fbo, *self._programs.values()):
+        for obj in (self.visibility, self.normal_depth, self.albedo, self.motion, self.prev_normal_depth, self._fbo,
+                    *self._programs.values()):
             if obj is not None:
                 obj.release()

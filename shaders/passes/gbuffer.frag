@@ -39,7 +39,7 @@ void main() {
     gl_FragDepth = clamp(log2(1.0 + max(view_depth, 0.0) * u_inv_depth_scale) * u_inv_log_depth_range, 0.0, 1.0);
     o_normal_depth = vec4(n, view_depth);
 #ifdef LIFT_MOTION_VECTORS
-    o_motion = motion_vector(v_world, v_prev_world, view_depth);
+    o_motion = motion_vector(v_world, v_prev_world, fwidth(view_depth));
 #endif
     uint i = 3u * v_prim;
     vec2 uv = (1.0 - v_bary.x - v_bary.y) * tri_uv_row(i).xy + v_bary.x * tri_uv_row(i + 1u).xy + v_bary.y * tri_uv_row(i + 2u).xy;

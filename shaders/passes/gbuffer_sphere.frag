@@ -36,7 +36,7 @@ void main() {
     o_normal_depth = vec4(n, view_depth);
 #ifdef LIFT_MOTION_VECTORS
     // A sphere moves rigidly: its row after the triangle corners holds its displacement.
-    o_motion = motion_vector(p, p + prev_positions[3u * u_num_triangles + v_sphere].xyz, view_depth);
+    o_motion = motion_vector(p, p + prev_positions[3u * u_num_triangles + v_sphere].xyz, fwidth(view_depth));
 #endif
     o_albedo = vec4(bsdf_albedo(material_at(material, sphere_uv(normalize(p - cr.xyz)))), 1.0);
 }
