@@ -25,19 +25,27 @@ def scene():
     return load_scene(SCENE)
 
 
-def expected_denoised(renderer) -> np.ndarray:
+def frame_guides(renderer):
+    """The last frame's own G-buffer (jittered), row 0 = top: albedo, normal, depth."""
+    w, h = renderer.size
+    g = renderer.gbuffer
+    albedo = np.frombuffer(g.albedo.read(), np.float16).reshape(h, w, 4)[::-1, :, :3].astype(np.float32)
+    nd = np.frombuffer(g.normal_depth.read(), np.float32).reshape(h, w, 4)[::-1]
+    return np.ascontiguousarray(albedo), np.ascontiguousarray(nd[..., :3]), np.ascontiguousarray(nd[..., 3])
+
+
+def expected_denoised(renderer, guides=None) -> np.ndarray:
     """The numpy-level à-trous of the renderer's noisy mean, guides and variance: the same
     filter reached by the other road (numpy demodulation and half-buffer variance, guides
-    read back as AOVs). The numpy interface takes the variance of the radiance's luminance
-    and divides it by lum(albedo)^2; the GPU path demodulates the halves' gap per channel,
-    so the variance handed over here is the GPU's, times lum(albedo)^2."""
-    albedo = renderer.aov("albedo")
+    read back as AOVs, or `guides` given). The numpy interface takes the variance of the
+    radiance's luminance and divides it by lum(albedo)^2; the GPU path demodulates the halves'
+    gap per channel, so the variance handed over here is the GPU's, times lum(albedo)^2."""
+    albedo, normal, depth = guides or (renderer.aov("albedo"), renderer.aov("normal"), renderer.aov("depth")[..., 0])
     divisor = safe_albedo(albedo)
     acc = renderer.accumulate
     variance = luminance_variance(acc.read_totals(), acc.read_half_difference(), divisor[::-1])[::-1]
     variance = variance * np.square(divisor @ LUMINANCE)
-    return get_denoiser("atrous", ctx=renderer.ctx).denoise(
-        renderer.noisy_image(), albedo, renderer.aov("normal"), renderer.aov("depth")[..., 0], variance)
+    return get_denoiser("atrous", ctx=renderer.ctx).denoise(renderer.noisy_image(), albedo, normal, depth, variance)
 
 
 def test_off_is_the_renderer_as_before(scene):
@@ -76,11 +84,13 @@ def test_final_denoises_once_at_the_end(scene):
 
 
 def test_every_denoises_each_frame(scene):
+    """After each frame, on the frame's own G-buffer as its guides (no second G-buffer)."""
     every = Renderer(scene, size=SIZE, seed=3, denoise="every", timers=True)
+    assert "guides from the frame's own G-buffer" in every.explain()
     for frame in range(1, 4):
         image = every.render(spp=1, final=False)  # "every" does not wait for a final step
         assert every.stats.denoise_runs == frame and every.denoised_current
-        np.testing.assert_allclose(image, expected_denoised(every), rtol=1e-4, atol=1e-6)
+        np.testing.assert_allclose(image, expected_denoised(every, frame_guides(every)), rtol=1e-4, atol=1e-6)
         assert every.display().tobytes() != every.display(source="noisy").tobytes()
     assert every.stats.pass_ms.get("denoise", 0.0) > 0.0
     every.release()

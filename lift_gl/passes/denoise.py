@@ -1,7 +1,8 @@
 """Denoise pass: the accumulated mean -> a denoised radiance image, on the G-buffer's guides.
 
 inputs:  accumulation (sum, compensation), half difference (the variance guide), G-buffer
-         albedo and normal_depth (rendered unjittered for the denoiser: lift_gl/frame.py guides)
+         albedo and normal_depth (through the pixel centres, or the frame's own G-buffer where it
+         denoises every frame: lift_gl/frame.py guides, frame_guides)
 outputs: denoised (RGBA32F: radiance, a = 1)
 
 The à-trous denoiser runs on the GPU from end to end: denoise_input.comp demodulates the
