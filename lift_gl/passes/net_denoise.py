@@ -5,7 +5,8 @@ tiling's edge padding, model_io.network_output), done by three compute shaders.
 inputs:  accumulation (sum, compensation), G-buffer albedo and normal_depth
 outputs: radiance (RGBA32F, a = 1, the renderer's row order), the texture DenoisePass shows
 
-net_exposure.comp  the autoexposure (log-average of 16x16 block luminances) into a 4-byte SSBO
+net_exposure_blocks.comp, net_exposure.comp  the autoexposure: each 16x16 block's log mean
+                   luminance (a work group a block), then their average, into an SSBO's word 0
 net_input.comp     the (9, H', W') input tensor: demodulated mean x exposure, albedo, normal;
                    y flipped to the tensor's top-first rows, padded to the net's multiple
 GlslNet.run()      the network
@@ -37,10 +38,12 @@ class NetDenoise:
         self.net = net
         w, h = self.size
         self.padded = (w + -w % net.multiple, h + -h % net.multiple)
+        self.blocks = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_exposure_blocks.comp"))
         self.exposure = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_exposure.comp"))
         self.input = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_input.comp"))
         self.remodulate = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_output.comp"))
-        self.exposure_buffer = ctx.buffer(reserve=4)
+        count = self._block_uniforms()["u_block_count"]
+        self.exposure_buffer = ctx.buffer(reserve=4 * (1 + count[0] * count[1]))  # the exposure, then each block
         self.output = ctx.texture(self.size, 4, dtype="f4")
 
     def _block_uniforms(self) -> dict:
@@ -59,7 +62,11 @@ class NetDenoise:
         gbuffer.albedo.use(location=0)
         gbuffer.normal_depth.use(location=1)
         self.exposure_buffer.bind_to_storage_buffer(EXPOSURE_BINDING)
-        set_uniforms(self.exposure, {**common, **self._block_uniforms()})
+        blocks = self._block_uniforms()
+        set_uniforms(self.blocks, {**common, **blocks})
+        self.blocks.run(*blocks["u_block_count"], 1)
+        self.ctx.memory_barrier()
+        set_uniforms(self.exposure, {**common, **blocks})
         self.exposure.run(1, 1, 1)
         self.ctx.memory_barrier()
         self.net.input_texture.bind_to_image(7, read=False, write=True)
@@ -76,5 +83,5 @@ class NetDenoise:
         return self.output
 
     def release(self) -> None:
-        for obj in (self.exposure, self.input, self.remodulate, self.exposure_buffer, self.output):
+        for obj in (self.blocks, self.exposure, self.input, self.remodulate, self.exposure_buffer, self.output):
             obj.release()
