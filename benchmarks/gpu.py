@@ -3,6 +3,8 @@
     python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt,pt:rr_depth=1]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
                                      [--option KEY=A,B | --bvh-width 2,4 | ... [--split-rounds 2]]
+    python benchmarks/gpu.py interactive SCENE... [--sizes 1920x1080] [--integrators pt,pt:rr_depth=1]
+                                         [--denoisers atrous,glsl] [--frames 50] [--out FILE.json] [--md FILE.md]
     python benchmarks/gpu.py table FILE.json... [--md FILE.md]
 
 `measure`, for each scene, integrator and size: lift-gl bench's numbers
@@ -25,6 +27,8 @@ between two ctx.finish() calls times each dispatch instead.
 measure two versions of the renderer, alternately, on the same machine:
     LIFT_GL_TREE=../base python benchmarks/gpu.py measure ... --label base --out base.json
 `table` prints the results of one or more such files side by side (ratios to the first).
+`interactive` times the viewer's frame (lift_gl/report/bench_interactive.py: temporal
+reprojection, the denoiser after every frame, a slowly turning camera), whole and per pass.
 `--option KEY=A,B` measures every case under each value of one of the renderer's options
 (lift_gl/options.py, e.g. `--option gbuffer=raster,traced`), interleaved, and prints them side
 by side; `--bvh-width 2,4`, `--bvh-stack-entries children,groups`, `--bvh-stack shared,local`
@@ -784,6 +788,48 @@ def table_cmd(args) -> int:
     return 0
 
 
+def interactive(args) -> int:
+    """The viewer's frame (lift_gl/report/bench_interactive.py) for each scene, integrator,
+    denoiser and size, whole and per pass: the table printed, JSON and markdown written."""
+    import lift_gl
+    from lift_gl.cli import _size
+    from lift_gl.gl.context import create_context, describe
+    from lift_gl.options import Options, parse_options
+    from lift_gl.report.bench_interactive import interactive_case, table
+    from lift_gl.report.configurations import parse_spec
+    from lift_gl.report.machine import describe_machine, machine_line
+    from lift_gl.scene.loader import load_scene
+
+    sizes = [_size(s.strip()) for s in args.sizes.split(",")]
+    specs = [parse_spec(s.strip()) for s in args.integrators.split(",") if s.strip()]
+    options = parse_options(args.option) if args.option else Options()
+    ctx = create_context(args.backend)
+    machine = describe_machine(ctx)
+    print(f"machine: {machine_line(machine)}; {describe(ctx)}; lift_gl from {Path(lift_gl.__file__).parent.parent}",
+          flush=True)
+    record = {"label": args.label, "machine": machine, "gl": describe(ctx), "max_depth": args.max_depth,
+              "options": args.option or [], "cases": []}
+    for path in args.scenes:
+        scene = load_scene(path)
+        for (plugin, settings) in specs:
+            for size in sizes:
+                for denoiser in [d.strip() for d in args.denoisers.split(",")]:
+                    case = interactive_case(scene, size, plugin, {"max_depth": args.max_depth, **settings}, denoiser,
+                                            args.frames, args.repeat, args.backend, options)
+                    case.update(scene=portable(path), scene_name=scene_name(str(path)),
+                                spec=":".join([plugin] + [f"{k}={v}" for k, v in settings.items()]))
+                    if not args.explain:
+                        case.pop("explain", None)
+                    record["cases"].append(case)
+                    print(f"{case['scene_name']} {case['spec']} {size[0]}x{size[1]} {denoiser}: "
+                          f"{case['frame_ms']:.2f} ms {case['pass_ms']}", flush=True)
+                    if args.out:  # after every case: a run cut short keeps what it measured
+                        args.out.write_text(json.dumps(record, indent=1) + "\n")
+    text = table(record["cases"])
+    show_table(text, args.md)
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="cmd", required=True)
@@ -819,6 +865,21 @@ def main(argv=None) -> int:
     v.add_argument("--out", type=Path)
     v.add_argument("--md", type=Path)
     v.set_defaults(func=ab)
+    i = sub.add_parser("interactive", help="the viewer's frame per pass (reprojection, denoised every frame)")
+    i.add_argument("scenes", nargs="+")
+    i.add_argument("--sizes", default="1920x1080")
+    i.add_argument("--integrators", default="pt", help="comma-separated, each with :NAME=VALUE settings")
+    i.add_argument("--denoisers", default="atrous,glsl")
+    i.add_argument("--max-depth", type=int, default=32)
+    i.add_argument("--frames", type=int, default=50)
+    i.add_argument("--repeat", type=int, default=3)
+    i.add_argument("--option", action="append", metavar="KEY=VALUE", help="a renderer option (lift_gl/options.py)")
+    i.add_argument("--backend", default="auto")
+    i.add_argument("--label", default="")
+    i.add_argument("--explain", action="store_true", help="keep each renderer's --explain text in the JSON")
+    i.add_argument("--out", type=Path)
+    i.add_argument("--md", type=Path)
+    i.set_defaults(func=interactive)
     t = sub.add_parser("table")
     t.add_argument("files", nargs="+")
     t.add_argument("--md", type=Path)

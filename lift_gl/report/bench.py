@@ -18,6 +18,9 @@ A pass that exists only with some settings gets its column when it runs.
 - on NVIDIA GPUs: frames until the SM clock has risen from idle before timing, and the clock
   each timed run ended at (`sm_clock` in the JSON; report/gpu_clock.py);
 - how the frames ran: every option's choice (`options` in the JSON, lift_gl/options.py).
+- with --interactive DENOISERS: the viewer's frame (temporal reprojection, the denoiser after
+  every frame, a slowly turning camera), whole and per pass, for each denoiser
+  (report/bench_interactive.py; `interactive` in the JSON).
 """
 from __future__ import annotations
 
@@ -27,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .bench_interactive import interactive_case
+from .bench_interactive import table as interactive_table
 from .gpu_clock import ClockReader, warm_up
 
 
@@ -43,6 +48,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--repeat", type=positive_int, default=3, help="frame time: best of this many measurements (default 3)")
     p.add_argument("--denoisers", default="atrous", metavar="LIST",
                    help="comma-separated denoisers to time (atrous, onnx, oidn), or none (default atrous)")
+    p.add_argument("--interactive", metavar="LIST",
+                   help="also time the viewer's frame (reprojection, denoised every frame, a turning camera) "
+                        "with each of these comma-separated denoisers (atrous, glsl, ...)")
     p.add_argument("--plugins", action="append", default=[], metavar="DIR")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")
     p.add_argument("--json", type=Path, dest="json_path", help="also write the results here")
@@ -280,12 +288,15 @@ def cmd_bench(args) -> int:
     denoisers = [] if args.denoisers.strip() == "none" else [d.strip() for d in args.denoisers.split(",")]
     from ..denoise import DENOISERS
 
-    for name in denoisers:
-        if name not in DENOISERS:
-            raise LiftError(f"--denoisers: unknown denoiser {name!r}; choose among {', '.join(DENOISERS)}, or none")
+    interactive = [d.strip() for d in args.interactive.split(",")] if args.interactive else []
+    for flag, names in (("--denoisers", denoisers), ("--interactive", interactive)):
+        for name in names:
+            if name not in DENOISERS:
+                raise LiftError(f"{flag}: unknown denoiser {name!r}; choose among {', '.join(DENOISERS)}"
+                                + (", or none" if flag == "--denoisers" else ""))
     machine = describe_machine(create_context(args.backend))
     print(f"machine: {machine_line(machine)}", flush=True)
-    results = []
+    results, interactive_cases = [], []
     for path in args.scenes:
         start = time.perf_counter()
         scene = load_scene(path)
@@ -301,11 +312,22 @@ def cmd_bench(args) -> int:
             print(f"{case['scene_name']} {size[0]}x{size[1]}: {case['frame_ms']:.2f} ms/frame, "
                   f"{case['paths_per_second'] / 1e6:.3f} Mpaths/s, {case['rays_per_path']:.2f} rays/path"
                   f"{clock_note(case)}", flush=True)
+            for name in interactive:
+                frame = interactive_case(scene, size, args.integrator, params, name, args.frames, args.repeat,
+                                         args.backend, options)
+                frame.update(scene=str(path), scene_name=case["scene_name"])
+                interactive_cases.append(frame)
+                print(f"  viewer's frame with {name}: {frame['frame_ms']:.2f} ms", flush=True)
     print()
     print(table(results))
     print(f"\n{args.integrator}; per-pass times: CPU clock between ctx.finish() calls (GL timer queries in the JSON); "
           f"frame ms: best of {args.repeat} x {args.frames} pipelined frames")
+    if interactive_cases:
+        print("\nThe viewer's frame (temporal reprojection, denoised every frame, a turning camera; per pass: "
+              "GL timer queries):\n")
+        print(interactive_table(interactive_cases))
     if args.json_path:
         write_text(args.json_path, json.dumps({"machine": machine, "integrator": args.integrator, "params": params,
-                                               "options": options.changed(), "results": results}, indent=1))
+                                               "options": options.changed(), "results": results,
+                                               "interactive": interactive_cases}, indent=1))
     return 0
