@@ -280,7 +280,7 @@ def machine(commit: str | None = None) -> dict:
 
     def git(*args):
         return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    if not (ROOT / ".git").exists():  # a copy of the tree without its history (another machine)
+    if commit or not (ROOT / ".git").exists():  # a copy of the tree whose .git, if any, is not its own
         return {"cpu": cpu, "cores": os.cpu_count(), "load_average": os.getloadavg(),
                 "python": platform.python_version(), "commit": commit or "unknown", "uncommitted_loader_changes": False}
     return {"cpu": cpu, "cores": os.cpu_count(), "load_average": os.getloadavg(), "python": platform.python_version(),
@@ -335,7 +335,8 @@ def main() -> int:
     parser.add_argument("--stall", type=float, default=120.0, help="seconds of silence that count as a hang")
     parser.add_argument("--jobs", type=int, default=1, help="shards fuzzed at once, a worker process each")
     parser.add_argument("--replay", nargs="+", metavar="FOLDER", help="run saved inputs again and print their outcomes")
-    parser.add_argument("--commit", help="the commit to record where the tree is a copy without .git")
+    parser.add_argument("--commit", help="the commit to record (a copy of the tree on another machine, whose .git "
+                        "may be missing or stale)")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--root", help=argparse.SUPPRESS)
     args = parser.parse_args()
