@@ -131,6 +131,7 @@ class Renderer:
         self.motion_history = MotionHistory(self.ctx)
         self.graph = FrameGraph(frame_nodes(self), asked(self), on_make=self._made)
         self._denoised_spp = None  # stats.spp when the denoised image was made (None: none is current)
+        self._denoised_on_frame_guides = False  # the last denoise used the frame's jittered G-buffer
         self.frame_index = 0
         self.stats = RenderStats(denoiser=self.denoise.label())
         self.stream_spp = [0, 0]  # samples per pixel so far in each half's low-discrepancy stream
@@ -302,6 +303,7 @@ class Renderer:
         self.stream_spp = [0, 0]
         self.motion_history.forget()  # nothing to reproject from
         self._denoised_spp = None
+        self._denoised_on_frame_guides = False
 
     def render_frame(self, samples: int | None = None, park: bool = False) -> None:
         """One frame of `samples` per pixel (lift_gl/frame.py). `park`: a still camera's paths
@@ -325,6 +327,7 @@ class Renderer:
             self.denoise_pass.run(self.accumulate, gbuffer)
         if not frame_guides:
             frame.guides_done(self)
+        self._denoised_on_frame_guides = frame_guides
         self.ctx.finish()
         self.stats.denoise_seconds += time.perf_counter() - start
         self.stats.denoise_runs += 1
@@ -373,7 +376,9 @@ class Renderer:
                 if progress is not None:
                     progress(self, done)
                 batch = frames_between_waits(seconds, progress is not None, time.perf_counter() - start, frames)
-        if self.denoise.mode == "final" and final and done > 0:
+        # denoise="every" ends a final image as "final" does: denoised on guides through the
+        # pixel centres, not on the last frame's jittered ones (the same image either way)
+        if final and done > 0 and (self.denoise.mode == "final" or self._denoised_on_frame_guides):
             self.run_denoiser()
         self.ctx.finish()
         self.stats.render_seconds += time.perf_counter() - start

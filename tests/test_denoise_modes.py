@@ -93,6 +93,12 @@ def test_every_denoises_each_frame(scene):
         np.testing.assert_allclose(image, expected_denoised(every, frame_guides(every)), rtol=1e-4, atol=1e-6)
         assert every.display().tobytes() != every.display(source="noisy").tobytes()
     assert every.stats.pass_ms.get("denoise", 0.0) > 0.0
+    # A render() that ends a final image denoises it on guides through the pixel centres, as
+    # final does: the same image as a final-mode renderer's.
+    final = Renderer(scene, size=SIZE, seed=3, denoise="final", ctx=every.ctx)
+    every.reset()
+    np.testing.assert_array_equal(every.render(spp=3), final.render(spp=3))
+    final.release()
     every.release()
 
 

@@ -87,6 +87,16 @@ def test_resolution_follows_window_scale_motion_and_reference(session, tmp_path)
     assert session.reference_factor == 4 and session.renderer.size == (50, 30)
     session.set_window_size((64, 48))
     assert session.renderer.size == (50, 30)  # locked to the reference
+    # Moving with a reference loaded: 35x21 is not 200x120 over an integer. The inspector
+    # shows no reference value then (it raised ValueError), and the error curve skips the frame.
+    session.resolution.moving_scale = 0.7
+    session.set_moving(True)
+    assert session.renderer.size == (35, 21)
+    session.step()
+    assert "reference" not in session.inspect(3, 4)
+    session.set_moving(False)
+    session.step()
+    assert session.inspect(3, 4)["reference"] == pytest.approx([1.0, 1.0, 1.0])
     session.clear_reference()
     assert session.renderer.size == (32, 24)
 

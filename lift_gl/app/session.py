@@ -467,8 +467,9 @@ class ViewSession:
             info[name] = self.aov(name)[y, x]
         if self.compare is not None:
             info["compare_radiance"] = self.compare.pixel(x, y)[0]
-        if self.reference is not None:
-            info["reference"] = self._reference_at_size()[y, x]
+        reference = self._reference_at_size() if self.reference is not None else None
+        if reference is not None:
+            info["reference"] = reference[y, x]
         return info
 
     # ---- reference and convergence ------------------------------------------------------
@@ -506,13 +507,20 @@ class ViewSession:
         self.convergence.clear()
         self.apply_resolution()
 
-    def _reference_at_size(self) -> np.ndarray:
+    def _reference_at_size(self) -> np.ndarray | None:
+        """The reference box-filtered to the render's size; None while that size is not the
+        reference's over an integer (the camera moving, at moving_scale: 45x55 -> 22x27)."""
         w, h = self.renderer.size
+        rh, rw = self.reference.shape[:2]
+        if rh % h or rw % w or rh // h != rw // w:
+            return None
         return metrics.resize_to(self.reference, (h, w))
 
     def _record_convergence(self) -> None:
         image = self.renderer.image()
         reference = self._reference_at_size()
+        if reference is None:
+            return
         stats = self.renderer.stats
         self.convergence.append(ConvergencePoint(stats.render_seconds, stats.spp, metrics.rel_mse(image, reference),
                                                  metrics.rmse(image, reference)))
