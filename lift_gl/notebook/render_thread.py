@@ -41,6 +41,7 @@ class RenderThread:
         self.ready = threading.Event()
         self.error: Exception | None = None   # the renderer could not be made at all
         self.frames = 0
+        self.ctx = None   # made on the render thread
         self._thread = threading.Thread(target=self._run, name="lift-gl-notebook-render", daemon=True)
         self._thread.start()
 
@@ -64,11 +65,14 @@ class RenderThread:
 
     # ---- on the render thread ----
     def _make(self, integrator: str):
+        from ..gl.context import new_context
         from ..renderer import Renderer
 
         s = self.settings
-        return Renderer(self.scene, size=s.size, integrator=integrator, backend=s.backend, params=s.params,
-                        plugin_dirs=s.plugin_dirs, options=s.options)
+        if self.ctx is None:   # this thread's own: the process's shared one is the main thread's
+            self.ctx = new_context(s.backend)
+        return Renderer(self.scene, size=s.size, integrator=integrator, params=s.params,
+                        plugin_dirs=s.plugin_dirs, options=s.options, ctx=self.ctx)
 
     def _run(self) -> None:
         try:
@@ -109,6 +113,7 @@ class RenderThread:
                     last_sent = now
         finally:
             renderer.release()
+            self.ctx.release()
 
     def _busy(self, renderer) -> bool:
         return renderer.stats.spp < self.settings.spp
