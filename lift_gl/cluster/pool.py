@@ -109,8 +109,9 @@ class Pool:
                     done, _ = ray.wait([entry[1]], timeout=0)
                     if done:
                         try:
-                            ray.get(done[0])
+                            where = ray.get(done[0])
                             entry[1] = None
+                            self.log(f"ray: worker {actor_id} ready on {where['host']} (pid {where['pid']})")
                         except RayError:
                             self._replace(actor_id, kill=True)
             idle = [a for a, e in self.actors.items() if e[1] is None and a not in busy]

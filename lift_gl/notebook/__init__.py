@@ -3,7 +3,7 @@
 | module      | concern                                                                  |
 | ----------- | ------------------------------------------------------------------------ |
 | display.py  | images as PNG for the notebook (`Image`, `show`, `Renderer._repr_png_`)  |
-| compare.py  | `compare(...)`: runs `lift-gl compare`, shows its plot and table inline  |
+| comparison.py | `compare(...)`: runs `lift-gl compare`, shows its plot and table inline  |
 | widget.py   | `Viewer`: a progressive render in the browser, orbit and zoom by mouse   |
 | render_thread.py | the widget's renderer, on a thread that owns its GL context         |
 
@@ -18,9 +18,9 @@ def __getattr__(name):
 
         return getattr(display, name)
     if name in ("compare", "Comparison"):
-        from . import compare
+        from . import comparison
 
-        return getattr(compare, name)
+        return getattr(comparison, name)
     if name == "Viewer":
         from .widget import Viewer
 
