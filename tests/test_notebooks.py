@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-nbformat = pytest.importorskip("nbformat", reason="the notebook extra is not installed (pip install 'lift-gl[notebook]')")
-nbclient = pytest.importorskip("nbclient", reason="the notebook extra is not installed (pip install 'lift-gl[notebook]')")
+nbformat = pytest.importorskip("nbformat", reason="nbformat is not installed (pip install 'lift-gl[test]')")
+nbclient = pytest.importorskip("nbclient", reason="nbclient is not installed (pip install 'lift-gl[test]')")
 pytest.importorskip("ipykernel", reason="the notebook extra is not installed (pip install 'lift-gl[notebook]')")
 pytest.importorskip("anywidget", reason="the notebook extra is not installed (pip install 'lift-gl[notebook]')")
 
