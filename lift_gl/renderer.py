@@ -345,13 +345,24 @@ class Renderer:
 
         With denoise="final" the denoiser runs once at the end, inside the timed render, unless
         final=False (the viewer, whose final frame comes later). The image returned is the
-        denoised one when the denoiser ran on the mean as it is now (image())."""
+        denoised one when the denoiser ran on the mean as it is now (image()).
+
+        progress: a callable `progress(renderer, done)` (lift_gl/progress.py), or True for a
+        progress bar made and closed here (tqdm's notebook form in Jupyter)."""
         if spp is None and seconds is None:
             spp = 16
         if spp is not None and not (isinstance(spp, (int, np.integer)) and spp >= 1):
             raise ValueError(f"spp must be a whole number of at least 1, not {spp!r}")
         if seconds is not None and not (isinstance(seconds, (int, float)) and 0 < seconds < float("inf")):
             raise ValueError(f"seconds must be finite and above 0, not {seconds!r}")
+        if progress is True:
+            from .progress import RenderProgress
+
+            bar = RenderProgress(spp=spp, seconds=seconds)
+            try:
+                return self.render(spp, seconds, bar, readback, final)
+            finally:
+                bar.close()
         start = time.perf_counter()
         done = frames = queued = 0
         batch = frames_between_waits(seconds, progress is not None, 0.0, 0)   # frames before the next wait
@@ -467,6 +478,12 @@ class Renderer:
             data = nd[..., :3] if name == "normal" else np.repeat(nd[..., 3:4], 3, axis=2)
         frame.guides_done(self)
         return np.ascontiguousarray(data[::-1]).astype(np.float32)
+
+    def _repr_png_(self) -> bytes | None:
+        """Jupyter shows a renderer as its image so far, tone-mapped (lift_gl/notebook/display.py)."""
+        from .notebook.display import renderer_png
+
+        return renderer_png(self)
 
     def release(self) -> None:
         self.graph.release()

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Check for the Debian libraries lift-gl needs to render headless (EGL and OSMesa through
-# Mesa's llvmpipe) and the X server the viewer's test opens its window in (xvfb; xauth for
-# xvfb-run), and install the missing ones when running as root.
+# Mesa's llvmpipe), the X server the viewer's test opens its window in (xvfb; xauth for
+# xvfb-run) and the browser the notebook widget's test drives (chromium), and install the
+# missing ones when running as root.
 # Idempotent: when everything is present it only says so.
 #   LIFT_GL_SKIP_SYSTEM=1  skip this check (e.g. a non-Debian machine set up by hand)
 set -euo pipefail
 
-PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 xvfb xauth)
+PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6 xvfb xauth chromium)
 
 if [[ "${LIFT_GL_SKIP_SYSTEM:-0}" == "1" ]]; then
     echo "setup_system: skipped (LIFT_GL_SKIP_SYSTEM=1)"

@@ -41,12 +41,24 @@ def create_context(backend: str = "auto") -> moderngl.Context:
             return ctx
         raise ContextError("no headless OpenGL 4.3 context could be created:\n  " + "\n  ".join(errors)
                            + "\n  install the Debian packages libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6")
-    if backend == "egl":
-        ctx = _create_egl()
-    else:
-        ctx = _create_osmesa()
-    ctx.extra = {"backend": backend}
+    ctx = new_context(backend)
     _contexts[backend] = ctx
+    return ctx
+
+
+def new_context(backend: str) -> moderngl.Context:
+    """A context of its own ("egl" or "osmesa"), not shared, current on the calling thread: for
+    a thread that renders beside the main one (the notebook widget, lift_gl/notebook/)."""
+    if backend == "auto":
+        errors = []
+        for candidate in ("egl", "osmesa"):
+            try:
+                return new_context(candidate)
+            except ContextError as exc:
+                errors.append(str(exc))
+        raise ContextError("no headless OpenGL 4.3 context could be created:\n  " + "\n  ".join(errors))
+    ctx = _create_egl() if backend == "egl" else _create_osmesa()
+    ctx.extra = {"backend": backend}
     return ctx
 
 

@@ -42,9 +42,11 @@ def add_parser(subparsers) -> None:
     p.add_argument("--jobs", type=positive_int, help="submissions rendered at once (default 1)")
     p.add_argument("--cache-dir", type=Path, help="the reference cache (default ~/.cache/lift-gl/grade)")
     p.add_argument("--out", type=Path, required=True, help="output folder: grades.csv, report.md, pictures/")
+    from ..cluster.options import add_executor_arguments
     from ..options import add_option_argument
 
     add_option_argument(p)
+    add_executor_arguments(p)
     p.set_defaults(func=cmd_grade)
 
 
@@ -75,7 +77,9 @@ def cmd_grade(args) -> int:
 
     settings = settings_from_args(args)
     check_output_folder(args.out)
-    grades = grade(args.submissions, settings, args.out)
+    from ..cluster.options import executor_from_args
+
+    grades = grade(args.submissions, settings, args.out, executor=executor_from_args(args))
     counts = {v: sum(g.verdict == v for g in grades) for v in VERDICTS}
     print(", ".join(f"{n} {v}" for v, n in counts.items()) + f"; wrote {args.out / 'grades.csv'} and report.md")
     return 0

@@ -140,9 +140,10 @@ def _cache_dir(settings: GradeSettings) -> Path:
     return Path(settings.cache_dir) if settings.cache_dir is not None else default_cache_dir().parent / "grade"
 
 
-def reference_runs(settings: GradeSettings, scenes: list[GradeScene], log=print) -> dict[str, ReferenceRun]:
+def reference_runs(settings: GradeSettings, scenes: list[GradeScene], log=print, cluster=None) -> dict[str, ReferenceRun]:
     """The reference's renders of every scene: from the cache, or rendered now (in a child
-    process, as a submission). A reference that fails stops the grading: nothing can be judged."""
+    process, as a submission, or on the cluster). A reference that fails stops the grading:
+    nothing can be judged."""
     plugin = settings.reference_plugin()
     folder = _cache_dir(settings)
     out, missing = {}, []
@@ -158,7 +159,13 @@ def reference_runs(settings: GradeSettings, scenes: list[GradeScene], log=print)
             f"{settings.reference_seeds} seeds x {settings.spp} spp (cached afterwards)")
         specs = [scene_spec(s.name, s.path, settings.size, settings.spp, settings.reference_seed_list,
                             settings.params, settings.options) for s, _ in missing]
-        runs = run_plugin(plugin, specs, timeout=settings.timeout * settings.reference_seeds / settings.seeds)
+        timeout = settings.timeout * settings.reference_seeds / settings.seeds
+        if cluster is None:
+            runs = run_plugin(plugin, specs, timeout=timeout)
+        else:  # tasks of a few seeds each: a task's time limit is a submission's scene's
+            got = {}
+            cluster.run_plugins([("reference", plugin, specs)], settings.timeout, lambda _, r: got.update(r))
+            runs = got
         for scene, key in missing:
             run = runs[scene.name]
             if run.status != "ok":
@@ -269,12 +276,28 @@ def check_reference(reference: ReferenceRun, settings: GradeSettings, alpha: flo
 
 
 # ---- the whole class ----
-def grade(submissions, settings: GradeSettings | None = None, out=None, log=print) -> list[Grade]:
+def grade(submissions, settings: GradeSettings | None = None, out=None, log=print, executor=None) -> list[Grade]:
     """Grade every plugin folder under `submissions`; writes OUT/grades.csv (as results
-    arrive), OUT/report.md and OUT/pictures/ when `out` is given. Returns the grades."""
+    arrive), OUT/report.md and OUT/pictures/ when `out` is given. Returns the grades.
+    executor: lift_gl.cluster.options.ExecutorSettings (None: this machine; "ray": a Ray
+    cluster's workers, lift_gl/cluster/)."""
+    settings = settings or GradeSettings()
+    cluster = None
+    if executor is not None and executor.kind == "ray":
+        from ..cluster.grade_tasks import GradePool
+        from ..cluster.pool import Pool
+
+        cluster = GradePool(Pool(executor, backend="auto", log=log), executor.seeds_per_task)
+    try:
+        return _grade(submissions, settings, out, log, cluster)
+    finally:
+        if cluster is not None:
+            cluster.pool.close()
+
+
+def _grade(submissions, settings: GradeSettings, out, log, cluster) -> list[Grade]:
     from . import report
 
-    settings = settings or GradeSettings()
     folders = find_submissions(submissions)
     if not folders:
         raise LiftError("no submissions: no subfolder holds a plugin.toml", submissions)
@@ -283,7 +306,7 @@ def grade(submissions, settings: GradeSettings | None = None, out=None, log=prin
     if len(set(names)) != len(names):
         raise LiftError(f"two grading scenes share a name: {', '.join(names)}")
     started = time.time()
-    references = reference_runs(settings, scenes, log=log)
+    references = reference_runs(settings, scenes, log=log, cluster=cluster)
     alpha_scene = settings.alpha / len(scenes)
     for ref in references.values():
         ref.analytic_check = check_reference(ref, settings, alpha_scene)
@@ -294,13 +317,18 @@ def grade(submissions, settings: GradeSettings | None = None, out=None, log=prin
     grades: list[Grade] = []
     timings: dict[str, float] = {}
 
+    specs = [scene_spec(s.name, s.path, settings.size, settings.spp, settings.submission_seeds, settings.params,
+                        settings.options) for s in scenes]
+
     def one(folder: Path):
         name = str(folder.relative_to(root))
-        specs = [scene_spec(s.name, s.path, settings.size, settings.spp, settings.submission_seeds, settings.params,
-                            settings.options) for s in scenes]
         start = time.perf_counter()
         runs = run_plugin(str(folder.resolve()), specs, settings.timeout)
         timings[name] = time.perf_counter() - start
+        judged(name, runs)
+
+    def judged(name: str, runs: dict[str, SceneRun]):
+        timings.setdefault(name, sum(r.seconds for r in runs.values()))
         results = []
         for s in scenes:
             grade_, picture = judge(name, s.name, runs[s.name], references[s.name], settings, alpha_scene)
@@ -314,9 +342,13 @@ def grade(submissions, settings: GradeSettings | None = None, out=None, log=prin
             log(f"{name}: " + ", ".join(f"{g.scene} {g.verdict}" + (f" (z = {g.z:+.1f})" if g.verdict == "biased" else "")
                                         for g in results) + f"  [{timings[name]:.1f} s]")
 
-    with ThreadPoolExecutor(max_workers=settings.jobs) as pool:
-        for f in [pool.submit(one, folder) for folder in folders]:
-            f.result()
+    if cluster is not None:
+        cluster.run_plugins([(str(f.relative_to(root)), str(f.resolve()), specs) for f in folders], settings.timeout,
+                            judged)
+    else:
+        with ThreadPoolExecutor(max_workers=settings.jobs) as pool:
+            for f in [pool.submit(one, folder) for folder in folders]:
+                f.result()
     order = {str(f.relative_to(root)): i for i, f in enumerate(folders)}
     grades.sort(key=lambda g: (order[g.submission], names.index(g.scene)))
     if writer is not None:

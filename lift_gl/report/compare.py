@@ -29,6 +29,7 @@ from ..errors import LiftError
 from .configurations import Configuration, parse_configurations
 
 DEFAULT_REF_SPP = 4096
+COMPARE_TASK_SECONDS = 3600.0   # a run on a cluster worker past this is taken as hung
 
 
 def add_parser(subparsers) -> None:
@@ -70,9 +71,11 @@ def add_parser(subparsers) -> None:
                    help="after each run, time a plain render of the same spp and seed (the checkpoints' cost)")
     p.add_argument("--exposure", type=finite, default=0.0, help="stops, for the contact sheet")
     p.add_argument("--out", type=Path, required=True, help="output folder")
+    from ..cluster.options import add_executor_arguments
     from ..options import add_option_argument
 
     add_option_argument(p)
+    add_executor_arguments(p)
     p.set_defaults(func=cmd_compare)
 
 
@@ -217,9 +220,14 @@ def _run_all(session: Session, configs: list[Configuration], reference: np.ndarr
     runs = {c.label: [] for c in configs}
     finals = {c.label: [] for c in configs}
     images, walls, plains = {}, {c.label: [] for c in configs}, {c.label: [] for c in configs}
+    results = _cluster_runs(session, configs, reference, args) if getattr(args, "executor", "local") == "ray" else None
     for seed in range(1, args.seeds + 1):
         for config in configs:
-            rows, kept, wall, final = session.run(config, seed, reference, keep_images=seed == 1)
+            if results is not None:
+                rows, kept, wall, final = results[(config.label, seed)]
+            else:
+                rows, kept, wall, final = session.run(config, seed, reference, keep_images=seed == 1)
+                _write_partial_csv(args.out, runs, rows)
             runs[config.label].append(rows)
             finals[config.label].append(final)
             walls[config.label].append(wall)
@@ -243,6 +251,41 @@ def _run_all(session: Session, configs: list[Configuration], reference: np.ndarr
                            "checkpoints": len(runs[label][0]), "ratios": ratios,
                            "median_ratio": float(np.median(ratios))}
     return runs, images, overhead, finals
+
+
+def _write_partial_csv(out, runs: dict, new_rows: list[dict]) -> None:
+    """metrics.csv with every run finished so far (rewritten whole as each one arrives)."""
+    rows = [row for label in runs for run in runs[label] for row in run] + list(new_rows)
+    if rows:
+        _write_csv(Path(out) / "metrics.csv", rows)
+
+
+def _cluster_runs(session: Session, configs: list[Configuration], reference: np.ndarray, args) -> dict:
+    """Every (configuration, seed) run on the Ray cluster's workers (lift_gl/cluster/), as
+    Session.run returns it, by (label, seed); metrics.csv grows as the runs arrive."""
+    from ..cluster.options import executor_from_args
+    from ..cluster.pool import Pool, Task
+
+    if args.measure_overhead:
+        raise LiftError("--measure-overhead times a plain render beside each run: not with --executor ray")
+    pool = Pool(executor_from_args(args), backend=args.backend)
+    results, arrived = {}, []
+    try:
+        ref = pool.ray.put(reference)
+        tasks = [Task("compare_run", (session, config, seed, ref, seed == 1), limit=COMPARE_TASK_SECONDS,
+                      key=(config.label, seed)) for seed in range(1, args.seeds + 1) for config in configs]
+
+        def on_result(task, outcome):
+            if outcome.status != "ok":
+                raise LiftError(f"{task.key[0]} seed {task.key[1]}: {outcome.message}")
+            results[task.key] = outcome.value
+            arrived.extend(outcome.value[0])
+            _write_csv(Path(args.out) / "metrics.csv", arrived)
+
+        pool.run(tasks, on_result)
+    finally:
+        pool.close()
+    return results
 
 
 def _contact_sheet(images: dict, reference: np.ndarray, t_equal: float, path: Path, exposure: float) -> None:

@@ -23,13 +23,15 @@ def plot_convergence(curves: dict, path_stem: Path, title: str, targets: dict | 
     except ImportError as exc:
         from ..errors import LiftError
         raise LiftError("the plot needs matplotlib: pip install 'lift-gl[report]'") from exc
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # A Figure of its own, without pyplot: the backend of whoever called (a notebook's inline
+    # one) stays as it was
+    from matplotlib.figure import Figure
     from matplotlib.ticker import FuncFormatter
 
-    fig, axes = plt.subplots(1, len(PANELS), figsize=(9.6, 3.9))
+    fig = Figure(figsize=(9.6, 3.9))
+    axes = fig.subplots(1, len(PANELS))
     fig.subplots_adjust(left=0.08, right=0.985, bottom=0.13, top=0.9, wspace=0.25)  # fixed: layout engines are slow
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (metric, name) in zip(axes, PANELS):
         for i, (label, curve) in enumerate(curves.items()):
             seconds = np.asarray(curve["seconds"], np.float64)
@@ -70,5 +72,4 @@ def plot_convergence(curves: dict, path_stem: Path, title: str, targets: dict | 
     for path, dpi in zip(paths, (90, "figure")):
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=dpi)
-    plt.close(fig)
     return paths
