@@ -175,3 +175,17 @@ def test_auto_uses_the_tree_for_many_lights_and_power_for_one_flat_emitter(scene
     assert r.choices["light_selection"] == "power" and not r.packed.light_tree
     assert "LIFT_LIGHT_TREE" not in r.defines
     r.release()
+
+
+def test_pt_with_the_tree_agrees_with_bdpt(scene):
+    """bdpt starts its light subpaths by power (emission.glsl), not by the tree: an estimator
+    that shares nothing with the tree's choice converges to pt's image."""
+    def renders(integrator, seeds):
+        out = []
+        for seed in seeds:
+            r = Renderer(scene, size=(32, 32), integrator=integrator, seed=seed)
+            out.append(r.render(spp=4).astype(np.float64)[..., :3])
+            r.release()
+        return np.stack(out)
+
+    assert_same_image(renders("pt", range(16)), renders("bdpt", range(200, 216)), block=8, label="pt tree vs bdpt")
