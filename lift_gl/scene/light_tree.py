@@ -73,29 +73,39 @@ def _box_area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     return 2.0 * (e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0])
 
 
+def _side_cones(axes: np.ndarray, theta_o: np.ndarray, members: np.ndarray) -> np.ndarray:
+    """bounding_cone's spread for each column of members ((n, k) booleans: the lights of k sets)."""
+    total = axes.T @ members  # (3, k)
+    norm = np.linalg.norm(total, axis=0)
+    axis = total / np.maximum(norm, 1e-300)
+    spread = np.arccos(np.clip(axes @ axis, -1.0, 1.0)) + theta_o[:, None]
+    spread = np.where(members, spread, -np.inf).max(axis=0)
+    return np.where(norm < 1e-6 * members.sum(axis=0), math.pi, np.minimum(spread, math.pi))
+
+
 def _split_cost(b: LightBounds, idx: np.ndarray, centroid: np.ndarray, axis: int) -> tuple[float, np.ndarray] | None:
-    """The least cost over the bucket boundaries on `axis` and the lights left of it."""
+    """The least cost over the bucket boundaries on `axis`, and the lights left of it: for
+    each boundary at once, both sides' intensity x orientation measure x box area."""
     c = centroid[idx, axis]
     c0, c1 = c.min(), c.max()
     if not c1 > c0:
         return None
     bucket = np.minimum(((c - c0) / (c1 - c0) * BUCKETS).astype(int), BUCKETS - 1)
-    left = bucket[:, None] <= np.arange(BUCKETS - 1)[None, :]  # (n, candidates)
+    left = bucket[:, None] <= np.arange(BUCKETS - 1)[None, :]  # (n, boundaries)
     counts = left.sum(axis=0)
     valid = (counts > 0) & (counts < len(idx))
     if not valid.any():
         return None
-    best, best_left = math.inf, None
-    for j in np.nonzero(valid)[0]:
-        cost = 0.0
-        for side in (left[:, j], ~left[:, j]):
-            s = idx[side]
-            _, theta = bounding_cone(b.axis[s], b.theta_o[s])
-            cost += (b.intensity[s].sum() * orientation_measure(theta)
-                     * _box_area(b.lo[s].min(axis=0), b.hi[s].max(axis=0)))
-        if cost < best:
-            best, best_left = cost, left[:, j]
-    return best, best_left
+    left = left[:, valid]
+    cost = np.zeros(left.shape[1])
+    lo, hi, intensity = b.lo[idx], b.hi[idx], b.intensity[idx]
+    for side in (left, ~left):
+        box_lo = np.where(side[:, :, None], lo[:, None, :], np.inf).min(axis=0)
+        box_hi = np.where(side[:, :, None], hi[:, None, :], -np.inf).max(axis=0)
+        cost += (intensity @ side) * orientation_measure(_side_cones(b.axis[idx], b.theta_o[idx], side)) \
+            * _box_area(box_lo, box_hi)
+    best = int(np.argmin(cost))
+    return float(cost[best]), left[:, best]
 
 
 def _split(b: LightBounds, idx: np.ndarray, centroid: np.ndarray, depth: int) -> tuple[np.ndarray, np.ndarray]:
