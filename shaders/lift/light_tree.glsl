@@ -1,27 +1,20 @@
-// lift/light_tree.glsl: the emissive primitive that next event estimation at a point picks,
-// by a walk down the light tree (lift_gl/scene/light_tree.py: the build and the layout),
-// each child chosen in proportion to its importance at the point: the intensity of its
-// lights over the squared distance, times the cosine of the smallest angle between the
-// node's cone of normals and the direction to the point (Conty Estevez and Kulla 2018).
-// light_tree_pdf retraces a light's walk from its bit trail: the same products in the same
-// order, so a BSDF-sampled hit gets exactly the probability the sampler used.
-// Compiled with LIFT_LIGHT_TREE (the option light_selection).
+// lift/light_tree.glsl: the emissive primitive next event estimation picks at a point, by a
+// walk down the light tree (lift_gl/scene/light_tree.py: build, layout, and the importance
+// after Conty Estevez and Kulla 2018). light_tree_pdf retraces a light's walk: the same
+// products, so MIS gets the sampler's probability exactly. Compiled with LIFT_LIGHT_TREE.
 #ifndef LIFT_LIGHT_TREE_GLSL
 #define LIFT_LIGHT_TREE_GLSL
 
 #define LIFT_LIGHT_LEAF 0x80000000u
 #define LIFT_LIGHT_NODE_ROWS 3u
 
-// Row of node `node` (its rows follow the u_num_lights light entries).
+// Node `node`'s first row in `lights`.
 uint light_node_row(uint node) { return u_num_lights + LIFT_LIGHT_NODE_ROWS * node; }
 
-// The second child of `node`, or LIFT_LIGHT_LEAF | the light's index into `lights`.
+// Second child, or LIFT_LIGHT_LEAF | light index.
 uint light_node_link(uint node) { return floatBitsToUint(lights[light_node_row(node) + 1u].w); }
 
-// How much the node's lights can light point p: zero only where none of them faces p. The
-// cosine of the smallest angle between the cone and the direction to p, theta_w - theta_o -
-// theta_b (theta_b: the half angle the node's bounding sphere subtends at p), from the
-// angles' cosines and sines by the subtraction formula, without inverse trigonometry.
+// intensity / d^2 x cos(theta_w - theta_o - theta_b), without inverse trigonometry.
 float light_node_importance(vec3 p, uint node) {
     uint row = light_node_row(node);
     vec4 lo_intensity = lights[row], hi = lights[row + 1u], cone = lights[row + 2u];
@@ -43,15 +36,14 @@ float light_node_importance(vec3 p, uint node) {
     return cos_t > 0.0 ? falloff * cos_t : 0.0;
 }
 
-// The probability of taking the first child of `node` from p (negative: neither child can light p).
+// P(first child) at p; negative where neither child lights p.
 float light_first_child_probability(vec3 p, uint node) {
     float first = light_node_importance(p, node + 1u), second = light_node_importance(p, light_node_link(node));
     float total = first + second;
     return total > 0.0 && total < 1e38 ? first / total : -1.0;
 }
 
-// A light (index into `lights`) for point p, u uniform in [0, 1), and the probability of
-// having picked it. False where no light faces p.
+// A light (index into `lights`) for p and its probability; false where none faces p.
 bool light_tree_pick(vec3 p, float u, out uint index, out float pdf) {
     uint node = 0u;
     pdf = 1.0;
@@ -78,7 +70,7 @@ bool light_tree_pick(vec3 p, float u, out uint index, out float pdf) {
     return false;
 }
 
-// The probability that light_tree_pick at p picks primitive `prim` (0 if it is not a light).
+// light_tree_pick's probability of primitive `prim` at p (0: not a light).
 float light_tree_pdf(vec3 p, uint prim) {
     // Binary search of the table after the nodes (sorted by primitive).
     uint table = light_node_row(2u * u_num_lights - 1u);

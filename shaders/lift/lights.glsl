@@ -1,8 +1,8 @@
 // lift/lights.glsl: next event estimation. sample_light picks a kind of light (the
 // environment, the distant lights or the emissive primitives) with the probabilities the
 // host computed (lift_gl/scene/light_choice.py), then one light of that kind: emissive
-// primitives in proportion to their power (the CDF in `lights`), or, compiled with
-// LIFT_LIGHT_TREE, by their importance at p (lift/light_tree.glsl); a point uniformly on the
+// primitives by power (the CDF in `lights`) or with LIFT_LIGHT_TREE by their importance
+// at p (lift/light_tree.glsl); a point uniformly on the
 // picked triangle, or for a sphere a direction uniform in the cone it subtends (uniform on
 // its area from inside); the environment uniformly over the sphere, or, with an
 // environment map, by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
