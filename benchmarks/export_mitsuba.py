@@ -6,8 +6,8 @@ The film's filter is a box over each pixel, unless --scene-filter writes the sce
 pixel filter (pbrt's triangle as Mitsuba's tent, a gaussian as Mitsuba's gaussian), which is
 right at the scene's own film size.
 
-Covers what the baseline scenes use: diffuse materials, area emitters on triangle meshes,
-spheres, a constant environment, the perspective camera, path integrator depth. Mitsuba's
+Covers what the baseline scenes use: diffuse materials, area emitters on triangle meshes
+and spheres, a constant environment, the perspective camera, path integrator depth. Mitsuba's
 max_depth counts path vertices from the camera: a lift-gl max_depth of N bounces is N + 1.
 """
 from __future__ import annotations
@@ -65,8 +65,11 @@ def export(scene, out: Path, size, scene_filter: bool = False) -> Path:
             lines.append(f'    <emitter type="area"><rgb name="radiance" value="{_rgb(mat.emission)}"/></emitter>')
         lines.append('  </shape>')
     for s in scene.spheres:
+        mat = scene.materials[s.material]
+        emitter = (f'<emitter type="area"><rgb name="radiance" value="{_rgb(mat.emission)}"/></emitter>'
+                   if mat.is_emissive else "")
         lines.append(f'  <shape type="sphere"><point name="center" value="{_rgb(s.center)}"/>'
-                     f'<float name="radius" value="{s.radius}"/><ref id="mat{s.material}"/></shape>')
+                     f'<float name="radius" value="{s.radius}"/><ref id="mat{s.material}"/>{emitter}</shape>')
     if scene.environment is not None:
         lines.append(f'  <emitter type="constant"><rgb name="radiance" value="{_rgb(scene.environment.radiance)}"/></emitter>')
     lines.append('</scene>')

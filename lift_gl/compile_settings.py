@@ -15,6 +15,7 @@ from .options import ResolvedOptions, TreeShape, Workload, resolve
 from .passes.common import coherent_defines
 from .passes.trace import plugin_path_steps
 from .plugins import Plugin, param_defines
+from .scene.light_choice import one_flat_emitter
 
 
 def resolve_choices(options, device, plugin: Plugin, features, scene, packed=None) -> ResolvedOptions:
@@ -23,14 +24,15 @@ def resolve_choices(options, device, plugin: Plugin, features, scene, packed=Non
     work = Workload(language=plugin.language, path_steps=plugin_path_steps(plugin, features.defines()),
                     splats=plugin.splats, motion=features.motion, instances=features.instances,
                     triangles=scene.triangle_count,
-                    tree=TreeShape.of(packed) if packed is not None else None)
+                    tree=TreeShape.of(packed) if packed is not None else None,
+                    one_flat_emitter=one_flat_emitter(scene))
     return resolve(options, device, work)
 
 
 def bvh_layout(choices: ResolvedOptions) -> dict:
-    """pack_scene's BVH settings, as the options chose them."""
+    """pack_scene's BVH and light-tree settings, as the options chose them."""
     return {"bvh_width": choices["bvh_width"], "bvh_slot_order": choices["bvh_slot_order"],
-            "bvh_builder": choices["bvh_builder"]}
+            "bvh_builder": choices["bvh_builder"], "light_selection": choices["light_selection"]}
 
 
 def stack_defines(packed, choices: ResolvedOptions) -> dict:
@@ -50,6 +52,8 @@ def scene_defines(features, buffers, packed, choices: ResolvedOptions, count_ray
         defines.update(stack_defines(packed, choices))
         if choices["trace_paired"] == "on":
             defines["LIFT_TRACE_PAIRED"] = True
+    if packed.light_tree:
+        defines["LIFT_LIGHT_TREE"] = True
     if count_rays:  # compiled in only when asked: one more atomic per pixel and frame
         defines["LIFT_COUNT_RAYS"] = True
     return defines

@@ -71,6 +71,10 @@ class Options:
     uniform_blocks: str = _option(AUTO, ON_OFF,
                                   "the small scene arrays in uniform blocks instead of storage buffers (auto: on "
                                   "CPU rasterizers, which read them faster)")
+    light_selection: str = _option(AUTO, ("power", "tree"),
+                                   "how next event estimation picks an emitter: by power alone, or by a light tree "
+                                   "that weighs each light's distance and facing at the shading point (auto: the "
+                                   "tree, but power for one flat emitter or one sphere)")
     coherent_sampling: str = _option("off", ON_OFF,
                                      "the pixels of each work group's tile share their random numbers (bdpt: "
                                      "its camera subpaths'), the tiles moving every frame: unbiased per pixel, "
@@ -212,6 +216,7 @@ class Workload:
     instances: bool = False        # ... or with traced instances
     triangles: int = 0
     tree: TreeShape | None = None  # None: before the scene is packed
+    one_flat_emitter: bool = True  # the emissive primitives are one sphere or lie in one plane, facing one way
 
 
 # ---- the rules (measurements: docs/gpu.md, docs/cpu-speed.md) ----
@@ -331,6 +336,7 @@ def resolve(options: Options, device: Device, work: Workload = Workload()) -> Re
     c["trace_paired"] = _paired(o.trace_paired, device, work, wide)
     c["carry_paths"] = _carry(o.carry_paths, device, work, queued, o.coherent_sampling == "on")
     c["gbuffer"] = _gbuffer(o.gbuffer, device, work)
+    c["light_selection"] = _light_selection(o.light_selection, work)
     c["uniform_blocks"] = _auto(o.uniform_blocks, device, "off", "on", "GPUs read storage buffers as fast",
                                 "llvmpipe reads uniform blocks faster than storage buffers")
     if o.coherent_sampling == "on" and work.language != "glsl":
@@ -343,6 +349,14 @@ def resolve(options: Options, device: Device, work: Workload = Workload()) -> Re
     c["max_buffer_bytes"] = Choice(o.max_buffer_bytes, o.max_buffer_bytes,
                                    "the GL's limit" if o.max_buffer_bytes == AUTO else "")
     return ResolvedOptions(options, device, c, gbuffer_stack)
+
+
+def _light_selection(asked: str, work: Workload) -> Choice:
+    if asked != AUTO:
+        return Choice(asked, asked)
+    if work.one_flat_emitter:
+        return Choice(asked, "power", "one flat emitter or one sphere: the tree would choose as power does")
+    return Choice(asked, "tree", "lights of different places or facings")
 
 
 def _builder(asked: str, triangles: int) -> Choice:

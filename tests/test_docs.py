@@ -12,7 +12,10 @@ import pytest
 from conftest import REPO
 
 README_MAX_LINES = 200
-DOCS_MAX_BYTES = 200_000          # all Markdown under docs/, pictures aside
+DOCS_MAX_BYTES = 130_000          # the Markdown written by hand under docs/, pictures aside
+# Pages generated from the code (lift_gl/reference_docs.py, lift_gl/glsl_docs.py): their size is
+# the API's, held by their own freshness tests, not by this guide's budget.
+GENERATED_DOCS = ("cli.md", "manifest.md", "options.md", "glsl-library.md")
 PICTURE_MAX_BYTES = 150_000
 DOCS = REPO / "docs"
 # Generated pages whose anchors their own generator and test own (tests/test_glsl_docs.py):
@@ -71,7 +74,8 @@ def test_the_readme_is_a_short_guide():
 
 
 def test_docs_stay_within_their_size():
-    sizes = {p.relative_to(REPO).as_posix(): p.stat().st_size for p in DOCS.rglob("*.md")}
+    sizes = {p.relative_to(REPO).as_posix(): p.stat().st_size for p in DOCS.rglob("*.md")
+             if p.relative_to(DOCS).as_posix() not in GENERATED_DOCS}
     total = sum(sizes.values())
     largest = ", ".join(f"{name} {size:,}" for name, size in sorted(sizes.items(), key=lambda kv: -kv[1])[:5])
     assert total <= DOCS_MAX_BYTES, f"docs/**/*.md hold {total:,} bytes, at most {DOCS_MAX_BYTES:,} (largest: {largest})"

@@ -56,3 +56,28 @@ def light_uniforms(scene: Scene, emitter_power: float, bounds: np.ndarray) -> di
     return {"u_light_weights": (float(weights[0]), float(weights[1]), float(weights[2]), 0.0),
             "u_num_distant": len(distant), "u_distant_dir": directions,
             "u_distant_irradiance": irradiance}
+
+
+def one_flat_emitter(scene: Scene) -> bool:
+    """Whether the emissive primitives are one sphere, or triangles in one plane facing one way
+    (a quad, a disk): where a light tree would pick among them as their power does (the option
+    light_selection's auto rule)."""
+    emissive = [m.is_emissive for m in scene.materials]
+    spheres = sum(1 for s in scene.spheres if emissive[s.material])
+    if any(emissive[i.material if i.material is not None else scene.prototypes[i.mesh].material]
+           for i in scene.instances):
+        return False
+    corners = [m.positions[m.indices] for m in scene.meshes if emissive[m.material] and len(m.indices)]
+    if not corners:
+        return spheres <= 1
+    if spheres:
+        return False
+    corners = np.concatenate(corners).astype(np.float64)
+    n = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    n = n[length > 0] / length[length > 0, None]
+    if len(n) == 0:
+        return True
+    size = float(np.ptp(corners.reshape(-1, 3), axis=0).max()) or 1.0
+    offsets = np.einsum("ij,ij->i", n, corners[length > 0, 0])
+    return bool(np.all(n @ n[0] > 1.0 - 1e-6) and np.ptp(offsets) <= 1e-5 * (size + np.abs(offsets).max()))

@@ -31,6 +31,7 @@ from .images import pack_images
 from .instances import (InstanceTable, build_blas, instance_table, instance_world_bounds,
                         split_instances)
 from .light_choice import light_uniforms
+from .light_tree import build_light_tree, concat_bounds, sphere_bounds, triangle_bounds
 from .loader import geometry_boxes
 from .model import Camera, Scene
 from .optics import internal_diffuse_reflectance
@@ -85,6 +86,9 @@ class PackedScene:
     instance_blas: dict | None = None  # prototype index -> (Blas, root node, first triangle)
     world_bounds: np.ndarray | None = None  # bounds of everything but the traced instances
     emitter_power: float = 0.0  # sum of luminance x area of the emitters (light_choice.py)
+    # `lights` holds the light tree after its L entries (light_tree.py; shaders compiled with
+    # LIFT_LIGHT_TREE pick lights by it): the option light_selection.
+    light_tree: bool = False
 
     @property
     def num_instances(self) -> int:
@@ -217,7 +221,8 @@ def still_motion(packed: PackedScene) -> np.ndarray:
 
 
 def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | None = None,
-               bvh_splits=None, bvh_width=None, bvh_bins=None, bvh_slot_order=None) -> PackedScene:
+               bvh_splits=None, bvh_width=None, bvh_bins=None, bvh_slot_order=None,
+               light_selection: str = "power") -> PackedScene:
     """`origin`: the world point that becomes the GPU's zero; default: the scene's centre.
     `bvh_builder`: see accel/cache.py BUILDERS (None: auto).
     `bvh_splits`: see accel/presplit.py resolve_splits (None: auto).
@@ -228,6 +233,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     instances keep the binary tree whatever is asked (the wide layout has no close boxes and no BLAS roots),
     and so does a tree the wide layout cannot hold (wide.wide_layout returns None; the layout of a
     large tree is cached beside its BVH, accel/cache.py wide_layout_cached).
+    `light_selection`: "tree" appends the light tree to `lights` (light_tree.py), "power" not.
     Instances: those that must be are flattened into world meshes (scene/instances.py), the
     others traced through their prototypes' BLAS and a TLAS (the BLAS are not split)."""
     instanced, traced = scene, []
@@ -304,7 +310,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
 
     # Light selection proportional to emitted power (luminance x area); pi is common to all.
     emission = np.array([m.emission for m in scene.materials]).reshape(-1, 3) if scene.materials else np.zeros((0, 3))
-    light_prims, light_power, light_area = [], [], []
+    light_prims, light_power, light_area, light_bounds = [], [], [], []
     if T_world:  # instanced triangles never emit: emissive instances are flattened
         p = world_positions.astype(np.float64)  # float32's squares overflow beyond edges of 1e19
         tri_area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
@@ -316,6 +322,10 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         light_prims += list(emissive)
         light_power += list(tri_power[emissive])
         light_area += list(tri_area[emissive])
+        if light_selection == "tree" and len(emissive):
+            light_bounds.append(triangle_bounds(world_positions[emissive], tri_move[order][emissive] if has_motion
+                                                else None, emission[material_ids[emissive]] @ LUMINANCE))
+    emissive_spheres = []
     for i, s in enumerate(scene.spheres):
         area = 4.0 * np.pi * s.radius ** 2
         power = float(emission[s.material] @ LUMINANCE) * area
@@ -323,6 +333,12 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
             light_prims.append(T + i)
             light_power.append(power)
             light_area.append(area)
+            emissive_spheres.append(i)
+    if light_selection == "tree" and emissive_spheres:
+        k = np.array(emissive_spheres)
+        light_bounds.append(sphere_bounds(
+            [scene.spheres[i].center - origin + sphere_open[i] for i in k], [scene.spheres[i].radius for i in k],
+            sphere_move[k] if has_motion else None, emission[[scene.spheres[i].material for i in k]] @ LUMINANCE))
     light_power = np.asarray(light_power, np.float64)
     select_pdf = light_power / light_power.sum() if len(light_power) else light_power
     cdf = np.cumsum(select_pdf)
@@ -333,6 +349,8 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
     lights[: len(light_prims), 1] = cdf
     lights[: len(light_prims), 2] = select_pdf
     lights[: len(light_prims), 3] = light_area
+    if light_bounds:
+        lights = np.concatenate([lights, build_light_tree(concat_bounds(light_bounds), np.array(light_prims))])
     prim_select_pdf = np.zeros(T + S, np.float32)
     prim_select_pdf[np.asarray(light_prims, dtype=np.int64)] = select_pdf
     if raster_rows is not None:  # every copy of an emissive triangle: its light's pdf (MIS)
@@ -400,6 +418,7 @@ def pack_scene(scene: Scene, cache_dir=None, origin=None, bvh_builder: str | Non
         emitter_power=float(np.sum(light_power)),
         raster_rows=raster_rows,
         num_source_triangles=n_source,
+        light_tree=bool(light_bounds),
     )
 
 

@@ -1,7 +1,8 @@
 // lift/lights.glsl: next event estimation. sample_light picks a kind of light (the
 // environment, the distant lights or the emissive primitives) with the probabilities the
 // host computed (lift_gl/scene/light_choice.py), then one light of that kind: emissive
-// primitives in proportion to their power (the CDF in `lights`), a point uniformly on the
+// primitives by power (the CDF in `lights`) or with LIFT_LIGHT_TREE by their importance
+// at p (lift/light_tree.glsl); a point uniformly on the
 // picked triangle, or for a sphere a direction uniform in the cone it subtends (uniform on
 // its area from inside); the environment uniformly over the sphere, or, with an
 // environment map, by the map's luminance (lift_gl/scene/envmap.py); a distant light by its power.
@@ -10,6 +11,9 @@
 #define LIFT_LIGHTS_GLSL
 #include "lift/surface.glsl"
 #include "lift/sampling.glsl"
+#ifdef LIFT_LIGHT_TREE
+#include "lift/light_tree.glsl"
+#endif
 
 // A direction towards a light, chosen by sample_light from a shaded point.
 struct LightSample {
@@ -264,10 +268,18 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
 #ifdef HAS_EMISSIVE
     // ---- An emissive primitive ----
     if (u_num_lights == 0u || !(kind.z > 0.0)) return false;
+#ifdef LIFT_LIGHT_TREE
+    uint index;
+    float pick_pdf;
+    if (!light_tree_pick(p, clamp(u.x / kind.z, 0.0, 0.99999994), index, pick_pdf)) return false;
+    vec4 light = lights[index];
+    float select_pdf = pick_pdf * kind.z;
+#else
     uint index = pick_light(clamp(u.x / kind.z, 0.0, 1.0));
     vec4 light = lights[index];
-    uint prim = floatBitsToUint(light.x);
     float select_pdf = light.z * kind.z;
+#endif
+    uint prim = floatBitsToUint(light.x);
     vec3 point, n;
     uint material;
     if (prim < u_num_triangles) {
@@ -319,18 +331,23 @@ bool sample_light(vec3 p, vec3 u, out LightSample ls) {
 // that hit the emitter surface `light` at distance dist.
 float light_pdf(vec3 p, Surface light, vec3 wi, float dist) {
     if (light.light_select_pdf <= 0.0) return 0.0;
+#ifdef LIFT_LIGHT_TREE
+    float select_pdf = light_tree_pdf(p, light.prim);
+#else
+    float select_pdf = light.light_select_pdf;
+#endif
 #if defined(HAS_EMISSIVE) && defined(HAS_SPHERES)
     if (light.prim >= u_num_triangles) {
         vec4 cr = spheres[2u * (light.prim - u_num_triangles)];
         cr.xyz += prim_displacement(light.prim);
         float one_minus_cos_max;
         if (sphere_cone(p, cr, one_minus_cos_max))
-            return light_kind_probabilities().z * light.light_select_pdf / (2.0 * LIFT_PI * one_minus_cos_max);
+            return light_kind_probabilities().z * select_pdf / (2.0 * LIFT_PI * one_minus_cos_max);
     }
 #endif
     float cos_light = abs(dot(wi, light.ng));
     if (cos_light <= 0.0) return 0.0;
-    return light_kind_probabilities().z * light.light_select_pdf * dist * dist / (light.area * cos_light);
+    return light_kind_probabilities().z * select_pdf * dist * dist / (light.area * cos_light);
 }
 
 // Solid-angle pdf with which sample_light produces the escaping direction wi.
