@@ -8,7 +8,7 @@ from pathlib import Path
 
 from . import arg_types, options, scaffold, warptest
 from .app.command import add_parser as add_view_parser
-from .denoise import DENOISERS
+from .denoise import DENOISER_CHOICES
 from .errors import LiftError
 from .lab import add_parser as add_lab_parser
 from .report import bench, compare
@@ -46,9 +46,11 @@ def _add_render(sub):
     p.add_argument("--seed", type=arg_types.seed, default=0)
     p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
                    help="denoise the final image, or every frame (the output is then biased; default off)")
-    p.add_argument("--denoiser", choices=DENOISERS, default="atrous",
-                   help="atrous: GLSL edge-avoiding à-trous (default); onnx: the trained network; "
-                        "oidn: Intel Open Image Denoise (pip install 'lift-gl[oidn]')")
+    p.add_argument("--denoiser", choices=DENOISER_CHOICES, default="auto",
+                   help="auto (default): the trained network for the final image (onnxruntime), for every frame "
+                        "in GLSL on a GPU or the à-trous filter on a CPU rasterizer; atrous: GLSL edge-avoiding "
+                        "à-trous; onnx: the trained network; glsl: the network in GLSL; oidn: Intel Open Image "
+                        "Denoise (pip install 'lift-gl[oidn]')")
     p.add_argument("--noisy-out", metavar="FILE", help="with --denoise: also write the noisy mean here")
     p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="plugin parameter")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default="auto")

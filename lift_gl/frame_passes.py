@@ -194,4 +194,5 @@ def denoise_why(r, made) -> str:
         how = f"{r.denoise.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
     guides = ("the frame's own G-buffer (jittered as its samples)" if mode == "every" and r.graph.per_frame("gbuffer")
               else "a G-buffer through the pixel centres")
-    return f"--denoise {mode}: {how}, {when}; guides from {guides}"
+    chosen = f" (denoiser auto: {r.denoise_choice})" if r.denoise_choice else ""
+    return f"--denoise {mode}{chosen}: {how}, {when}; guides from {guides}"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .denoise import DENOISERS, MODES as DENOISE_MODES
+from .denoise import AUTO, DENOISER_CHOICES, DENOISERS, MODES as DENOISE_MODES, choose_denoiser
 from .errors import DenoiserError
 from .temporal import DEFAULT_MIN_BLEND, MODES as TEMPORAL_MODES, history_cap
 
@@ -48,17 +48,30 @@ class TemporalSettings:
 class DenoiseSettings:
     """mode: "off", "every" (after each frame) or "final" (at the end of each render() call);
     denoiser: "atrous", "onnx", "oidn" or "glsl" (lift_gl.denoise), with its options (the
-    à-trous filter's AtrousSettings fields, or get_denoiser's keywords). BIASED, labelled."""
+    à-trous filter's AtrousSettings fields, or get_denoiser's keywords), or "auto" (the
+    default: chosen for the mode and the device, lift_gl.denoise.choose_denoiser). BIASED,
+    labelled."""
     mode: str = "off"
-    denoiser: str = "atrous"
+    denoiser: str = AUTO
     options: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if self.mode not in DENOISE_MODES:
             raise DenoiserError(f"unknown denoise mode {self.mode!r}; choose one of {', '.join(DENOISE_MODES)}")
-        if self.denoiser not in DENOISERS:
-            raise DenoiserError(f"unknown denoiser {self.denoiser!r}; choose one of {', '.join(DENOISERS)}")
+        if self.denoiser not in DENOISER_CHOICES:
+            raise DenoiserError(f"unknown denoiser {self.denoiser!r}; choose one of {', '.join(DENOISER_CHOICES)}")
+        if self.denoiser == AUTO and self.options:
+            raise DenoiserError(f"denoiser options {sorted(self.options)} need the denoiser they are for to be named "
+                                f"(one of {', '.join(DENOISERS)}), not auto")
         object.__setattr__(self, "options", dict(self.options or {}))
+
+    def resolved(self, software_gl: bool) -> tuple["DenoiseSettings", str]:
+        """These settings with "auto" replaced by the denoiser it stands for here, and why
+        ("" where the denoiser was named)."""
+        if self.denoiser != AUTO:
+            return self, ""
+        name, why = choose_denoiser(self.mode, software_gl)
+        return DenoiseSettings(self.mode, name), why
 
     @classmethod
     def of(cls, value) -> "DenoiseSettings":

@@ -74,7 +74,7 @@ class Options:
     light_selection: str = _option(AUTO, ("power", "tree"),
                                    "how next event estimation picks an emitter: by power alone, or by a light tree "
                                    "that weighs each light's distance and facing at the shading point (auto: the "
-                                   "tree, but power for one flat emitter or one sphere)")
+                                   "tree, but power for one flat emitter or one sphere, and with motion blur)")
     coherent_sampling: str = _option("off", ON_OFF,
                                      "the pixels of each work group's tile share their random numbers (bdpt: "
                                      "its camera subpaths'), the tiles moving every frame: unbiased per pixel, "
@@ -356,6 +356,8 @@ def _light_selection(asked: str, work: Workload) -> Choice:
         return Choice(asked, asked)
     if work.one_flat_emitter:
         return Choice(asked, "power", "one flat emitter or one sphere: the tree would choose as power does")
+    if work.motion:  # the tree's boxes and cones are the emitters' at shutter open
+        return Choice(asked, "power", "motion blur: the tree's bounds would hold the emitters only at shutter open")
     return Choice(asked, "tree", "lights of different places or facings")
 
 

@@ -89,7 +89,7 @@ class Renderer:
         features: compile these SceneFeatures rather than the scene's. timers: GPU time per pass
         (stats.pass_ms); count_rays: count the rays traced (stats.rays)."""
         self.temporal = TemporalSettings.of(temporal)
-        self.denoise = DenoiseSettings.of(denoise)
+        self.denoise_asked = DenoiseSettings.of(denoise)  # the denoiser may be "auto": self.denoise has its choice
         self.numpy_denoiser = None  # onnx / oidn / glsl: made once (model loading), kept across resizes
         self.scene = validate_scene(scene)
         self.size = tuple(int(v) for v in (size or scene.film_size))
@@ -98,6 +98,7 @@ class Renderer:
         self.ctx = ctx if ctx is not None else create_context(backend)
         self.options = options if options is not None else Options()
         self.device = Device.of(self.ctx)
+        self.denoise, self.denoise_choice = self.denoise_asked.resolved(self.device.software)
         # Hostile sizes are refused here, before any GPU (or BVH) memory is allocated.
         buffer_bytes = self.options.max_buffer_bytes
         self.limits = GlLimits.query(self.ctx, None if buffer_bytes == "auto" else buffer_bytes)
@@ -139,9 +140,10 @@ class Renderer:
         self.watcher = hot_reload.new_watcher(self)
 
     # ---- what the shaders are compiled with (compile_settings.py) ----
-    def resolve_choices(self, plugin: Plugin, features: SceneFeatures, packed=None) -> ResolvedOptions:
-        """The options' choices for this device, plugin and scene (provisional before packing)."""
-        return resolve_choices(self.options, self.device, plugin, features, self.scene, packed)
+    def resolve_choices(self, plugin: Plugin, features: SceneFeatures, packed=None, scene=None) -> ResolvedOptions:
+        """The options' choices for this device, plugin and scene (`scene`: an edit's, before it
+        replaces self.scene; provisional before packing)."""
+        return resolve_choices(self.options, self.device, plugin, features, scene or self.scene, packed)
 
     def _shader_defines(self) -> dict:
         """Every program's defines for this scene (a subclass may add its own)."""
@@ -197,9 +199,15 @@ class Renderer:
         """Change the denoise mode, denoiser or its options (the viewer's F3 panel);
         accumulation goes on. A denoiser that cannot be made (a missing package, a bad
         option) raises DenoiserError and nothing changes."""
-        old = self.denoise
-        new = DenoiseSettings(old.mode if mode is None else mode, old.denoiser if denoiser is None else denoiser,
-                              old.options if options is None else options)
+        old, old_asked, old_choice = self.denoise, self.denoise_asked, self.denoise_choice
+        mode = old_asked.mode if mode is None else mode
+        if denoiser is None:  # options tune the denoiser the mode will use, which "auto" may stand for
+            denoiser = old_asked.denoiser
+            if options and denoiser == "auto":
+                denoiser = DenoiseSettings(mode).resolved(self.device.software)[0].denoiser
+        new_asked = DenoiseSettings(mode, denoiser, old.options if options is None else options)
+        new, choice = new_asked.resolved(self.device.software)
+        self.denoise_asked, self.denoise_choice = new_asked, choice
         if new == old:
             return
         old_numpy = self.numpy_denoiser
@@ -210,7 +218,8 @@ class Renderer:
             self.graph.rebuild(frame_nodes(self), asked(self) + tuple(a for a in self.graph.asked if a != DENOISED),
                                remake={"denoise"})
         except LiftError:
-            self.denoise, self.numpy_denoiser = old, old_numpy
+            self.denoise, self.denoise_asked, self.denoise_choice, self.numpy_denoiser = (old, old_asked, old_choice,
+                                                                                          old_numpy)
             raise
         if old_numpy is not None and old_numpy is not self.numpy_denoiser and hasattr(old_numpy, "release"):
             old_numpy.release()  # glsl: its GL buffers and programs

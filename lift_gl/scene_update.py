@@ -46,7 +46,7 @@ def update_scene(r, scene: Scene, geometry: bool = True) -> bool:
         # a live edit waits for this build: one SAH build, without the second one with
         # finer bins at the top (which can double it for 1.5% of trace time)
         features = r.fixed_features or SceneFeatures.of(scene)
-        packed = pack_scene(scene, bvh_bins=bins_for_one_build(), **bvh_layout(r.resolve_choices(r.plugin, features)))
+        packed = pack_scene(scene, bvh_bins=bins_for_one_build(), **bvh_layout(r.resolve_choices(r.plugin, features, scene=scene)))
     else:
         packed = dataclasses.replace(r.packed, materials=materials)
     r.scene = dataclasses.replace(scene, camera=r.scene.camera)

@@ -15,6 +15,7 @@ from conftest import REPO
 from lift_gl import metrics
 from lift_gl.cli import main
 from lift_gl.errors import LiftError
+from lift_gl.frame_settings import DenoiseSettings
 from lift_gl.image_io import read_image
 from lift_gl.renderer import Renderer
 from lift_gl.report.configurations import parse_configurations
@@ -157,20 +158,21 @@ def test_compare_denoise_modes(capsys, tmp_path, furnace_reference):
     accumulation, so on the same denoised image, the one a plain final-mode render gives;
     the report marks both as biased."""
     out = tmp_path / "cmp"
-    code, stdout, err = run_cli(capsys, "compare", FURNACE, "--denoise", "off,final,every", "--spp", 8,
+    code, stdout, err = run_cli(capsys, "compare", FURNACE, "--denoise", "off,final,every", "--denoiser", "atrous",
+                                "--spp", 8,
                                 "--seeds", 1, "--size", "24x24", "--ref", furnace_reference, "--out", out)
     assert code == 0, err
     rows = read_csv(out / "metrics.csv")
-    assert sorted({r["configuration"] for r in rows}) == ["pt", "pt+denoise=every", "pt+denoise=final"]
-    final = read_image(out / "images" / "pt+denoise=final.exr")
-    np.testing.assert_array_equal(final, read_image(out / "images" / "pt+denoise=every.exr"))
-    plain = Renderer(load_scene(FURNACE), size=SIZE, seed=1, denoise="final")
+    assert sorted({r["configuration"] for r in rows}) == ["pt", "pt+denoise=every:atrous", "pt+denoise=final:atrous"]
+    final = read_image(out / "images" / "pt+denoise=final_atrous.exr")
+    np.testing.assert_array_equal(final, read_image(out / "images" / "pt+denoise=every_atrous.exr"))
+    plain = Renderer(load_scene(FURNACE), size=SIZE, seed=1, denoise=DenoiseSettings("final", "atrous"))
     np.testing.assert_array_equal(final, plain.render(spp=8))
     plain.release()
     noisy = read_image(out / "images" / "pt.exr")
     assert not np.array_equal(final, noisy)
     report = (out / "report.md").read_text()
-    assert "**BIASED** `pt+denoise=final`" in report and "**BIASED** `pt+denoise=every`" in report
+    assert "**BIASED** `pt+denoise=final:atrous`" in report and "**BIASED** `pt+denoise=every:atrous`" in report
     assert "**BIASED** `pt`:" not in report
 
 

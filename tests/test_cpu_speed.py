@@ -23,8 +23,9 @@ from lift_gl.scene.model import Mesh
 CORNELL = REPO / "scenes" / "cornell.toml"  # glass, metal, diffuse, an area light
 
 
-def _render(scene, uniform_blocks, spp=4, size=(32, 32), **kw):
-    r = Renderer(scene, size=size, options=Options(uniform_blocks="on" if uniform_blocks else "off"), **kw)
+def _render(scene, uniform_blocks, spp=4, size=(32, 32), light_selection="auto", **kw):
+    r = Renderer(scene, size=size, options=Options(uniform_blocks="on" if uniform_blocks else "off",
+                                                   light_selection=light_selection), **kw)
     try:
         return r.render(spp=spp), set(r.buffers.in_uniform_block), dict(r.defines)
     finally:
@@ -65,9 +66,10 @@ def test_an_edit_that_changes_array_lengths_recompiles_with_the_new_lengths():
     """Uniform blocks' lengths are compiled into the shaders, rounded up to a power of two (at
     least 64): an edit within them (a second light) keeps the shaders, one past them (every
     mesh twice) rebuilds the passes; either way the renderer then renders what a fresh
-    renderer renders."""
+    renderer renders. Lights picked by power throughout: a second light would switch the
+    light tree on (auto), a recompile of its own (test_an_edit_that_adds_a_light_switches_to_the_tree)."""
     scene = load_scene(CORNELL)
-    r = Renderer(scene, size=(24, 24), options=Options(uniform_blocks="on"))
+    r = Renderer(scene, size=(24, 24), options=Options(uniform_blocks="on", light_selection="power"))
     before = dict(r.defines)
     light = next(m for m in scene.meshes if scene.materials[m.material].is_emissive)
     twin = dataclasses.replace(light, name="twin", positions=light.positions + [0.3, -0.01, 0.0])
@@ -77,8 +79,26 @@ def test_an_edit_that_changes_array_lengths_recompiles_with_the_new_lengths():
         r.update_scene(edited)
         assert (r.defines != before) == recompiles
         edited_image = r.render(spp=2)
-        fresh, _, _ = _render(edited, True, spp=2, size=(24, 24))
+        fresh, _, _ = _render(edited, True, spp=2, size=(24, 24), light_selection="power")
         np.testing.assert_array_equal(edited_image, fresh)
+    r.release()
+
+
+def test_an_edit_that_adds_a_light_switches_to_the_tree():
+    """light_selection auto after an edit chooses for the edited scene, as a fresh renderer
+    does: a second light, off the first's plane, packs the light tree and compiles its code
+    (the pack used to be chosen for the scene before the edit: a tree chosen, none packed)."""
+    scene = load_scene(CORNELL)
+    r = Renderer(scene, size=(24, 24))
+    assert r.choices["light_selection"] == "power" and "LIFT_LIGHT_TREE" not in r.defines
+    light = next(m for m in scene.meshes if scene.materials[m.material].is_emissive)
+    twin = dataclasses.replace(light, name="twin", positions=light.positions + [0.3, -0.01, 0.0])
+    edited = dataclasses.replace(scene, meshes=[*scene.meshes, twin])
+    r.update_scene(edited)
+    assert r.choices["light_selection"] == "tree" and r.packed.light_tree and "LIFT_LIGHT_TREE" in r.defines
+    fresh, _, defines = _render(edited, False, spp=2, size=(24, 24))
+    assert "LIFT_LIGHT_TREE" in defines
+    np.testing.assert_array_equal(r.render(spp=2), fresh)
     r.release()
 
 

@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 
 from lift_gl.cli import main
-from lift_gl.denoise import get_denoiser
+from lift_gl.denoise import choose_denoiser, get_denoiser
 from lift_gl.denoise.demodulate import safe_albedo
 from lift_gl.denoise.variance import LUMINANCE, luminance_variance
 from lift_gl.errors import DenoiserError
 from lift_gl.frame_settings import DenoiseSettings
 from lift_gl.renderer import Renderer
 from lift_gl.scene.loader import load_scene
+
+ATROUS_FINAL = DenoiseSettings("final", "atrous")
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "cornell.toml"
 SIZE = (40, 32)
@@ -63,7 +65,7 @@ def test_off_is_the_renderer_as_before(scene):
 
 def test_final_denoises_once_at_the_end(scene):
     off = Renderer(scene, size=SIZE, seed=3)
-    final = Renderer(scene, size=SIZE, seed=3, denoise="final")
+    final = Renderer(scene, size=SIZE, seed=3, denoise=ATROUS_FINAL)
     noisy = off.render(spp=4)
     # Samples added without the final step: nothing is denoised yet, the mean is shown.
     partial = final.render(spp=2, final=False)
@@ -85,7 +87,7 @@ def test_final_denoises_once_at_the_end(scene):
 
 def test_every_denoises_each_frame(scene):
     """After each frame, on the frame's own G-buffer as its guides (no second G-buffer)."""
-    every = Renderer(scene, size=SIZE, seed=3, denoise="every", timers=True)
+    every = Renderer(scene, size=SIZE, seed=3, denoise=DenoiseSettings("every", "atrous"), timers=True)
     assert "guides from the frame's own G-buffer" in every.explain()
     for frame in range(1, 4):
         image = every.render(spp=1, final=False)  # "every" does not wait for a final step
@@ -95,7 +97,7 @@ def test_every_denoises_each_frame(scene):
     assert every.stats.pass_ms.get("denoise", 0.0) > 0.0
     # A render() that ends a final image denoises it on guides through the pixel centres, as
     # final does: the same image as a final-mode renderer's.
-    final = Renderer(scene, size=SIZE, seed=3, denoise="final", ctx=every.ctx)
+    final = Renderer(scene, size=SIZE, seed=3, denoise=ATROUS_FINAL, ctx=every.ctx)
     every.reset()
     np.testing.assert_array_equal(every.render(spp=3), final.render(spp=3))
     final.release()
@@ -154,8 +156,37 @@ def test_cli_writes_denoised_and_noisy(tmp_path, capsys):
     code = main(["render", str(SCENE), "--spp", "2", "--size", "24x16", "--denoise", "final",
                  "--out", str(out), "--noisy-out", str(noisy)])
     text = capsys.readouterr().out
-    assert code == 0 and "denoised (atrous, final frame, 1 run" in text and "BIASED" in text
+    chosen = choose_denoiser("final", software_gl=True)[0]  # --denoiser auto, on llvmpipe
+    assert code == 0 and f"denoised ({chosen}, final frame, 1 run" in text and "BIASED" in text
     d, n = np.load(out), np.load(noisy)
     assert d.shape == n.shape == (16, 24, 3) and not np.array_equal(d, n)
     record = (tmp_path / "d.npy.json").read_text()
     assert '"denoise": "final"' in record and '"biased"' in record
+
+
+def test_auto_chooses_the_network_for_the_final_image_and_per_device_for_every_frame(scene, monkeypatch):
+    """denoiser auto: the final image gets the trained network (onnxruntime), every frame the
+    network in GLSL on a GPU and the à-trous filter on a CPU rasterizer; without onnxruntime
+    the final image falls back; --explain says which and why."""
+    pytest.importorskip("onnxruntime")
+    assert choose_denoiser("final", software_gl=True)[0] == "onnx"
+    assert choose_denoiser("final", software_gl=False)[0] == "onnx"
+    assert choose_denoiser("every", software_gl=True)[0] == "atrous"
+    assert choose_denoiser("every", software_gl=False)[0] == "glsl"
+    r = Renderer(scene, size=SIZE, seed=3, denoise="final")
+    assert r.denoiser == "onnx" and "denoiser auto: the final image: the trained network" in r.explain()
+    r.set_denoise(mode="every")   # auto again, for the new mode
+    assert r.denoiser == "atrous" and "every frame on a CPU rasterizer" in r.explain()
+    r.set_denoise(denoiser="glsl")  # named: kept across modes
+    r.set_denoise(mode="final")
+    assert r.denoiser == "glsl" and "denoiser auto" not in r.explain()
+    r.release()
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "onnxruntime" else real(name, *a))
+    assert choose_denoiser("final", software_gl=True) == (
+        "atrous", "the final image: the trained network needs onnxruntime (pip install 'lift-gl[denoise]')")
+    assert choose_denoiser("final", software_gl=False)[0] == "glsl"
+    with pytest.raises(DenoiserError, match="name"):
+        DenoiseSettings("final", "auto", {"iterations": 3})

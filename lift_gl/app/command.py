@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..denoise import DENOISERS
+from ..denoise import DENOISER_CHOICES
 from ..errors import LiftError
 from ..options import add_option_argument
 from .aov_view import AOV_VIEWS
@@ -79,7 +79,8 @@ def add_parser(subparsers) -> None:
     p.add_argument("--split", metavar="INTEGRATOR", help="split view: this integrator on the right")
     p.add_argument("--denoise", choices=("off", "final", "every"), default="off",
                    help="denoise every frame, or the final frame (when the image freezes); default off")
-    p.add_argument("--denoiser", choices=DENOISERS, default="atrous")
+    p.add_argument("--denoiser", choices=DENOISER_CHOICES, default="auto",
+                   help="auto (default): the network in GLSL on a GPU, the à-trous filter on a CPU rasterizer")
     p.add_argument("--noisy-split", action="store_true",
                    help="with --denoise: show the noisy image left and the denoised one right")
     p.add_argument("--ref", help="reference image: plots the error against render time")

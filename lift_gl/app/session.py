@@ -58,7 +58,7 @@ class Denoise:
     """The denoiser settings the viewer keeps across integrators and scenes (F3 panel)."""
 
     mode: str = "off"  # off | every | final (final: when the image freezes, at its target or paused)
-    denoiser: str = "atrous"
+    denoiser: str = "auto"
     options: dict = field(default_factory=dict)  # the à-trous settings (lift_gl/passes/atrous.py)
 
 

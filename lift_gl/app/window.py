@@ -61,7 +61,7 @@ class ViewOptions:
     gamma: float | None = None
     view: str = "render"
     denoise: str = "off"
-    denoiser: str = "atrous"
+    denoiser: str = "auto"
     split: str | None = None
     split_params: dict | None = None
     reference: str | None = None
@@ -127,7 +127,7 @@ class ViewerWindow:
         s.sampling.target_seconds = options.target_seconds
         s.sampling.target_frames = options.frames or 0
         s.display.exposure, s.display.operator, s.display.gamma = options.exposure, options.operator, options.gamma
-        if options.denoise != "off" or options.denoiser != "atrous":
+        if options.denoise != "off" or options.denoiser != "auto":
             s.set_denoise(options.denoise, options.denoiser)
         s.display.view = options.view
         if options.split:

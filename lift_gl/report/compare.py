@@ -24,7 +24,7 @@ import numpy as np
 from ..arg_types import check_output_folder
 from ..atomic import atomic_path, write_text
 from ..consistency import BIAS_TOLERANCE
-from ..denoise import DENOISERS
+from ..denoise import DENOISER_CHOICES
 from ..errors import LiftError
 from .configurations import Configuration, parse_configurations
 
@@ -44,8 +44,9 @@ def add_parser(subparsers) -> None:
     p.add_argument("--denoise", default="off", metavar="MODES",
                    help="off,final,every: each configuration once per mode (final: each checkpoint denoised as if "
                         "it were the last; every: every frame; the denoiser's time counts as render time)")
-    p.add_argument("--denoiser", default="atrous", choices=DENOISERS,
-                   help="the denoiser of the modes other than off (default atrous)")
+    p.add_argument("--denoiser", default="auto", choices=DENOISER_CHOICES,
+                   help="the denoiser of the modes other than off (default auto: chosen per mode and device, "
+                        "as render's --denoiser)")
     budget = p.add_mutually_exclusive_group(required=True)
     budget.add_argument("--time", type=positive, dest="seconds", help="equal time: render time of every run, in seconds")
     budget.add_argument("--spp", type=positive_int, help="equal spp: samples per pixel of every run")

@@ -25,7 +25,7 @@ class Configuration:
     integrator: str
     params: dict = field(default_factory=dict)  # NAME -> value as text (the plugin parses it)
     denoise: str = "off"
-    denoiser: str = "atrous"  # used when denoise is not off
+    denoiser: str = "auto"  # used when denoise is not off
 
     @property
     def file_stem(self) -> str:
@@ -56,7 +56,7 @@ def parse_spec(spec: str) -> tuple[str, dict]:
 
 
 def parse_configurations(integrators: str, denoise: str = "off", settings: dict | None = None,
-                         denoiser: str = "atrous") -> list[Configuration]:
+                         denoiser: str = "auto") -> list[Configuration]:
     """The configurations to compare, in the order given. `settings` maps a plugin name to
     the --set values for it; a spec's own settings win over them."""
     modes = _split_list(denoise, "--denoise")
@@ -68,7 +68,7 @@ def parse_configurations(integrators: str, denoise: str = "off", settings: dict 
         name, params = parse_spec(spec)
         merged = dict((settings or {}).get(name, {}), **params)
         for mode in modes:
-            label = spec if mode == "off" else f"{spec}+denoise={mode}" + ("" if denoiser == "atrous" else f":{denoiser}")
+            label = spec if mode == "off" else f"{spec}+denoise={mode}" + ("" if denoiser == "auto" else f":{denoiser}")
             configs.append(Configuration(label=label, integrator=name, params=merged, denoise=mode, denoiser=denoiser))
     labels = [c.label for c in configs]
     repeated = sorted({label for label in labels if labels.count(label) > 1})
