@@ -510,3 +510,27 @@ def test_negative_roughness_gets_the_same_rule_in_python_scenes():
     with pytest.warns(SceneWarning, match="material 'm': negative roughness"):
         validate_scene(scene)
     assert scene.materials[0].alpha == 0.0
+
+
+def test_numpy_runtime_warnings_inside_a_loader_do_not_reach_the_user(tmp_path, monkeypatch):
+    """A RuntimeWarning that numpy issues inside a library a loader calls (as np.mean of an
+    empty array does: "Mean of empty slice") is not shown; what it warns of, a non-finite
+    value, is validation's to refuse. The loader's own warnings still come through."""
+    import warnings
+
+    import trimesh
+
+    real_load = trimesh.load
+
+    def noisy_load(*args, **kwargs):
+        np.mean(np.zeros(0))  # RuntimeWarning: Mean of empty slice
+        return real_load(*args, **kwargs)
+
+    monkeypatch.setattr(trimesh, "load", noisy_load)
+    mesh = tmp_path / "tri.obj"
+    mesh.write_text("v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 2 3\nf 1 1 2\n")  # and a triangle of a repeated corner
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        load_scene(mesh)
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in caught]
+    assert any(issubclass(w.category, SceneWarning) for w in caught)  # the dropped triangle's
