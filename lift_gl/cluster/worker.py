@@ -112,3 +112,18 @@ class RenderWorker:
         """Session.run (lift_gl/report/compare.py) here, on this worker's context."""
         self._context()
         return session.run(config, seed, reference, keep_images)
+
+    # ---- the denoiser's training data: one scene ----
+    def training_example(self, seed: int, size, ref_spp: int, sampling: str) -> dict:
+        """One training scene's arrays (lift_gl/denoise/train/render_data.py example_arrays),
+        rendered on this worker's context; the driver writes them. {"failed": why} for an
+        incomplete render, which the data set leaves out."""
+        from ..denoise.train.render_data import SPP_LEVELS, IncompleteRender, example_arrays, render_views
+        from ..denoise.train.scenes import random_scene
+
+        try:
+            noisy, albedo, normal, reference, dropped = render_views(
+                random_scene(seed), tuple(size), SPP_LEVELS, ref_spp, seed, self._context(), sampling=sampling)
+        except IncompleteRender as exc:
+            return {"failed": str(exc)}
+        return {"arrays": example_arrays(noisy, albedo, normal, reference), "dropped": dropped}

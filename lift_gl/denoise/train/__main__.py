@@ -42,7 +42,11 @@ def main(argv=None) -> int:
     p.add_argument("--lr", type=float, default=2e-3)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--backend", default="auto", help="OpenGL backend for rendering (auto|egl|osmesa)")
-    p.add_argument("--workers", type=int, default=1, help="rendering processes (one GL context each)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="rendering processes (one GL context each); with --executor ray, the cluster's workers to start")
+    p.add_argument("--executor", choices=("local", "ray"), default="local",
+                   help="ray: render the data on a Ray cluster's workers (pip install 'lift-gl[cluster]'; docs/cluster.md)")
+    p.add_argument("--address", metavar="HOST:PORT", help="the Ray head to join (with --executor ray)")
     p.add_argument("--data-minutes", type=float, default=None,
                    help="stop rendering training scenes after this long (the record says how many were made)")
     p.add_argument("--minutes", type=float, default=None, help="stop training after this long (resumable)")
@@ -66,15 +70,17 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     log = lambda msg: print(msg, flush=True)
 
+    from ...cluster.options import ExecutorSettings
     from .render_data import generate
+    executor = ExecutorSettings(a.executor, a.address, workers=a.workers if a.executor == "ray" and a.workers > 1 else None)
     size = (a.size, a.size)
     samplings = tuple(a.samplings.split(","))
     t0 = time.perf_counter()
     val_paths = generate(a.out / "val", VALIDATION_SEEDS[: a.val_scenes], size, a.ref_spp, a.backend, log,
-                         a.workers, samplings=samplings)
+                         a.workers, samplings=samplings, executor=executor)
     train_seeds = list(TRAIN_SEEDS[a.first_scene: a.first_scene + a.scenes])
     train_paths = generate(a.out / "train", train_seeds, size, a.ref_spp, a.backend, log, a.workers,
-                           a.data_minutes, samplings=samplings)
+                           a.data_minutes, samplings=samplings, executor=executor)
     log(f"data: {len(train_paths)} training scenes (seeds {train_seeds[0]}..{train_seeds[len(train_paths) - 1]})")
     data_seconds = time.perf_counter() - t0
 

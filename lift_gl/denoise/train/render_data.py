@@ -104,10 +104,7 @@ def render_example(path: Path, seed: int, size, ref_spp: int, backend: str, ctx=
         ctx = _worker_context(backend)
     noisy, albedo, normal, reference, dropped = render_views(random_scene(seed), size, SPP_LEVELS, ref_spp, seed, ctx,
                                                              sampling=sampling)
-    arrays = example_arrays(noisy, albedo, normal, reference)
-    tmp = path.with_suffix(".tmp.npz")
-    np.savez(tmp, **arrays)
-    tmp.replace(path)
+    save_example(path, example_arrays(noisy, albedo, normal, reference))
     return f"scene {seed}: {dropped} NaN/Inf samples dropped"
 
 
@@ -149,15 +146,24 @@ def example_path(out_dir: Path, seed: int, sampling: str) -> Path:
     return Path(out_dir) / f"scene_{seed:07d}{sampling_suffix(sampling)}.npz"
 
 
+def save_example(path: Path, arrays: dict) -> None:
+    """Written under a temporary name and renamed: a run cut short leaves no half file."""
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez(tmp, **arrays)
+    tmp.replace(path)
+
+
 def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend: str = "auto",
              log=print, workers: int = 1, minutes: float | None = None,
-             samplings=("independent",)) -> list[Path]:
+             samplings=("independent",), executor=None) -> list[Path]:
     """Render each seed's scene into out_dir/scene_SEED[_SAMPLING].npz (existing files are kept:
     resumable), the k-th seed's noisy inputs drawn by samplings[k % len(samplings)].
 
     With `workers` > 1 the scenes render in that many processes (one GL context each); with
-    `minutes`, rendering stops after that long and the longest prefix of `seeds` that was
-    rendered is returned (so that `--scenes len(result)` reproduces the same set).
+    `executor` a lift_gl.cluster ExecutorSettings of kind "ray", on a Ray cluster's workers
+    (the arrays come back here and are written here). With `minutes`, rendering stops after
+    that long and the longest prefix of `seeds` that was rendered is returned (so that
+    `--scenes len(result)` reproduces the same set).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -170,7 +176,9 @@ def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend
     deadline = None if minutes is None else time.time() + 60 * minutes
     tasks = [(p, seed, tuple(size), ref_spp, backend, deadline, kind) for p, seed, kind in zip(paths, seeds, kinds)]
     start = time.perf_counter()
-    if workers > 1:
+    if executor is not None and executor.kind == "ray":
+        _generate_on_ray(tasks, executor, backend, log, start)
+    elif workers > 1:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
         with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
@@ -189,3 +197,44 @@ def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend
     if failed:
         log(f"data: {len(failed)} scenes left out (incomplete renders): {', '.join(p.stem for p in failed)}")
     return [p for p in paths[:done] if p.exists()]
+
+
+RAY_SCENE_SECONDS = 1800.0   # one scene's time limit on a worker (a 256x256 scene at 2048 spp: about a minute)
+
+
+def _generate_on_ray(tasks, executor, backend: str, log, start: float) -> None:
+    """The scenes not rendered yet, one Ray task each, in batches of twice the workers so that
+    a deadline (--data-minutes) stops the run between batches; a lost worker's scene runs again
+    elsewhere (lift_gl/cluster/pool.py)."""
+    from ...cluster.pool import Pool, Task
+
+    todo = [t for t in tasks if not t[0].exists()]
+    if not todo:
+        return
+    pool = Pool(executor, backend, log)
+    done = [len(tasks) - len(todo)]
+    try:
+        def on_result(task, outcome):
+            path = task.key
+            done[0] += 1
+            if outcome.status != "ok":  # not left out for good: the next (resumed) run renders it again
+                log(f"data: {path.stem}: not rendered ({outcome.status}: {outcome.message})")
+                return
+            if "failed" in outcome.value:
+                path.with_suffix(".failed").write_text(outcome.value["failed"] + "\n")
+                log(f"data: {path.stem}: LEFT OUT, {outcome.value['failed']}")
+                return
+            save_example(path, outcome.value["arrays"])
+            if done[0] % 25 == 0 or done[0] == len(tasks):
+                log(f"data: {done[0]}/{len(tasks)} scenes, {time.perf_counter() - start:.0f} s (ray)")
+
+        batch = 2 * max(1, len(pool.actors))
+        for first in range(0, len(todo), batch):
+            deadline = todo[first][5]
+            if deadline is not None and time.time() > deadline:
+                break
+            pool.run([Task("training_example", (seed, size, ref_spp, sampling), RAY_SCENE_SECONDS, key=path)
+                      for path, seed, size, ref_spp, _backend, _deadline, sampling in todo[first:first + batch]],
+                     on_result)
+    finally:
+        pool.close()
