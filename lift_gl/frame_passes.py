@@ -192,7 +192,9 @@ def denoise_why(r, made) -> str:
                f"{s.sigma_normal}, depth {s.sigma_depth}), x albedo")
     else:
         how = f"{r.denoise.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
-    guides = ("the frame's own G-buffer (jittered as its samples)" if mode == "every" and r.graph.per_frame("gbuffer")
+    from .frame import frame_guides  # frame.py imports this module
+
+    guides = ("the frame's own G-buffer (jittered as its samples)" if frame_guides(r)
               else "a G-buffer through the pixel centres")
     chosen = f" (denoiser auto: {r.denoise_choice})" if r.denoise_choice else ""
     return f"--denoise {mode}{chosen}: {how}, {when}; guides from {guides}"

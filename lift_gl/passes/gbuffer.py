@@ -28,6 +28,25 @@ from .common import groups, set_uniforms
 SHADER_DIR = shaders.SHADER_DIR / "passes"
 
 
+def _make_outputs(g, ctx, size, defines: dict, motion_vectors: bool) -> dict:
+    """The G-buffer's textures on `g` (either pass): visibility, normal_depth, albedo, and with
+    motion vectors motion and the previous normal_depth; returns the defines they need."""
+    g.motion_vectors = motion_vectors
+    g.visibility = ctx.texture(size, 4, dtype="u4")
+    g.normal_depth = ctx.texture(size, 4, dtype="f4")
+    g.albedo = ctx.texture(size, 4, dtype="f2")
+    g.motion = g.prev_normal_depth = None
+    textures = [g.visibility, g.normal_depth, g.albedo]
+    if motion_vectors:
+        defines = dict(defines, LIFT_MOTION_VECTORS=True)
+        g.motion = ctx.texture(size, 4, dtype="f4")
+        g.prev_normal_depth = ctx.texture(size, 4, dtype="f4")
+        textures += [g.motion, g.prev_normal_depth]
+    for t in textures:
+        t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return defines
+
+
 class GBufferPass:
     name = "gbuffer"
     inputs = ("scene", "camera", "jitter")
@@ -42,19 +61,7 @@ class GBufferPass:
         self.size = size
         self.num_spheres = num_spheres
         self.instance_draws = list(instance_draws)
-        self.motion_vectors = motion_vectors
-        self.visibility = ctx.texture(size, 4, dtype="u4")
-        self.normal_depth = ctx.texture(size, 4, dtype="f4")
-        self.albedo = ctx.texture(size, 4, dtype="f2")
-        self.motion = self.prev_normal_depth = None
-        textures = [self.visibility, self.normal_depth, self.albedo]
-        if motion_vectors:
-            defines = dict(defines, LIFT_MOTION_VECTORS=True)
-            self.motion = ctx.texture(size, 4, dtype="f4")
-            self.prev_normal_depth = ctx.texture(size, 4, dtype="f4")
-            textures += [self.motion, self.prev_normal_depth]
-        for t in textures:
-            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        defines = _make_outputs(self, ctx, size, defines, motion_vectors)
         self.depth = ctx.depth_renderbuffer(size)
         self.fbo = self._framebuffer()
         self._spare_fbo = None  # the framebuffer for the other normal_depth texture (motion vectors)
@@ -170,19 +177,7 @@ class TracedGBufferPass:
         stack = stack or resolve(Options(), device).gbuffer_stack
         self.ctx = ctx
         self.size = size
-        self.motion_vectors = motion_vectors
-        self.visibility = ctx.texture(size, 4, dtype="u4")
-        self.normal_depth = ctx.texture(size, 4, dtype="f4")
-        self.albedo = ctx.texture(size, 4, dtype="f2")
-        textures = [self.visibility, self.normal_depth, self.albedo]
-        self.motion = self.prev_normal_depth = None
-        if motion_vectors:
-            defines = dict(defines, LIFT_MOTION_VECTORS=True)
-            self.motion = ctx.texture(size, 4, dtype="f4")
-            self.prev_normal_depth = ctx.texture(size, 4, dtype="f4")
-            textures += [self.motion, self.prev_normal_depth]
-        for t in textures:
-            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        defines = _make_outputs(self, ctx, size, defines, motion_vectors)
         self.local_size = work_group(stack, device)
         defines = dict(defines, LIFT_GBUFFER_LOCAL_X=self.local_size[0], LIFT_GBUFFER_LOCAL_Y=self.local_size[1])
         if stack == "shared":

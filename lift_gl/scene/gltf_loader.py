@@ -118,19 +118,18 @@ class _Fields:
             self.fail(f"{where}.{key}", f"must be an array, not {_json_type(value)}")
         return value
 
-    def objects(self, obj: dict, key: str, where: str) -> list[dict]:
+    def _items_of(self, obj: dict, key: str, where: str, kind: type, what: str) -> list:
         values = self.items(obj, key, where)
         for i, v in enumerate(values):
-            if not isinstance(v, dict):
-                self.fail(f"{where}.{key}[{i}]", f"must be a JSON object, not {_json_type(v)}")
+            if not isinstance(v, kind):
+                self.fail(f"{where}.{key}[{i}]", f"must be {what}, not {_json_type(v)}")
         return values
 
+    def objects(self, obj: dict, key: str, where: str) -> list[dict]:
+        return self._items_of(obj, key, where, dict, "a JSON object")
+
     def strings(self, obj: dict, key: str, where: str) -> list[str]:
-        values = self.items(obj, key, where)
-        for i, v in enumerate(values):
-            if not isinstance(v, str):
-                self.fail(f"{where}.{key}[{i}]", f"must be a string, not {_json_type(v)}")
-        return values
+        return self._items_of(obj, key, where, str, "a string")
 
     def number(self, obj: dict, key: str, default: float, where: str) -> float:
         value = obj.get(key, default)
