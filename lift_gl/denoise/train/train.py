@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from .loss import W_SSIM, denoise_loss
-from .model import DenoiseUNet
+from .model import model_from_arch
 
 TRAIN_LEVELS_WEIGHTS = (3, 2, 3, 2, 2, 1, 1)  # 1..64 spp; the low counts matter most
 
@@ -74,7 +74,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     The learning rate follows a cosine over `steps`; `stop_at` ends the run earlier at that
     step (a resumable checkpoint; also how the shipped weights, cut short by a time cap, are
     reproduced exactly). `loss_tonemap` picks the loss's tone map (loss.TONEMAPS); `arch` the
-    network's DenoiseUNet arguments (a resumed checkpoint's own architecture wins).
+    network's model.model_from_arch description (a resumed checkpoint's own architecture wins).
     `schedule_start` > 0 is a warm restart: the warm-up and cosine begin again at that step
     (a resumed checkpoint's step) and end at `steps`, so a finished run can train longer.
     `ssim_weight` is the training loss's SSIM weight; the validation loss keeps the default
@@ -86,7 +86,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     ckpt = torch.load(ckpt_path, map_location=device) if ckpt_path.exists() else None
     if ckpt is not None:  # checkpoints before "arch" was stored are the first shipped network's
         arch = ckpt.get("arch", {"encoder": (16, 32, 48, 64), "bottleneck": 80, "transform": "log1p"})
-    model = DenoiseUNet(**(arch or {})).to(device).to(memory_format=torch.channels_last)
+    model = model_from_arch(arch or {}).to(device).to(memory_format=torch.channels_last)
     opt = torch.optim.Adam(model.parameters(), lr=lr)
     step, seconds_before = 0, 0.0
     resumed_at = None
