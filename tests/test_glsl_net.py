@@ -378,8 +378,12 @@ def test_unsupported_conv_attribute_is_clear(tmp_path):
 
     w = numpy_helper.from_array(np.zeros((4, 4, 3, 3), np.float32), "w")
     path = _save(tmp_path, [helper.make_node("Conv", ["input", "w"], ["output"], kernel_shape=[3, 3],
-                                             pads=[1, 1, 1, 1], strides=[2, 2])], [w])
-    with pytest.raises(ModelError, match=r"bad\.onnx.*Conv.*strides 1"):
+                                             pads=[1, 1, 1, 1], strides=[2, 1])], [w])
+    with pytest.raises(ModelError, match=r"bad\.onnx.*Conv.*equal strides"):
+        Plan(path)
+    path = _save(tmp_path, [helper.make_node("Conv", ["input", "w"], ["output"], kernel_shape=[3, 3],
+                                             pads=[0, 0, 0, 0], strides=[2, 2])], [w], name="pads.onnx")
+    with pytest.raises(ModelError, match=r"pads\.onnx.*size / 2"):  # 3x3 stride 2 wants 1 or 2 pixels of padding
         Plan(path)
 
 

@@ -1,12 +1,15 @@
 // The network's input tensor from the renderer's textures (model_io.network_input): channels
-// demodulated mean x exposure (3), albedo (3), normal (3), in rgba32f layers of 4; row 0 of
+// demodulated mean x exposure (3), albedo (3), normal (3), in layers of 4 (TENSOR_FORMAT); row 0 of
 // the tensor is the top of the picture (the G-buffer's row 0 is the bottom: y flips). The
 // tensor is the picture padded at the bottom and right to the network's multiple by
 // repeating the edge pixel (tiling.pad_to_multiple).
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "passes/net_input.glsl"
 layout(std430, binding = LIFT_BINDING_NET_EXPOSURE) readonly buffer Exposure { float u_exposure; };
-layout(rgba32f, binding = 7) uniform writeonly image2DArray u_input;
+#ifndef TENSOR_FORMAT
+#define TENSOR_FORMAT rgba32f  // the network's tensors' (shaders/denoise/tensor.glsl)
+#endif
+layout(TENSOR_FORMAT, binding = 7) uniform writeonly image2DArray u_input;
 uniform sampler2D u_normal_depth;  // G-buffer normal (xyz), depth (w)
 uniform ivec2 u_size;              // the picture; the tensor is imageSize(u_input)
 

@@ -4,7 +4,10 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 #include "passes/net_input.glsl"
 layout(std430, binding = LIFT_BINDING_NET_EXPOSURE) readonly buffer Exposure { float u_exposure; };
-layout(rgba32f, binding = 6) uniform readonly image2DArray u_output;
+#ifndef TENSOR_FORMAT
+#define TENSOR_FORMAT rgba32f  // the network's tensors' (shaders/denoise/tensor.glsl)
+#endif
+layout(TENSOR_FORMAT, binding = 6) uniform readonly image2DArray u_output;
 layout(rgba32f, binding = 7) uniform writeonly image2D u_radiance;
 uniform ivec2 u_size;
 
