@@ -216,13 +216,14 @@ class GlslNet:
         return self._textures[self.plan.output_name]
 
     # ---- running ----
-    def run(self) -> None:
-        """All steps, on the textures of the last allocate()."""
+    def run(self, step_timers=None) -> None:
+        """All steps, on the textures of the last allocate(); `step_timers`, one context
+        manager a step (passes.common.GpuTimer), times each dispatch (a benchmark's)."""
         if self.size is None:
             raise RuntimeError("allocate(width, height) first")
         width, height = self.size
         values = self.plan.values
-        for step in self.plan.steps:
+        for index, step in enumerate(self.plan.steps):
             program = self._program(step)
             out = values[step.output]
             out_w, out_h = int(width * out.scale), int(height * out.scale)
@@ -258,7 +259,11 @@ class GlslNet:
                 set_uniform(program, "u_coord_y", _coordinate_map(step.params, in_h, out_h))
                 set_uniform(program, "u_nearest_mode", NEAREST_MODES.index(step.params["nearest"]))
             columns = -(-out_w // self.pixels) if step.kind == "conv" else out_w
-            program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
+            if step_timers is None:
+                program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
+            else:
+                with step_timers[index]:
+                    program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
             # the next step reads what this one wrote through image loads
             self.ctx.memory_barrier()
 
