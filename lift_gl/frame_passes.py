@@ -177,11 +177,11 @@ def make_denoise(r) -> DenoisePass:
 
         options.setdefault("ctx", r.ctx)
         options.setdefault("ensemble", 1)  # the texture road runs the network once (passes/denoise.py)
-        options.setdefault("precision", r.choices["denoise_precision"])
-        every = model_file(r.choices["denoiser_model_every"])
+        options.setdefault("precision", r.choices["glsl_precision"])
+        every = model_file(r.choices["realtime_model"])
         options.setdefault("model_path", every if settings.mode == "every" else DEFAULT_MODEL)
         if r.numpy_denoiser is not None and r.numpy_denoiser.model_path != options["model_path"]:
-            r.numpy_denoiser = None  # the mode changed the network (denoiser_model_every)
+            r.numpy_denoiser = None  # the mode changed the network (realtime_model)
     if r.numpy_denoiser is None:
         from .denoise import get_denoiser
 

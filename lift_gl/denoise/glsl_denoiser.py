@@ -57,10 +57,12 @@ class GlslDenoiser:
             self._load()
         return self.net
 
-    def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
-        """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
+    def denoise(self, color, albedo, normal, depth=None, variance=None, previous=None, valid=None) -> np.ndarray:
+        """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this
+        model; previous and valid feed a temporal model as OnnxDenoiser.denoise's do."""
         from .dihedral import ensemble_mean
-        from .model_io import checked_color, network_input, network_output  # the onnxruntime path's own preparation
+        # the onnxruntime path's own preparation
+        from .model_io import TEMPORAL_CHANNELS, checked_color, network_input, network_output
 
         if self.net is None:
             self._load()
@@ -69,7 +71,8 @@ class GlslDenoiser:
 
             self.ensemble = read_sidecar(self.model_path).ensemble
         color = checked_color(color, albedo, normal)
-        x, exposure = network_input(color, albedo, normal)
+        x, exposure = network_input(color, albedo, normal, previous, valid,
+                                    self.net.input_channels == TEMPORAL_CHANNELS)
         return network_output(ensemble_mean(self.net.run_numpy, x, self.ensemble), exposure, albedo)
 
     def release(self) -> None:
