@@ -410,16 +410,18 @@ def test_renderer_texture_path_refuses_an_ensemble(gl_ctx):
         DenoisePass(gl_ctx, (16, 16), "glsl", numpy_denoiser=GlslDenoiser(ctx=gl_ctx, ensemble=2))
 
 
-def denoiser_bound(color, albedo, normal, want):
+def denoiser_bound(color, albedo, normal, want, precision="fp32"):
     """How far GlslDenoiser may differ from OnnxDenoiser on these inputs: the network's
     rounding bound (above) carried through the output transform (divide by the exposure,
-    times albedo), plus the output transform's own two roundings on each side."""
+    times albedo), plus the output transform's own two roundings on each side; fp16: with
+    the storage roundings of both sides (two fp16 executors on the same inputs)."""
     from lift_gl.denoise.demodulate import safe_albedo
     from lift_gl.denoise.model_io import network_input
 
     h, w = color.shape[:2]
     x, exposure = network_input(color, albedo, normal)
-    _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16))
+    stored = stored_values(SHIPPED) if precision == "fp16" else ()
+    _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16), stored=stored)
     bound = 6 * np.sqrt(2 * variance[0, :, :h, :w]).transpose(1, 2, 0) / exposure * safe_albedo(np.clip(albedo, 0, 1))
     return bound + 4 * U * np.abs(want)
 
