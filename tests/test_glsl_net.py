@@ -285,6 +285,25 @@ def test_fp16_storage_matches_onnxruntime_within_half_rounding(gl_ctx, tmp_path,
     assert relative < 0.02  # 0.004 (unet) and 0.007 (rt) of the largest output here
 
 
+def test_fp16_saturates_a_firefly_instead_of_overflowing(gl_ctx, tmp_path):
+    """An exposed colour above half's range (65504) is stored as 65504: the fp16 output is the
+    network's on that saturated input (within the fp16 bound's scale), finite, never Inf or 0."""
+    model = random_unet(encoder=(8, 12, 16), bottleneck=20, arch="rt", colour_curve=True, seed=10)
+    onnx.save(model, tmp_path / "m.onnx")
+    x = np.random.default_rng(2).random((1, 9, 32, 48), dtype=np.float32)
+    x[0, :3, 10, 20] = 1e7
+    net = GlslNet(gl_ctx, tmp_path / "m.onnx", precision="fp16")
+    try:
+        got = net.run_numpy(x)
+    finally:
+        net.release()
+    saturated = x.copy()
+    saturated[0, :3, 10, 20] = 65504.0
+    want = onnxruntime_run(model, saturated)
+    assert np.isfinite(got).all() and (got > 0).all()
+    assert np.abs(got - want).max() < 0.02 * np.abs(want).max()  # the fp16 test's bound scale (< 0.02)
+
+
 def test_precision_auto_is_fp32_on_a_cpu_rasterizer(gl_ctx, tmp_path):
     from lift_gl.denoise.glsl_net import resolve_precision
     from lift_gl.gl.context import is_software

@@ -45,6 +45,7 @@ def default_shape(ctx) -> tuple[int, int]:
 
 PRECISIONS = ("auto", "fp32", "fp16")
 TENSOR_FORMATS = {"fp32": ("rgba32f", "f4", np.float32), "fp16": ("rgba16f", "f2", np.float16)}
+HALF_MAX = 65504.0  # half's largest finite value: fp16 tensors saturate there
 
 
 def default_precision(ctx) -> tuple[str, str]:
@@ -104,6 +105,9 @@ class GlslNet:
         self.model_path = Path(model_path)
         self.precision, self.precision_why = resolve_precision(ctx, precision)
         self.tensor_format, self._texture_dtype, self._numpy_dtype = TENSOR_FORMATS[self.precision]
+        # what a shader writing or reading these tensors is compiled with (shaders/denoise/tensor.glsl)
+        self.tensor_defines = {"TENSOR_FORMAT": self.tensor_format,
+                               **({"TENSOR_HALF": 1} if self.precision == "fp16" else {})}
         self.plan = Plan(self.model_path)
         default_block, default_pixels = default_shape(ctx)
         self.out_block = int(default_block if out_block is None else out_block)
@@ -137,7 +141,7 @@ class GlslNet:
         return names
 
     def _program(self, step: Step):
-        defines = {"EPILOGUE": " ".join(step.epilogue) or "/* none */", "TENSOR_FORMAT": self.tensor_format}
+        defines = {"EPILOGUE": " ".join(step.epilogue) or "/* none */", **self.tensor_defines}
         if step.kind == "conv":
             kh, kw = step.params["weight"].shape[2:]
             parts = step.params["part_channels"]
@@ -269,7 +273,10 @@ class GlslNet:
 
     def write_input(self, x: np.ndarray) -> None:
         """(C, H, W) float32 at the allocated size into the input texture."""
-        self.input_texture.write(to_layers(x).astype(self._numpy_dtype).tobytes())
+        tensor = to_layers(x)
+        if self.precision == "fp16":  # saturate as the shaders' stores do (tensor.glsl TENSOR_HALF)
+            tensor = np.clip(tensor, -HALF_MAX, HALF_MAX)
+        self.input_texture.write(tensor.astype(self._numpy_dtype).tobytes())
 
     def read_output(self) -> np.ndarray:
         """The output texture as (C_out, H, W) float32."""

@@ -47,7 +47,7 @@ class NetDenoise:
         self.temporal = net.input_channels == TEMPORAL_CHANNELS
         w, h = self.size
         self.padded = (w + -w % net.multiple, h + -h % net.multiple)
-        tensor = {"TENSOR_FORMAT": net.tensor_format, **({"TEMPORAL": 1} if self.temporal else {})}
+        tensor = {**net.tensor_defines, **({"TEMPORAL": 1} if self.temporal else {})}
         self.blocks = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_exposure_blocks.comp"))
         self.exposure = shaders.compile_compute(ctx, shaders.assemble(SHADER_DIR / "net_exposure.comp"))
         self._tensor_defines = tensor
