@@ -5,14 +5,17 @@ import json
 from pathlib import Path
 
 import torch
+from torch import nn
 
 from .. import model_io
-from .model import IN_CHANNELS, LOG_EPS, MULTIPLE, RECEPTIVE_RADIUS, DenoiseUNet, macs_per_pixel
+from .model import LOG_EPS, MULTIPLE, RECEPTIVE_RADIUS, input_channels, macs_per_pixel
 
 OPSET = 17
 
 
-def sidecar(model: DenoiseUNet, record: dict) -> dict:
+def sidecar(model: nn.Module, record: dict) -> dict:
+    """The sidecar JSON of `model` (a train.model network): its inputs, their normalisation,
+    its architecture (model.arch, which model_from_arch rebuilds) and training record."""
     if model.arch["transform"] == "log":
         color_in = (f"the graph applies log(1 + x/{LOG_EPS}) / log(1 + 1/{LOG_EPS}) itself")
         color_out = f"(the graph applies {LOG_EPS} * exp(y))"
@@ -20,8 +23,8 @@ def sidecar(model: DenoiseUNet, record: dict) -> dict:
         color_in, color_out = "the graph applies log1p itself", "(the graph applies expm1)"
     return {
         "format": "lift-gl denoiser 1",
-        "input": {"name": "input", "shape": ["N", IN_CHANNELS, "H", "W"], "dtype": "float32", "channels": [
-            "color.r", "color.g", "color.b", "albedo.r", "albedo.g", "albedo.b", "normal.x", "normal.y", "normal.z"]},
+        "input": {"name": "input", "shape": ["N", model.in_channels, "H", "W"], "dtype": "float32",
+                  "channels": list(input_channels(model.temporal))},
         "output": {"name": "output", "shape": ["N", 3, "H", "W"], "dtype": "float32"},
         "normalisation": {
             "color": ("linear radiance demodulated by the first-hit albedo (lift_gl/denoise/demodulate.py: "
@@ -33,6 +36,11 @@ def sidecar(model: DenoiseUNet, record: dict) -> dict:
                          f"[{model_io.EXPOSURE_RANGE[0]}, {model_io.EXPOSURE_RANGE[1]}]"),
             "albedo": "first-hit albedo clipped to [0, 1]",
             "normal": "first-hit world-space shading normal, components in [-1, 1]",
+            **({"previous": ("the previous frame's output (before `divide by exposure`) scaled to this frame's "
+                             "exposure, reprojected to this frame by its motion vectors; 0 where previous.valid is 0"),
+                "previous.valid": ("1 where the reprojected history holds (lift_gl/temporal.py's depth and normal "
+                                   "tests), 0 where disoccluded, on the first frame and after a camera cut")}
+               if model.temporal else {}),
             "output": f"denoised demodulated radiance times `exposure` {color_out}; "
                       "divide by exposure and multiply the albedo back (remodulate)",
         },
@@ -48,11 +56,11 @@ def sidecar(model: DenoiseUNet, record: dict) -> dict:
     }
 
 
-def export(model: DenoiseUNet, onnx_path: Path, record: dict) -> Path:
+def export(model: nn.Module, onnx_path: Path, record: dict) -> Path:
     onnx_path = Path(onnx_path)
     onnx_path.parent.mkdir(parents=True, exist_ok=True)
     model = model.float().cpu().eval().to(memory_format=torch.contiguous_format)
-    dummy = torch.rand(1, IN_CHANNELS, 64, 64)
+    dummy = torch.rand(1, model.in_channels, 64, 64)
     torch.onnx.export(model, (dummy,), str(onnx_path), input_names=["input"], output_names=["output"],
                       dynamic_axes={"input": {0: "n", 2: "h", 3: "w"}, "output": {0: "n", 2: "h", 3: "w"}},
                       opset_version=OPSET, dynamo=False)

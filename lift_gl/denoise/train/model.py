@@ -1,6 +1,20 @@
-"""The denoiser's network: a small U-Net in the manner of OIDN's (encoder and decoder with
-skip connections, 3x3 convolutions and ReLU, 2x2 max pooling, nearest upsampling, HDR colour
-through a log curve), narrow at full resolution so that a 1080p frame stays cheap on a CPU.
+"""The denoiser's networks, built by name (`build_model`):
+
+- "unet" (DenoiseUNet): the quality model for final images, a U-Net in the manner of OIDN's
+  (encoder and decoder with skip connections, 3x3 convolutions and ReLU, 2x2 max pooling,
+  nearest upsampling, HDR colour through a log curve), encoder 32, 48, 64, 80 and a bottleneck
+  of 80 at 1/16: about 52k multiply-adds a pixel.
+- "rt" (RealTimeUNet): the lean model for every frame of the viewer. A stride-2 2x2 conv takes
+  full resolution to 1/2 (a learned space-to-depth: all four pixels of a block reach the
+  features), an encoder at 1/2, 1/4, 1/8, a bottleneck at 1/16, a decoder with skips back to
+  1/2, and a stride-2 2x2 transposed conv back to full resolution (a learned depth-to-space).
+  Nothing runs at full resolution but those two: about 14k multiply-adds a pixel.
+
+Input channels (`input_channels`): colour (3), albedo (3), normal (3), and with
+`temporal=True` the previous frame's denoised output (3: linear, demodulated and exposed as
+the colour is, reprojected to this frame) and its validity (1: 0 where the history does not
+hold, which also zeroes the previous colour). Both colour inputs go through the colour
+transform.
 
 Colour transform (`transform`, inside the graph, inverted on the output):
 - "log": t(x) = log(1 + x/eps) / log(1 + 1/eps) with eps = LOG_EPS, the loss's steep curve
@@ -12,7 +26,10 @@ Colour transform (`transform`, inside the graph, inverted on the output):
 - "log1p": log(1 + x) in, exp(y) - 1 out, the first shipped model's: almost linear below
   0.2, so that a small offset in y is an additive haze in the dark.
 
-Multiples: H and W must be multiples of MULTIPLE (four poolings); the onnx denoiser pads.
+`model.arch` holds what rebuilds the model (`model_from_arch(model.arch)`): its name and
+constructor arguments; checkpoints and the ONNX sidecar store it.
+
+Multiples: H and W must be multiples of MULTIPLE (four halvings); the onnx denoiser pads.
 RECEPTIVE_RADIUS bounds how far a pixel's output looks, so tiles overlapping by that much
 give the untiled result.
 """
@@ -26,31 +43,68 @@ from torch.nn import functional as F
 
 ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first model: 16, 32, 48, 64)
 BOTTLENECK = 80  # at 1/16
+RT_ENCODER = (32, 48, 64)  # the rt model's channels at 1/2, 1/4, 1/8
+RT_BOTTLENECK = 64  # at 1/16
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")
+MODELS = ("unet", "rt")
 LOG_EPS = 0.01  # the "log" transform's toe, as the loss's (loss.DARK_EPS)
 MULTIPLE = 16
 # An impulse moves outputs up to 64 px away (measured), up to 79 px for a pixel at the far end
 # of a 16-px pooling block; rounded up to a multiple of MULTIPLE. An extra full-resolution conv
-# each side adds 2 px: still within.
+# each side adds 2 px: still within. The rt model's 3x3 convs sit one level coarser each but
+# there is one level fewer: its reach is within the same bound (tests/test_rt_model.py).
 RECEPTIVE_RADIUS = 96
-IN_CHANNELS = 9
+GUIDE_CHANNELS = ("color.r", "color.g", "color.b", "albedo.r", "albedo.g", "albedo.b",
+                  "normal.x", "normal.y", "normal.z")
+TEMPORAL_CHANNELS = ("previous.r", "previous.g", "previous.b", "previous.valid")
+IN_CHANNELS = len(GUIDE_CHANNELS)
 LOG_CLAMP = 25.0  # output log value cap: eps * exp(25) ~ 7e8, far above any exposed radiance
+
+
+def input_channels(temporal: bool) -> tuple[str, ...]:
+    return GUIDE_CHANNELS + (TEMPORAL_CHANNELS if temporal else ())
 
 
 def conv(cin: int, cout: int) -> nn.Conv2d:
     return nn.Conv2d(cin, cout, 3, padding=1)
 
 
-class DenoiseUNet(nn.Module):
-    def __init__(self, encoder=ENCODER, bottleneck=BOTTLENECK, transform=TRANSFORM, full_res_convs: int = 1):
+class _ColourTransform(nn.Module):
+    """The colour curve in and out (module docstring), shared by both models."""
+
+    def __init__(self, transform: str, temporal: bool):
         super().__init__()
         if transform not in TRANSFORMS:
             raise ValueError(f"unknown colour transform {transform!r} (one of {', '.join(TRANSFORMS)})")
+        self.transform, self.temporal = transform, bool(temporal)
+        self.in_channels = len(input_channels(temporal))
+
+    def _color_in(self, x: torch.Tensor) -> torch.Tensor:
+        v = torch.relu(x)
+        if self.transform == "log":
+            return torch.log(1.0 + v * (1.0 / LOG_EPS)) * (1.0 / math.log1p(1.0 / LOG_EPS))
+        return torch.log(1.0 + v)  # log1p: not in ONNX opset 17
+
+    def transformed_input(self, x: torch.Tensor) -> torch.Tensor:
+        parts = [self._color_in(x[:, :3]), x[:, 3:IN_CHANNELS]]
+        if self.temporal:
+            parts += [self._color_in(x[:, IN_CHANNELS:IN_CHANNELS + 3]), x[:, IN_CHANNELS + 3:]]
+        return torch.cat(parts, dim=1)
+
+    def _color_out(self, y: torch.Tensor) -> torch.Tensor:
+        e = torch.exp(torch.clamp(y, max=LOG_CLAMP))
+        return e * LOG_EPS if self.transform == "log" else torch.relu(e - 1.0)
+
+
+class DenoiseUNet(_ColourTransform):
+    def __init__(self, encoder=ENCODER, bottleneck=BOTTLENECK, transform=TRANSFORM, full_res_convs: int = 1,
+                 temporal: bool = False):
+        super().__init__(transform, temporal)
         c = list(encoder)
-        self.arch = {"encoder": c, "bottleneck": int(bottleneck), "transform": transform,
-                     "full_res_convs": int(full_res_convs)}
-        self.enc = nn.ModuleList([conv(IN_CHANNELS, c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
+        self.arch = {"name": "unet", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
+                     "full_res_convs": int(full_res_convs), "temporal": self.temporal}
+        self.enc = nn.ModuleList([conv(self.in_channels, c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         # further convs at full resolution after the first encoder and the last decoder conv
         self.enc_extra = nn.ModuleList([conv(c[0], c[0]) for _ in range(full_res_convs - 1)])
         self.bottleneck = nn.Sequential(conv(c[-1], bottleneck), nn.ReLU(inplace=True),
@@ -63,18 +117,8 @@ class DenoiseUNet(nn.Module):
         self.dec_extra = nn.ModuleList([conv(c[0], c[0]) for _ in range(full_res_convs - 1)])
         self.out = conv(c[0], 3)
 
-    def _color_in(self, x: torch.Tensor) -> torch.Tensor:
-        v = torch.relu(x)
-        if self.arch["transform"] == "log":
-            return torch.log(1.0 + v * (1.0 / LOG_EPS)) * (1.0 / math.log1p(1.0 / LOG_EPS))
-        return torch.log(1.0 + v)  # log1p: not in ONNX opset 17
-
-    def _color_out(self, y: torch.Tensor) -> torch.Tensor:
-        e = torch.exp(torch.clamp(y, max=LOG_CLAMP))
-        return e * LOG_EPS if self.arch["transform"] == "log" else torch.relu(e - 1.0)
-
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        h = torch.cat([self._color_in(x[:, :3]), x[:, 3:]], dim=1)
+        h = self.transformed_input(x)
         skips = []
         for i, layer in enumerate(self.enc):
             if i:
@@ -97,14 +141,83 @@ class DenoiseUNet(nn.Module):
         return self._color_out(y)
 
 
-def macs_per_pixel(model: DenoiseUNet) -> float:
-    """Multiply-adds per output pixel (each level's convs weighted by its share of the pixels)."""
-    total = 0.0
-    levels = [1] + [4 ** i for i in range(1, len(model.enc))]
+class RealTimeUNet(_ColourTransform):
+    """The "rt" model (module docstring): full resolution only in the 2x2 stride-2 conv in and
+    the 2x2 stride-2 transposed conv out."""
+
+    def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False):
+        super().__init__(transform, temporal)
+        c = list(encoder)
+        self.arch = {"name": "rt", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
+                     "temporal": self.temporal}
+        self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
+        self.enc = nn.ModuleList([conv(c[0], c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
+        self.bottleneck = nn.Sequential(conv(c[-1], bottleneck), nn.ReLU(inplace=True),
+                                        conv(bottleneck, bottleneck), nn.ReLU(inplace=True))
+        ups, prev = [], bottleneck
+        for ch in reversed(c):
+            ups.append(conv(prev + ch, ch))
+            prev = ch
+        self.dec = nn.ModuleList(ups)
+        self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)  # 1/2 -> full, the output's log colour
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = torch.relu(self.down(self.transformed_input(x)))
+        skips = []
+        for i, layer in enumerate(self.enc):
+            if i:
+                h = F.max_pool2d(h, 2)
+            h = torch.relu(layer(h))
+            skips.append(h)
+        h = self.bottleneck(F.max_pool2d(h, 2))
+        for layer, skip in zip(self.dec, reversed(skips)):
+            h = F.interpolate(h, scale_factor=2.0, mode="nearest")
+            h = torch.relu(layer(torch.cat([h, skip], dim=1)))
+        with torch.autocast(device_type=h.device.type, enabled=False):  # float32 y, as the unet's
+            y = self.up(h.float())
+        return self._color_out(y)
+
+
+def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Module:
+    """The network `name` (one of MODELS) with `temporal` inputs; `options` are its
+    constructor's (encoder, bottleneck, transform; the unet's full_res_convs)."""
+    if name == "unet":
+        return DenoiseUNet(temporal=temporal, **options)
+    if name == "rt":
+        return RealTimeUNet(temporal=temporal, **options)
+    raise ValueError(f"unknown denoiser model {name!r} (one of {', '.join(MODELS)})")
+
+
+def model_from_arch(arch: dict) -> nn.Module:
+    """The model `arch` describes (a model's .arch; an arch without a name is a unet's)."""
+    arch = dict(arch)
+    return build_model(arch.pop("name", "unet"), **arch)
+
+
+def macs_per_pixel(model: nn.Module) -> float:
+    """Multiply-adds per full-resolution pixel, each conv weighted by its output's share of the
+    pixels (a 2x2 stride-2 conv: its weights once per 4 pixels; a 2x2 stride-2 transposed conv:
+    a quarter of its weights per pixel)."""
+    if isinstance(model, RealTimeUNet):
+        levels = [4 ** (i + 1) for i in range(len(model.enc))]  # the encoder starts at 1/2
+        total = (model.down.weight.numel() + model.up.weight.numel()) / 4
+        deepest = 4 ** (len(model.enc) + 1)
+    else:
+        levels = [1] + [4 ** i for i in range(1, len(model.enc))]
+        total = model.out.weight.numel()
+        total += sum(m.weight.numel() for m in list(model.enc_extra) + list(model.dec_extra))
+        deepest = 4 ** len(model.enc)
     for layer, scale in zip(model.enc, levels):
         total += layer.weight.numel() / scale
-    total += sum(m.weight.numel() for m in list(model.enc_extra) + list(model.dec_extra))
-    total += sum(m.weight.numel() for m in model.bottleneck if isinstance(m, nn.Conv2d)) / 4 ** len(model.enc)
+    total += sum(m.weight.numel() for m in model.bottleneck if isinstance(m, nn.Conv2d)) / deepest
     for layer, scale in zip(model.dec, reversed(levels)):
         total += layer.weight.numel() / scale
-    return total + model.out.weight.numel()
+    return total
+
+
+if __name__ == "__main__":  # python -m lift_gl.denoise.train.model: each model's cost
+    for name in MODELS:
+        for temporal in (False, True):
+            m = build_model(name, temporal)
+            print(f"{name:4s} temporal={temporal!s:5s} in={m.in_channels:2d} "
+                  f"params={sum(p.numel() for p in m.parameters()):7d} MACs/px={macs_per_pixel(m):8.0f}")

@@ -46,20 +46,10 @@ def parse_schedule(text: str, mean_weight: float):
     return stages
 
 
-def build(name: str, temporal: bool):
-    """The network `name` (model.py's build_model where there is one; the U-Net otherwise)."""
-    from . import model as models
-    if hasattr(models, "build_model"):
-        return models.build_model(name, temporal=temporal)
-    if name == "unet" and not temporal:
-        return models.DenoiseUNet()
-    raise SystemExit(f"--model {name}{' (temporal)' if temporal else ''}: this model.py builds only the "
-                     "single-frame unet")
-
-
 def arguments(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m lift_gl.denoise.train.plan", description=__doc__.splitlines()[0])
-    p.add_argument("--model", default="rt", help="the network to train (model.py: unet, the shipped U-Net; rt)")
+    p.add_argument("--model", default="rt", choices=("unet", "rt"),  # model.MODELS (torch loads later)
+                   help="the network to train (model.py: unet, the shipped U-Net; rt, the real-time one)")
     p.add_argument("--temporal", action=argparse.BooleanOptionalAction, default=None,
                    help="train with the previous frame's output as an input (default: on for rt)")
     p.add_argument("--out", type=Path, required=True, help="working folder: data, checkpoint, status, record")
@@ -125,6 +115,7 @@ def main(argv=None, clock=time.monotonic) -> int:
 
     # ---- training ----
     import torch
+    from .model import build_model
     from .train import Examples, fit
     device = "cuda" if torch.cuda.is_available() else "cpu"
     ckpt_path = out / "checkpoint.pt"
@@ -135,7 +126,7 @@ def main(argv=None, clock=time.monotonic) -> int:
                              f"not {a.model} (temporal {a.temporal}): use another --out")
     torch.manual_seed(a.seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
-    model = build(a.model, a.temporal).to(device).to(memory_format=torch.channels_last)
+    model = build_model(a.model, temporal=a.temporal).to(device).to(memory_format=torch.channels_last)
     if a.temporal:
         from .temporal import PairExamples as Data
     else:

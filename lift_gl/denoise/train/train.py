@@ -4,7 +4,7 @@ a later run resumes from bit for bit (model, optimizer, step and the batch gener
 
 `fit` runs a schedule of Stages on a model, stopping at a deadline or a step and resuming from
 its checkpoint; `train` is one stage of it (the four-command recipe of python -m
-lift_gl.denoise.train). A temporal model (model.in_channels above the nine of a frame) trains on frame
+lift_gl.denoise.train). A temporal model (model.arch["temporal"]) trains on frame
 pairs (temporal.py); the others on single frames."""
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from .loss import W_SSIM, denoise_loss, mean_loss
-from .model import DenoiseUNet
+from .model import model_from_arch
 
 TRAIN_LEVELS_WEIGHTS = (3, 2, 3, 2, 2, 1, 1)  # 1..64 spp; the low counts matter most
 WARMUP = 200
@@ -129,7 +129,7 @@ def fit(model, train_examples, val_examples, stages, ckpt_path: Path, batch: int
     went through at once or stopped and resumed (on one device: kernels may differ between
     devices). Returns a summary dict with the model."""
     device = next(model.parameters()).device
-    temporal = getattr(model, "in_channels", 9) != 9
+    temporal = bool(model.arch.get("temporal"))
     opt = torch.optim.Adam(model.parameters(), lr=stages[0].lr)
     gen = torch.Generator().manual_seed(seed)
     step, seconds_before, resumed_at = 0, 0.0, None
@@ -196,7 +196,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
 
     One stage: the learning rate follows a warm-up and a cosine from `schedule_start` to
     `steps` (schedule_start > 0: a warm restart of a resumed checkpoint); `stop_at` ends the
-    run earlier at that step (resumable). `arch` gives DenoiseUNet's arguments (a resumed
+    run earlier at that step (resumable). `arch` is a model.model_from_arch description (a resumed
     checkpoint's own architecture wins). The validation loss keeps the default weights
     (loss.W_SSIM, no mean term) so that runs with other weights stay comparable."""
     device = "cuda" if torch.cuda.is_available() else "cpu"
@@ -206,7 +206,7 @@ def train(train_paths, val_paths, out_dir: Path, steps: int, batch: int = 16, cr
     if ckpt_path.exists():  # checkpoints before "arch" was stored are the first shipped network's
         arch = torch.load(ckpt_path, map_location="cpu").get(
             "arch", {"encoder": (16, 32, 48, 64), "bottleneck": 80, "transform": "log1p"})
-    model = DenoiseUNet(**(arch or {})).to(device).to(memory_format=torch.channels_last)
+    model = model_from_arch(arch or {}).to(device).to(memory_format=torch.channels_last)
     # steps before schedule_start belong to an earlier stage whose lr is not this run's concern
     stages = ([Stage(schedule_start, lr)] if schedule_start else []) + [Stage(steps, lr, ssim_weight, mean_weight)]
     clock = time.monotonic

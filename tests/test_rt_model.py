@@ -1,0 +1,108 @@
+"""The denoiser's models by name (lift_gl/denoise/train/model.py): the real-time "rt" U-Net
+and the quality "unet", plain and temporal; their cost, reach, export and sidecar."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from lift_gl.denoise.train.model import (MULTIPLE, RECEPTIVE_RADIUS, build_model, input_channels,  # noqa: E402
+                                         macs_per_pixel, model_from_arch)
+
+CASES = [(name, temporal) for name in ("unet", "rt") for temporal in (False, True)]
+
+
+def _counted_macs(model, size=64) -> float:
+    """Multiply-adds per pixel counted on a forward pass: each conv's output elements times
+    its weights per output element (independent of macs_per_pixel's per-level bookkeeping)."""
+    total = [0]
+
+    def hook(module, inputs, output):
+        if isinstance(module, torch.nn.ConvTranspose2d):  # each input element meets every weight of its channel
+            total[0] += inputs[0].numel() * module.weight.numel() // module.in_channels
+        else:
+            total[0] += output.numel() * module.weight.numel() // module.out_channels
+    handles = [m.register_forward_hook(hook) for m in model.modules()
+               if isinstance(m, (torch.nn.Conv2d, torch.nn.ConvTranspose2d))]
+    with torch.no_grad():
+        model(torch.rand(1, model.in_channels, size, size))
+    for h in handles:
+        h.remove()
+    return total[0] / size ** 2
+
+
+@pytest.mark.parametrize("name,temporal", CASES)
+def test_shapes_channels_and_cost(name, temporal):
+    model = build_model(name, temporal).eval()
+    assert model.in_channels == len(input_channels(temporal)) == (13 if temporal else 9)
+    y = model(torch.rand(1, model.in_channels, 2 * MULTIPLE, 3 * MULTIPLE))
+    assert y.shape == (1, 3, 2 * MULTIPLE, 3 * MULTIPLE) and bool(torch.all(y > 0))
+    assert macs_per_pixel(model) == pytest.approx(_counted_macs(model), rel=1e-12)
+
+
+def test_rt_costs_about_a_quarter_of_the_unet():
+    rt, unet = macs_per_pixel(build_model("rt")), macs_per_pixel(build_model("unet"))
+    assert unet == 51930  # the shipped network's figure (docs/denoiser.md)
+    assert 0.2 < rt / unet < 0.3
+
+
+@pytest.mark.parametrize("name,temporal", CASES)
+def test_arch_rebuilds_the_same_model(name, temporal):
+    model = build_model(name, temporal)
+    again = model_from_arch(json.loads(json.dumps(model.arch)))  # through JSON, as the sidecar stores it
+    assert type(again) is type(model) and again.arch == model.arch
+    again.load_state_dict(model.state_dict())  # the same parameter names and shapes
+
+
+def test_an_arch_without_a_name_is_the_unet():
+    """The shipped sidecar's and old checkpoints' architecture carries no name."""
+    assert model_from_arch({"encoder": [16, 32, 48, 64], "bottleneck": 80, "transform": "log1p"}).arch["name"] == "unet"
+    with pytest.raises(ValueError, match="unknown denoiser model"):
+        build_model("resnet")
+
+
+def test_rt_reach_is_within_the_receptive_radius():
+    """An impulse's effect on a random rt network's output stays within RECEPTIVE_RADIUS (the
+    tiling overlap): the gradient of one output pixel against the input is zero beyond it."""
+    torch.manual_seed(0)
+    model = build_model("rt").eval()
+    size = 2 * RECEPTIVE_RADIUS + 2 * MULTIPLE  # 224: room around the centre on every side
+    x = torch.rand(1, model.in_channels, size, size, requires_grad=True)
+    for c in (size // 2 - 1, size // 2):  # both ends of a 2x2 block
+        x.grad = None
+        model(x)[0, :, c, c].sum().backward()
+        rows, cols = np.nonzero(x.grad.abs().sum(dim=(0, 1)).numpy())
+        reach = max(abs(rows - c).max(), abs(cols - c).max())
+        assert 32 < reach <= RECEPTIVE_RADIUS
+
+
+def test_temporal_colour_goes_through_the_colour_transform():
+    """The previous colour channels take the colour's curve; previous.valid passes as is."""
+    model = build_model("rt", temporal=True)
+    x = torch.rand(1, 13, 4, 4) * 3
+    t = model.transformed_input(x)
+    torch.testing.assert_close(t[:, 9:12], model._color_in(x[:, 9:12]))
+    torch.testing.assert_close(t[:, 12], x[:, 12])
+    torch.testing.assert_close(t[:, :3], model._color_in(x[:, :3]))
+
+
+@pytest.mark.parametrize("name,temporal", [("rt", False), ("rt", True)])
+def test_export_matches_torch_and_names_the_inputs(name, temporal, tmp_path):
+    ort = pytest.importorskip("onnxruntime")
+    from lift_gl.denoise.train.export import export
+    torch.manual_seed(1)
+    model = build_model(name, temporal).eval()
+    side = json.loads(export(model, tmp_path / "m.onnx", {"steps": 0}).read_text())
+    assert side["input"]["shape"][1] == model.in_channels
+    assert side["input"]["channels"] == list(input_channels(temporal))
+    assert side["architecture"]["name"] == name and side["architecture"]["temporal"] == temporal
+    assert side["architecture"]["macs_per_pixel"] == macs_per_pixel(model)
+    x = np.random.default_rng(0).random((1, model.in_channels, 32, 48), dtype=np.float32)
+    y = ort.InferenceSession(str(tmp_path / "m.onnx")).run(None, {"input": x})[0]
+    with torch.no_grad():
+        expect = model(torch.from_numpy(x)).numpy()
+    # two float32 evaluations of the same graph: a few roundings of the largest value apart
+    np.testing.assert_allclose(y, expect, rtol=1e-4, atol=1e-4 * float(np.abs(expect).max()))
