@@ -44,7 +44,7 @@ class PairExamples(Examples):
         its own exposure times one jitter; `grid` samples frame t-1's crop (grid_sample's
         coordinates, before augmentation) and `valid` (N, 1, crop, crop) says where it may."""
         n, _, _, h, w = self.noisy.shape
-        weights = torch.tensor(levels_weights, dtype=torch.float)
+        weights = torch.tensor(levels_weights[: self.noisy.shape[1]], dtype=torch.float)  # fewer levels: the first
         rows = {k: [] for k in ("x_prev", "div_prev", "tgt_prev", "x", "div", "tgt", "grid", "valid", "ratio", "aug")}
         for _ in range(size):
             i = int(torch.randint(n, (1,), generator=gen))
@@ -116,8 +116,8 @@ def temporal_step(model, examples: PairExamples, gen, batch: int, crop: int, sta
     x = torch.cat([b["x"], history.detach(), b["valid"]], 1)
     with amp:
         pred = model(x.contiguous(memory_format=torch.channels_last)).float()
-    loss = frame_loss(pred_prev, b["div_prev"], b["tgt_prev"], stage, loss_tonemap)
-    loss = loss + frame_loss(pred, b["div"], b["tgt"], stage, loss_tonemap)
+    loss = frame_loss(pred_prev, b["x_prev"], b["div_prev"], b["tgt_prev"], stage, loss_tonemap)
+    loss = loss + frame_loss(pred, b["x"], b["div"], b["tgt"], stage, loss_tonemap)
     # the change between frames as radiance of frame t: both sides remodulated by frame t's albedo
     prev_radiance = history * b["div"]
     prev_target = warp(b["tgt_prev"] / b["div_prev"], b["grid"], b["aug"]) * b["ratio"][:, None, None, None] * b["div"]

@@ -59,7 +59,7 @@ class Examples:
     def batch(self, gen: torch.Generator, size: int, crop: int, levels_weights=TRAIN_LEVELS_WEIGHTS):
         """(x, divisor, target radiance) of one augmented batch, all times the example's exposure."""
         n, _, _, h, w = self.noisy.shape
-        weights = torch.tensor(levels_weights, dtype=torch.float)
+        weights = torch.tensor(levels_weights[: self.noisy.shape[1]], dtype=torch.float)  # fewer levels: the first
         xs, divs, tgts = [], [], []
         for _ in range(size):
             i = int(torch.randint(n, (1,), generator=gen))
@@ -101,12 +101,13 @@ def lr_at(step: int, steps: int, peak: float, warmup: int = WARMUP) -> float:
     return 0.5 * peak * (1 + math.cos(math.pi * min(1.0, (step - warmup) / max(1, steps - warmup))))
 
 
-def frame_loss(pred, div, tgt, stage: Stage, loss_tonemap: str = "log"):
-    """The loss of one frame: pred is the network's demodulated output, div remodulates it."""
+def frame_loss(pred, x, div, tgt, stage: Stage, loss_tonemap: str = "log"):
+    """The loss of one frame: pred is the network's demodulated output for the input x, div
+    remodulates both."""
     radiance = pred.float() * div
     loss = denoise_loss(radiance, tgt, loss_tonemap, stage.ssim_weight)
     if stage.mean_weight:
-        loss = loss + stage.mean_weight * mean_loss(radiance, tgt)
+        loss = loss + stage.mean_weight * mean_loss(radiance, tgt, x[:, :3] * div)
     return loss
 
 
@@ -156,7 +157,7 @@ def fit(model, train_examples, val_examples, stages, ckpt_path: Path, batch: int
         x, div, tgt = train_examples.batch(gen, batch, crop)
         with amp:
             pred = model(x.contiguous(memory_format=torch.channels_last))
-        return frame_loss(pred, div, tgt, stage, loss_tonemap)
+        return frame_loss(pred, x, div, tgt, stage, loss_tonemap)
 
     last = stages[-1].end if stop_at is None else min(stop_at, stages[-1].end)
     losses, stopped_by = [], None
@@ -229,7 +230,7 @@ def validation_loss(model, val: Examples, amp, loss_tonemap: str = "log", levels
     model.eval()
     total = []
     for i in range(len(val)):
-        for lvl in levels:
+        for lvl in (lvl for lvl in levels if lvl < val.noisy.shape[1]):  # data with fewer levels: theirs
             e = val.exposure[i, lvl]
             x = single_frame_input(model, torch.cat([val.noisy[i, lvl].float() * e, val.guides[i].float()])[None])
             div = val.divisor[i].float()[None]
