@@ -1,7 +1,7 @@
-"""Does the denoiser keep the image's mean? Trainings from one seed on one data set, the first with
-the loss of the shipped model (L1 + gradient L1 + SSIM in the log domain), the others with the mean
-term added at --mean-weights (lift_gl/denoise/train/loss.py mean_loss), then mean(denoised) / mean(reference) on
-the validation scenes (never trained on) at 1, 4 and 16 spp.
+"""Does the denoiser keep the image's mean? Trainings from one seed on one data set, one for each
+weight of the mean term (lift_gl/denoise/train/loss.py mean_loss) in --mean-weights (0: the
+shipped model's loss, L1 + gradient L1 + SSIM in the log domain), then mean(denoised) /
+mean(reference) on the validation scenes (never trained on) at 1, 4 and 16 spp.
 
     python benchmarks/denoise_mean_kept.py --data runs/rt --steps 3000 --out benchmarks/results/denoise_mean_kept.json
 
@@ -52,7 +52,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", type=Path, required=True)
     p.add_argument("--steps", type=int, default=3000)
-    p.add_argument("--mean-weights", default=str(W_MEAN), help="the mean term's weights of the runs after the first (0)")
+    p.add_argument("--mean-weights", default=f"0,{W_MEAN}", help="the mean term's weight of each run (0: the shipped loss)")
     p.add_argument("--encoder", default="32,48,64,80")
     p.add_argument("--bottleneck", type=int, default=80)
     p.add_argument("--crop", type=int, default=128)
@@ -62,7 +62,7 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=None, help="JSON of both runs")
     a = p.parse_args(argv)
     log = lambda m: print(m, flush=True)
-    runs = [run(a.data, a.steps, w, a, log) for w in [0.0] + [float(v) for v in a.mean_weights.split(",")]]
+    runs = [run(a.data, a.steps, float(w), a, log) for w in a.mean_weights.split(",")]
     for r in runs:
         log(f"mean weight {r['mean_weight']}: |mean/ref - 1| " + ", ".join(
             f"{spp} spp {d}" for spp, d in r["mean_abs_deviation"].items()) + f"; ratios at 4 spp {r['mean_ratio']['4']}")
