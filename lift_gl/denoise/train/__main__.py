@@ -11,6 +11,8 @@ It renders the training and validation scenes (resumable: existing files are kep
 (resuming from --out/checkpoint.pt, whose architecture then wins over the options), and
 exports the ONNX model and its sidecar JSON. The defaults are the settings of the first stage
 (docs/denoiser.md; assets/denoiser/train_checkpoint.pt is the second stage's step-21000 state).
+All the stages in one command that a time budget stops and a rerun continues, with the loss's
+mean term and temporal training: python -m lift_gl.denoise.train.plan (plan.py).
 """
 from __future__ import annotations
 

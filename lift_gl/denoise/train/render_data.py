@@ -120,11 +120,11 @@ def _worker_context(backend: str):
 
 
 def _task(args):
-    path, seed, size, ref_spp, backend, deadline, sampling = args
+    path, seed, size, ref_spp, backend, deadline, sampling, render = args
     if deadline is not None and time.time() > deadline:
         return None
     try:
-        return render_example(path, seed, size, ref_spp, backend, sampling=sampling)
+        return render(path, seed, size, ref_spp, backend, sampling=sampling)
     except IncompleteRender as e:  # left out of the data set, and said so
         path.with_suffix(".failed").write_text(str(e) + "\n")
         return f"scene {seed}: LEFT OUT, {e}"
@@ -155,7 +155,7 @@ def save_example(path: Path, arrays: dict) -> None:
 
 def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend: str = "auto",
              log=print, workers: int = 1, minutes: float | None = None,
-             samplings=("independent",), executor=None) -> list[Path]:
+             samplings=("independent",), executor=None, render=render_example) -> list[Path]:
     """Render each seed's scene into out_dir/scene_SEED[_SAMPLING].npz (existing files are kept:
     resumable), the k-th seed's noisy inputs drawn by samplings[k % len(samplings)].
 
@@ -163,7 +163,8 @@ def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend
     `executor` a lift_gl.cluster ExecutorSettings of kind "ray", on a Ray cluster's workers
     (the arrays come back here and are written here). With `minutes`, rendering stops after
     that long and the longest prefix of `seeds` that was rendered is returned (so that
-    `--scenes len(result)` reproduces the same set).
+    `--scenes len(result)` reproduces the same set). `render(path, seed, size, ref_spp, backend,
+    sampling=...)` writes one file (render_example; temporal_data.render_pair for frame pairs).
     """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -174,9 +175,12 @@ def generate(out_dir: Path, seeds, size=(256, 256), ref_spp: int = 2048, backend
     kinds = [sampling_of(i, samplings) for i in range(len(seeds))]
     paths = [example_path(out_dir, seed, kind) for seed, kind in zip(seeds, kinds)]
     deadline = None if minutes is None else time.time() + 60 * minutes
-    tasks = [(p, seed, tuple(size), ref_spp, backend, deadline, kind) for p, seed, kind in zip(paths, seeds, kinds)]
+    tasks = [(p, seed, tuple(size), ref_spp, backend, deadline, kind, render)
+             for p, seed, kind in zip(paths, seeds, kinds)]
     start = time.perf_counter()
     if executor is not None and executor.kind == "ray":
+        if render is not render_example:
+            raise ValueError("the Ray executor renders single-frame examples only")
         _generate_on_ray(tasks, executor, backend, log, start)
     elif workers > 1:
         import multiprocessing as mp
@@ -234,7 +238,7 @@ def _generate_on_ray(tasks, executor, backend: str, log, start: float) -> None:
             if deadline is not None and time.time() > deadline:
                 break
             pool.run([Task("training_example", (seed, size, ref_spp, sampling), RAY_SCENE_SECONDS, key=path)
-                      for path, seed, size, ref_spp, _backend, _deadline, sampling in todo[first:first + batch]],
+                      for path, seed, size, ref_spp, _backend, _deadline, sampling, _render in todo[first:first + batch]],
                      on_result)
     finally:
         pool.close()
