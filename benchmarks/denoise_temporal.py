@@ -1,11 +1,13 @@
 """Temporal error of the denoisers along moving-camera sequences, run as the viewer runs them
 (issue 33): Renderer(..., temporal="reproject", denoise="every"), --spp samples a frame,
 render(final=False) each frame, so a denoiser that keeps state between frames (a temporal
-network) is measured as it runs.
+network) is measured as it runs. --final renders each frame as a script's render() does instead
+(the denoiser run again on guides through the pixel centres), to tell the two apart.
 
     python benchmarks/denoise_temporal.py [--sequences cornell,val0,lift-cornell-box] [--size 96]
         [--frames 16] [--spp 1] [--ref-spp 256] [--denoisers atrous,onnx,glsl,oidn] [--backend auto]
         [--cache DIR] [--out FILE.json] [--markdown FILE.md] [--figures DIR] [--figure-frames 4]
+        [--final]
 
 Sequences (the camera moves every frame; converged references are still renders from each
 frame's camera, --ref-spp samples, seed 1000 + frame, cached in --cache):
@@ -13,8 +15,9 @@ frame's camera, --ref-spp samples, seed 1000 + frame, cached in --cache):
                     to its target a frame; 0.004 is 0.027 scene units, about 1 pixel at 96 px);
   val0              the denoiser's first validation scene (lift_gl/denoise/train/scenes.py,
                     never trained on), the same pan;
-  lift-cornell-box  Lift's scene (../shared/scenes_lift/cornell-box/scene.pbrt; skipped when
-                    absent), an orbit about the target, --orbit degrees a frame.
+  lift-cornell-box  Lift's scene (cornell-box/scene.pbrt in --shared-dir, ../shared/scenes_lift
+                    or shared/scenes_lift; skipped when absent), an orbit about the target,
+                    --orbit degrees a frame.
 Denoisers: names as benchmarks/denoiser_spec.py reads them (onnx:PATH, glsl:PATH for another
 model); "noisy" (no denoiser, the reprojected mean) always comes first. glsl is skipped on a
 software rasterizer (seconds a frame). oidn is skipped when pyoidn is absent.
@@ -25,7 +28,8 @@ Per sequence and denoiser (benchmarks/temporal_error.py), per frame and averaged
   difference        change - reference change: the change the motion does not explain;
   relMSE, mean/ref  of each frame against its reference.
 --figures writes DIR/denoise_temporal_SEQUENCE.png: rows noisy, each denoiser, reference;
-columns --figure-frames frames spread over the sequence.
+columns --figure-frames frames spread over the sequence (first to last), in a palette of
+--figure-colours.
 """
 from __future__ import annotations
 
@@ -47,7 +51,9 @@ sys.path.insert(0, str(ROOT))
 import denoiser_spec  # noqa: E402
 from temporal_error import temporal_error  # noqa: E402
 
-SHARED = ROOT.parent / "shared" / "scenes_lift"
+# the shared Lift scenes: beside the checkout (a worktree) or inside it (a copy that carries shared/)
+SHARED = next((d for d in (ROOT.parent / "shared" / "scenes_lift", ROOT / "shared" / "scenes_lift") if d.is_dir()),
+              ROOT.parent / "shared" / "scenes_lift")
 SEQUENCES = ("cornell", "val0", "lift-cornell-box")
 
 
@@ -135,7 +141,8 @@ def viewer_run(scene, camera_at, args, ctx, spec: str | None) -> tuple[list[np.n
         for f in range(args.frames):
             if f:
                 r.set_camera(camera_at(f))
-            frames.append(r.render(spp=args.spp, final=False))  # the viewer's frame: denoised when every
+            # the viewer's frame (final=False): denoised on this frame's jittered guides
+            frames.append(r.render(spp=args.spp, final=args.final))
     finally:
         r.release()
     return frames, (time.perf_counter() - start) / args.frames
@@ -168,7 +175,9 @@ def _has(module: str) -> bool:
 # ---- output -----------------------------------------------------------------------------------
 
 def markdown(results: dict, settings: dict, skipped: list[str]) -> str:
-    lines = [f"Temporal error, the viewer's frames (temporal reprojection, denoise every frame, {settings['spp']} spp "
+    frames = ("render(final=True) each frame (guides through the pixel centres)" if settings.get("final")
+              else "the viewer's frames")
+    lines = [f"Temporal error, {frames} (temporal reprojection, denoise every frame, {settings['spp']} spp "
              f"a frame), {settings['size']}x{settings['size']}, {settings['frames']} frames; references "
              f"{settings['ref_spp']} spp; {settings['machine']}", ""]
     lines += [f"- {s}" for s in skipped] + ([""] if skipped else [])
@@ -197,9 +206,9 @@ def markdown(results: dict, settings: dict, skipped: list[str]) -> str:
     return "\n".join(lines)
 
 
-def strip_figure(rows: list[list[np.ndarray]], picks, out: Path) -> None:
-    """Rows of tiles (a run's frames at `picks`), 2-pixel white gaps."""
-    from lift_gl.image_io import write_srgb8
+def strip_figure(rows: list[list[np.ndarray]], picks, out: Path, colours: int = 128) -> None:
+    """Rows of tiles (a run's frames at `picks`), 2-pixel white gaps, in a palette of `colours`
+    (noise compresses badly: the palette keeps the file small for docs/)."""
     from lift_gl.tonemap import to_srgb8
 
     size = rows[0][0].shape[0]
@@ -210,7 +219,16 @@ def strip_figure(rows: list[list[np.ndarray]], picks, out: Path) -> None:
         lines.append(np.concatenate([x for t in tiles for x in (t, gap_v)][:-1], axis=1))
     gap_h = np.full((2, lines[0].shape[1], 3), 255, np.uint8)
     out.parent.mkdir(parents=True, exist_ok=True)
-    write_srgb8(out, np.concatenate([x for line in lines for x in (line, gap_h)][:-1], axis=0))
+    save_palette_png(out, np.concatenate([x for line in lines for x in (line, gap_h)][:-1], axis=0), colours)
+
+
+def save_palette_png(path: Path, srgb8: np.ndarray, colours: int) -> None:
+    from PIL import Image
+
+    image = Image.fromarray(srgb8)
+    if colours < 256:
+        image = image.quantize(colors=colours, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+    image.save(path, optimize=True)
 
 
 def main(argv=None) -> None:
@@ -224,6 +242,9 @@ def main(argv=None) -> None:
     p.add_argument("--pan", type=float, default=0.004, help="of the camera's distance to its target, a frame")
     p.add_argument("--orbit", type=float, default=0.5, help="degrees a frame (lift-cornell-box)")
     p.add_argument("--denoisers", default="atrous,onnx,glsl,oidn")
+    p.add_argument("--final", action="store_true",
+                   help="render(final=True) each frame, as a script's render() ends: denoised on guides through "
+                        "the pixel centres, not the viewer's jittered ones")
     p.add_argument("--backend", default="auto")
     p.add_argument("--shared-dir", type=Path, default=SHARED)
     p.add_argument("--cache", type=Path, help="folder for the references")
@@ -231,6 +252,7 @@ def main(argv=None) -> None:
     p.add_argument("--markdown", type=Path, help="results table")
     p.add_argument("--figures", type=Path, help="folder for the strip figures")
     p.add_argument("--figure-frames", type=int, default=4)
+    p.add_argument("--figure-colours", type=int, default=128, help="of the figures' palette (256: full colour)")
     a = p.parse_args(argv)
 
     from lift_gl.gl.context import create_context, describe
@@ -239,7 +261,7 @@ def main(argv=None) -> None:
     specs, skipped = usable([s for s in a.denoisers.split(",") if s], ctx)
     for reason in skipped:
         print(reason, file=sys.stderr)
-    settings = {k: getattr(a, k) for k in ("size", "frames", "spp", "ref_spp", "seed", "pan", "orbit")}
+    settings = {k: getattr(a, k) for k in ("size", "frames", "spp", "ref_spp", "seed", "pan", "orbit", "final")}
     settings["machine"] = f"{platform.node()} {platform.processor() or platform.machine()}, {describe(ctx)}"
     settings["denoisers"] = specs
     results = {}
@@ -266,7 +288,7 @@ def main(argv=None) -> None:
         if a.figures:
             picks = np.linspace(0, a.frames - 1, min(a.figure_frames, a.frames)).round().astype(int)
             strip_figure([frames for frames, _ in runs.values()] + [refs], picks,
-                         a.figures / f"denoise_temporal_{seq}.png")
+                         a.figures / f"denoise_temporal_{seq}.png", a.figure_colours)
     text = markdown(results, settings, skipped)
     print(text)
     if a.markdown:
