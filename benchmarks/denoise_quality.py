@@ -1,4 +1,5 @@
-"""Denoiser quality: SSIM and relMSE against converged references, for the noisy input and
+"""Denoiser quality: SSIM, relMSE and mean/ref (the image's mean over the reference's: the
+energy a denoiser keeps) against converged references, for the noisy input and
 each denoiser, at 1, 4 and 16 spp, on the denoiser's validation scenes (never trained on) and
 on Lift's cornell-box and dining-room.
 
@@ -7,9 +8,12 @@ Two steps, so that the rendering can run on a GPU machine and the denoising on a
     # render inputs (noisy at 1/4/16 spp, albedo, normal) and references into npz files
     python benchmarks/denoise_quality.py render --out eval/ [--ref-spp 8192] [--backend egl]
     # denoise and tabulate; a denoiser name is looked up in lift_gl.denoise.get_denoiser
-    # (the registry), else the built-ins here: onnx (lift_gl.denoise.onnx_denoiser), oidn (pyoidn)
-    python benchmarks/denoise_quality.py evaluate eval/*.npz --denoisers onnx,oidn,atrous \
+    # (the registry), else the built-ins here: onnx (lift_gl.denoise.onnx_denoiser), oidn (pyoidn);
+    # onnx:PATH and glsl:PATH run another model file, a column of its own (benchmarks/denoiser_spec.py)
+    python benchmarks/denoise_quality.py evaluate eval/*.npz --denoisers onnx,oidn,atrous,onnx:model_rt.onnx \
         [--out benchmarks/results/denoise_quality.md] [--images DIR]
+    # --out FILE.md writes the tables there and every row (scene, sampling, spp, method, ssim,
+    # relmse, mean_ratio) to FILE.json
 
 Each npz holds, per scene NAME: NAME/noisy1, noisy4, noisy16, albedo, normal, depth (G-buffer),
 reference (float16). Denoisers get color, albedo, normal and depth (no variance: the inputs
@@ -29,6 +33,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import denoiser_spec  # noqa: E402
+from temporal_error import mean_ratio  # noqa: E402
 
 SPP = (1, 4, 16)
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "scenes_lift"
@@ -50,27 +58,27 @@ class PyOidnDenoiser:
                               f32(np.clip(normal, -1, 1)), hdr=True, clean_aux=True, quality="high")
 
 
-def get_denoiser(name: str):
-    """The registry's denoiser of that name (lift_gl.denoise.get_denoiser) where there is one,
-    else the built-ins of this benchmark (`onnx:PATH`: the ONNX denoiser with another model file;
-    `onnx*N` or `onnx:PATH*N`: with a self-ensemble of N mirror images, 1, 2, 4 or 8)."""
+def get_denoiser(spec: str):
+    """The denoiser a name stands for (benchmarks/denoiser_spec.py: onnx:PATH and glsl:PATH for
+    another model file, *N for a self-ensemble of N mirror images): lift_gl.denoise.get_denoiser's
+    where it has one, else the built-ins of this benchmark (oidn through pyoidn directly)."""
+    name, options = denoiser_spec.parse(spec)
     try:
         from lift_gl.denoise import get_denoiser as registry
     except ImportError:
         registry = None
     if registry is not None:
         try:
-            found = registry(name)
+            found = registry(name, **options)
             return found() if isinstance(found, type) else found
         except Exception:  # not registered there (whatever error the registry raises): the built-ins
             pass
-    if name == "onnx" or name.startswith(("onnx:", "onnx*")):  # onnx:PATH, another model file (e.g. an earlier one)
+    if name == "onnx":
         from lift_gl.denoise.onnx_denoiser import OnnxDenoiser
-        spec, _, ensemble = name.partition("*")
-        return OnnxDenoiser(spec[5:] or None, ensemble=int(ensemble) if ensemble else None)
+        return OnnxDenoiser(**options)
     if name == "oidn":
         return PyOidnDenoiser()
-    raise SystemExit(f"unknown denoiser {name!r} (no lift_gl.denoise.get_denoiser entry and no built-in)")
+    raise SystemExit(f"unknown denoiser {spec!r} (no lift_gl.denoise.get_denoiser entry and no built-in)")
 
 
 # ---- rendering the inputs ---------------------------------------------------------------------
@@ -185,7 +193,7 @@ def evaluate(args) -> None:
     from lift_gl.denoise.train.render_data import sampling_suffix
     from lift_gl.metrics import rel_mse, ssim
     scenes = load_sets(args.inputs)
-    denoisers = {n: get_denoiser(n) for n in args.denoisers.split(",") if n}
+    denoisers = {denoiser_spec.label(n): get_denoiser(n) for n in args.denoisers.split(",") if n}
     rows, seconds = [], {n: [] for n in denoisers}
     for name, s in scenes.items():
         ref = s["reference"]
@@ -199,7 +207,8 @@ def evaluate(args) -> None:
                     seconds[dname].append(time.perf_counter() - t)
                 for method, img in results.items():
                     rows.append({"scene": name, "sampling": sampling, "spp": spp, "method": method,
-                                 "ssim": ssim(img, ref), "relmse": rel_mse(img, ref)})
+                                 "ssim": ssim(img, ref), "relmse": rel_mse(img, ref),
+                                 "mean_ratio": mean_ratio(img, ref)})
                 if args.images:
                     save_strip(args.images / f"{name}_{spp}spp{sampling_suffix(sampling)}.png",
                                [results[m] for m in results] + [ref])
@@ -214,20 +223,22 @@ def evaluate(args) -> None:
 def table(rows, denoisers, scenes) -> str:
     methods = ["noisy"] + denoisers
     get = {(r["scene"], r.get("sampling", "independent"), r["spp"], r["method"]): r for r in rows}
-    head = "| scene | size | sampling | spp | " + " | ".join(f"{m} SSIM | {m} relMSE" for m in methods) + " |"
-    lines = ["Denoiser quality against converged references (SSIM on sRGB clipped to [0, 1]; relMSE on linear RGB)",
-             "", head, "|" + " --- |" * (4 + 2 * len(methods))]
+    head = "| scene | size | sampling | spp | " + " | ".join(f"{m} SSIM | {m} relMSE | {m} mean/ref"
+                                                          for m in methods) + " |"
+    lines = ["Denoiser quality against converged references (SSIM on sRGB clipped to [0, 1]; relMSE on linear RGB; "
+             "mean/ref: the image's mean over the reference's, the energy kept)",
+             "", head, "|" + " --- |" * (4 + 3 * len(methods))]
     for name, s in scenes.items():
         h, w = s["reference"].shape[:2]
         for sampling in samplings_in(s):
             for spp in SPP:
-                cells = [f"{get[(name, sampling, spp, m)]['ssim']:.4f} | {get[(name, sampling, spp, m)]['relmse']:.4f}"
-                         for m in methods]
+                cells = [f"{g['ssim']:.4f} | {g['relmse']:.4f} | {g.get('mean_ratio', float('nan')):.3f}"
+                         for g in (get[(name, sampling, spp, m)] for m in methods)]
                 lines.append(f"| {name} | {w}x{h} | {sampling} | {spp} | " + " | ".join(cells) + " |")
     samplings = sorted({r.get("sampling", "independent") for r in rows}, key=lambda x: (x != "independent", x))
     if len(samplings) > 1 or len(denoisers) > 1:  # means over the validation scenes, per sampling and spp
         vals = [n for n in scenes if n.startswith("val")]
-        lines += ["", f"Means over the {len(vals)} validation scenes (SSIM / relMSE):", "",
+        lines += ["", f"Means over the {len(vals)} validation scenes (SSIM / relMSE / mean/ref):", "",
                   "| sampling | spp | " + " | ".join(methods) + " |", "|" + " --- |" * (2 + len(methods))]
         for sampling in samplings:
             for spp in SPP:
@@ -235,7 +246,7 @@ def table(rows, denoisers, scenes) -> str:
                 for m in methods:
                     got = [get[(n, sampling, spp, m)] for n in vals if (n, sampling, spp, m) in get]
                     cells.append(f"{np.mean([g['ssim'] for g in got]):.4f} / {np.mean([g['relmse'] for g in got]):.4f}"
-                                 if got else "-")
+                                 f" / {np.mean([g.get('mean_ratio', np.nan) for g in got]):.3f}" if got else "-")
                 lines.append(f"| {sampling} | {spp} | " + " | ".join(cells) + " |")
     for onnx in [d for d in denoisers if d.startswith("onnx")] if "oidn" in denoisers else []:
         vals = [n for n in scenes if n.startswith("val")]
@@ -273,7 +284,8 @@ def main(argv=None) -> None:
                    help="the noisy inputs' samplings (lift_gl.denoise.train.render_data.SAMPLINGS), each rendered")
     e = sub.add_parser("evaluate")
     e.add_argument("inputs", nargs="+", type=Path)
-    e.add_argument("--denoisers", default="onnx,oidn")
+    e.add_argument("--denoisers", default="onnx,oidn",
+                   help="comma-separated names (atrous, onnx, glsl, oidn; onnx:PATH / glsl:PATH for another model)")
     e.add_argument("--out", type=Path)
     e.add_argument("--images", type=Path, help="write noisy | denoisers | reference strips here")
     g = sub.add_parser("add-depth", help="add the depth guide to npz files that lack it")

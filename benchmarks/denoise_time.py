@@ -4,9 +4,12 @@ machine load; the median of --repeat runs and the ratio OIDN / ONNX, in wall-clo
 in CPU seconds of the process (all its threads: the work done, less sensitive to other jobs on
 a shared machine).
 
-    python benchmarks/denoise_time.py [--repeat 3] [--denoisers onnx,oidn] [--out FILE.md]
+    python benchmarks/denoise_time.py [--repeat 3] [--denoisers onnx,oidn] [--sizes 256x256,1280x720,1920x1080]
+                                      [--out FILE.md]
 
-Denoiser names are looked up as in benchmarks/denoise_quality.py (the registry first).
+Denoiser names are looked up as in benchmarks/denoise_quality.py (the registry first); onnx:PATH
+times another model file (benchmarks/denoiser_spec.py). With oidn among them, each other
+denoiser gets a column oidn / NAME (above 1: NAME is the faster).
 """
 from __future__ import annotations
 
@@ -20,9 +23,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import denoiser_spec  # noqa: E402
 from denoise_quality import get_denoiser  # noqa: E402
 
-SIZES = ((256, 256), (1280, 720), (1920, 1080))
+SIZES = "256x256,1280x720,1920x1080"
 
 
 def cpu_name() -> str:
@@ -50,20 +54,25 @@ def cpu_seconds() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def size_list(text: str) -> list[tuple[int, int]]:
+    return [tuple(int(v) for v in size.split("x")) for size in text.split(",")]
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--denoisers", default="onnx,oidn",
                    help="comma-separated; onnx:PATH is the ONNX denoiser with another model file")
+    p.add_argument("--sizes", type=size_list, default=size_list(SIZES), help="WxH,...")
     p.add_argument("--out", type=Path)
     a = p.parse_args(argv)
-    names = a.denoisers.split(",")
-    denoisers = {n: get_denoiser(n) for n in names}
+    denoisers = {denoiser_spec.label(spec): get_denoiser(spec) for spec in a.denoisers.split(",")}
+    names = list(denoisers)
     for d in denoisers.values():  # first use loads the model: not timed
         d.denoise(*inputs(32, 32))
-    times = {(n, s): [] for n in names for s in SIZES}
-    cpu = {(n, s): [] for n in names for s in SIZES}
-    for w, h in SIZES:
+    times = {(n, s): [] for n in names for s in a.sizes}
+    cpu = {(n, s): [] for n in names for s in a.sizes}
+    for w, h in a.sizes:
         args = inputs(w, h)
         for _ in range(a.repeat):
             for n, d in denoisers.items():  # interleaved: each round times every denoiser once
@@ -71,21 +80,19 @@ def main(argv=None) -> None:
                 d.denoise(*args)
                 times[(n, (w, h))].append(time.perf_counter() - t)
                 cpu[(n, (w, h))].append(cpu_seconds() - c)
-    ratio = int({"onnx", "oidn"} <= set(names))
+    against = [n for n in names if n != "oidn"] if "oidn" in names else []
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    columns = [f"{n} (s)" for n in names] + [f"oidn / {n}" for n in against] \
+        + [f"{n} (CPU s)" for n in names] + [f"oidn / {n} (CPU)" for n in against]
     lines = [f"Denoise time, median of {a.repeat} interleaved runs: {cpu_name()}, {os.cpu_count()} cores, "
              f"load average {load:.1f} at the end", "",
-             "| size | " + " | ".join(f"{n} (s)" for n in names)
-             + (" | oidn / onnx |" if ratio else " |") + " " + " | ".join(f"{n} (CPU s)" for n in names)
-             + (" | oidn / onnx (CPU) |" if ratio else " |"),
-             "|" + " --- |" * (1 + 2 * (len(names) + ratio))]
-    for w, h in SIZES:
-        row = f"| {w}x{h} |"
+             "| size | " + " | ".join(columns) + " |", "|" + " --- |" * (1 + len(columns))]
+    for w, h in a.sizes:
+        cells = []
         for table in (times, cpu):
             med = {n: float(np.median(table[(n, (w, h))])) for n in names}
-            row += " " + " | ".join(f"{med[n]:.3f}" for n in names)
-            row += f" | {med['oidn'] / med['onnx']:.2f} |" if ratio else " |"
-        lines.append(row)
+            cells += [f"{med[n]:.3f}" for n in names] + [f"{med['oidn'] / med[n]:.2f}" for n in against]
+        lines.append(f"| {w}x{h} | " + " | ".join(cells) + " |")
     text = "\n".join(lines) + "\n"
     print(text)
     if a.out:
