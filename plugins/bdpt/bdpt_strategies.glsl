@@ -1,6 +1,6 @@
 // bdpt_strategies.glsl: the four kinds of strategy (s light vertices, t camera vertices). A
 // camera vertex z = z_{t-1} comes with its predecessor z_prev = z_{t-2}; light vertices are
-// read from the stored light subpath (bdpt_light).
+// read from the stored light subpath (light_vertex, bdpt_vertex.glsl).
 
 int bdpt_depth_limit() { return min(max_depth, BDPT_MAX_DEPTH); }
 
