@@ -7,16 +7,6 @@
 Rng lift_sample_rng(ivec2 pixel, uint s) {
 #ifdef LIFT_COHERENT_SAMPLING
     lift_own_rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x68bc21ebu, u_stream);
-
-#ifdef LIFT_PREPASS
-// Sample s of this frame at this invocation: both passes dispatch the same work groups, so an
-// invocation and a sample name the same pixel sample in each.
-void lift_prepass_begin(uint s) {
-    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    uint invocation = group * (gl_WorkGroupSize.x * gl_WorkGroupSize.y) + gl_LocalInvocationIndex;
-    lift_prepass_sample = s * u_prepass_invocations + invocation;
-}
-#endif
 #endif
     return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame, s, u_sample_base + s, u_seed, u_stream);
 }
@@ -31,16 +21,6 @@ void lift_report_invocation() {
         uint before = atomicAdd(stats[2], lift_rays_traced);
         if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
     }
-
-#ifdef LIFT_PREPASS
-// Sample s of this frame at this invocation: both passes dispatch the same work groups, so an
-// invocation and a sample name the same pixel sample in each.
-void lift_prepass_begin(uint s) {
-    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    uint invocation = group * (gl_WorkGroupSize.x * gl_WorkGroupSize.y) + gl_LocalInvocationIndex;
-    lift_prepass_sample = s * u_prepass_invocations + invocation;
-}
-#endif
 #endif
     uint probe = 0u;
     for (uint i = 0u; i < u_samples + 1u; ++i) probe += 1u;
