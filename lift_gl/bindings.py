@@ -52,7 +52,8 @@ STORAGE_BUFFERS = {
     "prepass0": 11,
     "prepass1": 14,
     "prepass2": 21,
-    "prepass3": 22,          # passes/splat.py: light-tracing splats (shaders/lift/splat.glsl)
+    "prepass3": 22,
+    "prepass_counters": 23,  # ... and its frame's counters, zeroed before each prepass          # passes/splat.py: light-tracing splats (shaders/lift/splat.glsl)
     "prev_positions": 18,  # temporal reprojection: last frame's positions (shaders/passes/motion_vectors.glsl)
     **{f"heap{k}": HEAP_FIRST_BINDING + k for k in range(MAX_HEAP_CHUNKS)},   # scene/split.py
 }

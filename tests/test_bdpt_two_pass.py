@@ -152,3 +152,35 @@ def test_bad_prepass_tables_are_refused(tmp_path, table, message):
 def test_prepass_entries_follow_the_parameters():
     bdpt = find_plugin("bdpt")
     assert [bdpt.prepass.entry_count({"max_depth": d}) for d in (0, 16, 64, 1000)] == [6, 70, 262, 262]
+
+
+# ---------------------------------------------------------------- the light vertex cache
+# Joins to M light vertices of the whole frame's cache (cache_connections) instead of the sample's
+# own light subpath: another unbiased estimator of the same image, against pt as the bdpt tests
+# do (independent runs, their standard errors: tests/image_stats.py).
+@pytest.mark.parametrize("scene_file, connections", [("scenes/cornell.toml", 1),
+                                                     ("tests/data/cornell_diffuse.toml", 3)],
+                         ids=["cornell-glass-gold-M1", "cornell-diffuse-smooth-M3"])
+def test_pt_and_bdpt_through_the_light_vertex_cache_agree(scene_file, connections):
+    from image_stats import assert_same_image
+    from test_bdpt import RUNS, renders
+
+    scene = load_scene(REPO / scene_file)
+    pt = renders(scene, "pt", 16, range(1, RUNS + 1))
+    cached = renders(scene, "bdpt", 4, range(201, RUNS + 201), cache_connections=connections)
+    assert_same_image(pt, cached, block=8, label=f"{scene_file}: pt vs bdpt, {connections} cached joins")
+
+
+def test_cache_lists_every_connectible_light_vertex():
+    """The cache's length (the prepass's counter 0) against the light vertices counted another
+    way: only_s = k keeps the t = 1 splat of paths with k light vertices, so a light subpath of
+    n >= 2 connectible vertices ... (counted here from the stored counts instead: every stored
+    vertex but y0 and the delta ones)."""
+    scene = load_scene(REPO / "tests" / "data" / "cornell_diffuse.toml")   # no delta vertices
+    r = Renderer(scene, size=(16, 12), integrator="bdpt", seed=3, params={"cache_connections": 2})
+    r.render(spp=1)
+    cached = int(np.frombuffer(r.prepass.counters.read(), dtype=np.uint32)[0])
+    stride = r.prepass.layout.stride(1)
+    counts = np.frombuffer(r.prepass.buffers[0].read(), dtype=np.uint32).reshape(-1, stride, 4)[1, :, 0]
+    assert cached == int(np.maximum(counts.astype(np.int64) - 1, 0).sum()) > 0
+    r.release()
