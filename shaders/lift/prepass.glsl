@@ -31,6 +31,9 @@ layout(std430, binding = LIFT_BINDING_PREPASS2) buffer LiftPrepass2 { uvec4 lift
 layout(std430, binding = LIFT_BINDING_PREPASS3) buffer LiftPrepass3 { uvec4 lift_prepass3[]; };
 #endif
 
+// the frame's four counters, zeroed by the host before each prepass (prepass_count_add)
+layout(std430, binding = LIFT_BINDING_PREPASS_COUNTERS) buffer LiftPrepassCounters { uint lift_prepass_counters[4]; };
+
 uint lift_prepass_sample;  // the current pixel sample's number: lift_prepass_begin (lift/host_report.glsl)
 
 // Entry `entry` of pixel sample `pixel_sample` (any of this frame's: lift_prepass_sample is the current one).
@@ -87,7 +90,6 @@ uvec4 prepass_load(int entry) { return prepass_load_at(entry, lift_prepass_sampl
 
 // Four counters of the frame, zeroed by the host before each prepass (e.g. the length of a
 // list that pixel samples append to): prepass_count_add returns the value before its add.
-layout(std430, binding = LIFT_BINDING_PREPASS_COUNTERS) buffer LiftPrepassCounters { uint lift_prepass_counters[4]; };
 uint prepass_count_add(int counter, uint n) { return atomicAdd(lift_prepass_counters[counter], n); }
 uint prepass_count(int counter) { return lift_prepass_counters[counter]; }
 #endif
