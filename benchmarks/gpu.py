@@ -698,8 +698,11 @@ def render_tables(records: list[dict]) -> str:
     frames = [{_frame_key(r): r for r in rec["results"] if r["kind"] == "frame"} for rec in records]
     keys = list(frames[0])
     head = ["scene", "size", "integrator", "triangles"]
+    # a [prepass] plugin's first pass (bdpt's light pass) beside its trace pass (the camera pass)
+    prepass = any("prepass" in r["pass_ms_sync"] for t in frames for r in t.values())
     for label in labels:
-        head += [f"{label} gbuffer ms", f"{label} trace ms", f"{label} frame ms", f"{label} Mrays/s"]
+        head += [f"{label} gbuffer ms"] + ([f"{label} prepass ms"] if prepass else []) + \
+                [f"{label} trace ms", f"{label} frame ms", f"{label} Mrays/s"]
     if len(records) > 1:
         head += [f"trace {lab}/{labels[0]}" for lab in labels[1:]]
     head += ["Lift paper ms (RTX 2070)"]
@@ -712,11 +715,11 @@ def render_tables(records: list[dict]) -> str:
         for table in frames:
             r = table.get(key)
             if r is None:
-                cells += ["–"] * 4
+                cells += ["–"] * (5 if prepass else 4)
                 continue
             q = r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"]
-            cells += [f"{q.get('gbuffer', 0):.3f}", f"{q.get('trace', 0):.3f}", f"{r['frame_ms']:.3f}",
-                      _mrays(r['rays_per_second'] / 1e6)]
+            cells += [f"{q.get('gbuffer', 0):.3f}"] + ([f"{q['prepass']:.3f}" if "prepass" in q else "–"] if prepass else []) + \
+                     [f"{q.get('trace', 0):.3f}", f"{r['frame_ms']:.3f}", _mrays(r['rays_per_second'] / 1e6)]
         for table in frames[1:]:
             r = table.get(key)
             qa = first["pass_ms_query"] if not records[0]["machine"].get("software_gl") else first["pass_ms_sync"]

@@ -23,8 +23,8 @@ For bdpt the two images differ by their random numbers (mean_rgb tells whether t
 `--tree NAME=CHECKOUT` (repeatable) adds more checkouts' plugins as variants named NAME.
 
 bdpt diagnostics (issue 10; docs/bdpt.md "On the GPU"): bdpt_no_lt, bdpt_no_connect,
-bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one part of its work;
-bdpt_shared2/4/8 keep that many light vertices in shared memory; the counting variants'
+bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one part of its work
+(bdpt's prepass, the light pass, is timed as its own pass: lift-gl bench, benchmarks/gpu.py); the counting variants'
 images are per-pixel counts (count_rays: closest-hit and shadow rays, and for bdpt light-tracing
 joins; bdpt_count_paths: light vertices, camera vertices, s >= 2 joins, with the loop
 iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
@@ -162,12 +162,6 @@ def no_light_samples(text: str) -> str:
                 "bool unused_sample_light(vec3 p, vec3 u, out LightSample ls) {")
 
 
-def bdpt_unpacked(text: str) -> str:
-    """bdpt's stored light subpath with its directions as floats (BDPT_PACK_NORMALS 0) rather
-    than one octahedral word each: what the packing saves in local memory, at some rounding."""
-    return _after_version(text, "#define BDPT_PACK_NORMALS 0")
-
-
 def define(name: str):
     """The program with `name` #defined (e.g. LIFT_COHERENT_SAMPLING); "NAME VALUE" replaces a
     definition of NAME the renderer made."""
@@ -257,8 +251,7 @@ def pad_shared(n_bytes: int):
 
 
 # ---- bdpt diagnostics (issue 10: where bdpt's GPU time goes) ----
-# Each removes or replaces one part of bdpt's work; none keeps the image (except bdpt_unpacked's
-# rounding). Anchors are bdpt's source as of this script; an edit whose anchor is gone raises.
+# Each removes or replaces one part of bdpt's work; none keeps the image. Anchors are bdpt's source as of this script; an edit whose anchor is gone raises.
 
 def bdpt_no_light_tracing(text: str) -> str:
     """Diagnostic: no t = 1 strategy (the light subpath still traced and stored)."""
@@ -274,7 +267,7 @@ def bdpt_light_only(text: str) -> str:
     """Diagnostic: only the light subpath, traced and stored (its last vertex read back so that
     the stores stay), no joins, no camera subpath."""
     text = bdpt_no_light_tracing(text)
-    return _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
+    return _sub(text, "return camera_subpath(ray, hit, bdpt_depth_limit(), light_vertices, rng);",
                 "return 1e-30 * light_vertex(max(light_vertices - 1, 0)).beta;")
 
 
@@ -345,14 +338,6 @@ def warp_costs(light: np.ndarray, camera: np.ndarray, depth: int, local=(8, 4)) 
             "camera_steps_lane": float(C.mean()), "camera_steps_warp": float(C.max(axis=1).mean()),
             "light_steps_lane": float(L.mean()), "light_steps_warp": float(L.max(axis=1).mean()),
             "light_max": float(L.max()), "camera_max": float(C.max())}
-
-
-def bdpt_shared_vertices(n: int):
-    """bdpt with the first n stored light vertices in shared memory (BDPT_SHARED_VERTICES; GPUs
-    only, where the BVH stack is shared too), the rest in the local array."""
-    def edit(text):
-        return _after_version(text, f"#define BDPT_SHARED_VERTICES {n}")
-    return edit
 
 
 QUEUE_COUNTERS_MAX = 256  # uints the harness's queue buffer holds (queue_spread, queue_sm)
@@ -525,8 +510,8 @@ def bdpt_coherent(light_shared: bool, camera_own: bool = False):
             text = _sub(text, "int light_vertices = light_subpath(depth_limit, lift_own_rng);",
                         "int light_vertices = light_subpath(depth_limit, rng);")
         if camera_own:
-            text = _sub(text, "return camera_subpath(ray, hit, depth_limit, light_vertices, rng);",
-                        "return camera_subpath(ray, hit, depth_limit, light_vertices, lift_own_rng);")
+            text = _sub(text, "return camera_subpath(ray, hit, bdpt_depth_limit(), light_vertices, rng);",
+                        "return camera_subpath(ray, hit, bdpt_depth_limit(), light_vertices, lift_own_rng);")
         return text
     return edit
 
@@ -730,7 +715,6 @@ VARIANTS = {
     "depth1": (shape(8, 4), {"max_depth": 1}, False),
     "depth2": (shape(8, 4), {"max_depth": 2}, False),
     "depth4": (shape(8, 4), {"max_depth": 4}, False),
-    "bdpt_unpacked": (bdpt_unpacked, {}, False),
     "shared1": (shared_depth(1), {}, True),
     "shared2": (shared_depth(2), {}, True),
     "shared4": (shared_depth(4), {}, True),
@@ -761,9 +745,6 @@ VARIANTS = {
     "pad8k": (pad_shared(8192), {}, True),
     "pad16k": (pad_shared(16384), {}, True),
     "pad32k": (pad_shared(32768), {}, True),
-    "bdpt_shared2": (bdpt_shared_vertices(2), {}, False),
-    "bdpt_shared4": (bdpt_shared_vertices(4), {}, False),
-    "bdpt_shared8": (bdpt_shared_vertices(8), {}, False),
     "bdpt_no_lt": (bdpt_no_light_tracing, {}, False),
     "bdpt_no_connect": (bdpt_no_connect, {}, False),
     "bdpt_light_only": (bdpt_light_only, {}, False),

@@ -34,6 +34,10 @@ def render_frame(r, samples: int, park: bool = False) -> None:
                     u_frame=r.frame_index, u_seed=r.seed & 0xFFFFFFFF, u_samples=samples,
                     u_sample_base=r.stream_spp[stream], u_stream=stream, u_jitter=jitter,
                     **filter_uniforms(compiled_pixel_filter(r), r.scene.film_size, r.size))
+    if r.prepass is not None:   # a [prepass] plugin's first pass (passes/prepass.py)
+        uniforms.update(r.prepass.uniforms(samples))
+        with r.timed("prepass"):
+            r.prepass.run(uniforms, r.trace.splats)
     with r.timed("trace"):
         r.trace.run(uniforms, gbuffer.visibility if gbuffer is not None else None,
                     park=park and r.reproject is None and r.reduced is None)

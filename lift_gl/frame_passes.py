@@ -7,10 +7,12 @@ declarations and makes only those that the asked resources need.
 """
 from __future__ import annotations
 
+from .options import work_group
 from .passes.accumulate import AccumulatePass
 from .passes.denoise import DenoisePass
 from .passes.gbuffer import GBufferPass, TracedGBufferPass
 from .passes.graph import Node
+from .passes.prepass import PrepassPass, prepass_layout
 from .passes.reduced_trace import ReducedTracePass
 from .passes.reproject import ReprojectPass
 from .passes.tonemap import TonemapPass
@@ -30,7 +32,11 @@ def frame_nodes(r, plugin=None, params=None, choices=None) -> list[Node]:
     plugin = plugin or r.plugin
     params = r.params if params is None else params
     choices = choices or r.choices
-    nodes = [gbuffer_node(r, choices), trace_node(r, plugin, params, choices)]
+    nodes = [gbuffer_node(r, choices)]
+    if plugin.prepass is not None:   # a [prepass] plugin: its function for every pixel sample, before the trace
+        nodes.append(Node("prepass", PrepassPass, lambda: make_prepass(r, plugin, params, choices),
+                          why=lambda made: prepass_why(plugin, made)))
+    nodes.append(trace_node(r, plugin, params, choices))
     if plugin.reduced is not None:   # a [reduced] plugin (hybrid): traced at reduced resolution, upsampled
         nodes += [Node("reduced", ReducedTracePass, lambda: make_reduced(r, plugin, params, choices),
                        why=lambda made: reduced_why(r)),
@@ -93,18 +99,39 @@ def trace_node(r, plugin, params, choices) -> Node:
         from .passes.trace_cl import OpenCLTracePass as kind   # pyopencl only when such a plugin runs
     else:
         kind = TracePass
-    return Node("trace", kind, lambda: make_trace(r, plugin, params, choices),
-                uses=("visibility",) if plugin.primary == "gbuffer" else (),
+    uses = (("visibility",) if plugin.primary == "gbuffer" else ()) + (("prepass",) if plugin.prepass else ())
+    return Node("trace", kind, lambda: make_trace(r, plugin, params, choices), uses=uses,
                 why=lambda made: f"runs {plugin.entry}" + trace_device(plugin, made))
 
 
 def make_trace(r, plugin, params, choices):
     defines = r.plugin_defines(plugin, params, choices)
+    if plugin.prepass is not None:
+        defines.update(plugin_prepass_layout(r, plugin, params, choices).defines())
     if plugin.language == "opencl":
         from .passes.trace_cl import OpenCLTracePass
 
         return OpenCLTracePass(r.ctx, r.size, plugin, defines, r.buffers)
     return TracePass(r.ctx, r.size, plugin, defines, choices)
+
+
+def plugin_prepass_layout(r, plugin, params, choices):
+    """Where the prepass's storage goes, for r's image and samples a frame (passes/prepass.py)."""
+    defines = r.plugin_defines(plugin, params, choices)
+    return prepass_layout(r.ctx, plugin, params, r.size, defines, work_group(choices["bvh_stack"], choices.device),
+                          r.samples_per_frame)
+
+
+def make_prepass(r, plugin, params, choices):
+    return PrepassPass(r.ctx, r.size, plugin, r.plugin_defines(plugin, params, choices), choices,
+                       plugin_prepass_layout(r, plugin, params, choices))
+
+
+def prepass_why(plugin, made) -> str:
+    layout = made.layout
+    return (f"runs {plugin.prepass.function}() for every pixel sample before the trace pass ([prepass] in "
+            f"plugin.toml): {layout.entries} uvec4s a pixel sample in {layout.buffers} storage buffer"
+            f"{'s' if layout.buffers > 1 else ''}, read by the trace pass")
 
 
 def make_reduced(r, plugin, params, choices):

@@ -22,6 +22,12 @@ documentation and parameter table (`lift-gl plugins` prints it):
     normal_power = 32.0        # joint bilateral upsampling: normal weight max(0, n.n')^power
     depth_sigma = 0.05         # ... and depth weight exp(-|z - z'| / (depth_sigma z))
                                # (both also a number or a parameter's name)
+    [prepass]                  # optional: a pass before the trace pass, for every pixel sample
+    function = "light_pass"    # void light_pass(ivec2 pixel, inout Rng rng), with the sample's
+                               # random numbers; it writes storage the trace pass reads:
+    entries = "4 * max_depth + 6"  # uvec4s a pixel sample (prepass_store/prepass_load in
+                               # shaders/lift/prepass.glsl): a number, or a formula of int
+                               # parameters (+ - * //, min, max)
 
 Plugins are found in the built-in `plugins/` folder, in folders named by `--plugins`, and in
 the folders of the `LIFT_GL_PLUGIN_PATH` environment variable (separated by `os.pathsep`).
@@ -33,7 +39,9 @@ manifest that still has the keys of older versions (`bvh_stack`, parameters name
 """
 from __future__ import annotations
 
+import ast
 import math
+import operator
 import os
 import re
 import tomllib
@@ -51,7 +59,8 @@ GLSL_TYPES = {"int": "int", "float": "float", "bool": "bool", "color": "vec3"}
 LANGUAGES = ("glsl", "opencl")
 PRIMARY_MODES = ("gbuffer", "camera")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced"}
+_MANIFEST_KEYS = {"name", "description", "language", "entry", "primary", "splats", "params", "biased", "reduced",
+                  "prepass"}
 # Keys and parameters of older manifests that are the host's options now (lift_gl/options.py):
 # read past with a warning, never applied.
 _RETIRED_KEYS = {"bvh_stack": "bvh_stack_entries"}
@@ -59,6 +68,7 @@ _RETIRED_PARAMS = ("coherent_sampling", "coherent_interleave")
 _PARAM_KEYS = {"type", "default", "min", "max", "help", "define"}
 _REDUCED_KEYS = {"function": None, "scale": "int", "normal_power": "float", "depth_sigma": "float"}
 _HOST_DEFINE_PREFIXES = ("HAS_", "LIFT_", "PRIMARY_", "GL_")  # features, host switches, GLSL's own
+_PREPASS_KEYS = {"function", "entries"}
 REDUCED_DEFAULTS = {"scale": 2, "normal_power": 32.0, "depth_sigma": 0.05}
 
 
@@ -123,6 +133,45 @@ class ReducedPass:
 
 
 @dataclass
+class Prepass:
+    """A plugin's pass before its trace pass (passes/prepass.py): `function` runs once per pixel
+    sample and writes `entries` uvec4s of storage (a number or a formula of int parameters)
+    that the trace pass's radiance() reads."""
+
+    function: str
+    entries: object
+
+    def entry_count(self, params: dict) -> int:
+        """The uvec4s a pixel sample for these parameter values."""
+        return int(self.entries) if isinstance(self.entries, int) else _evaluate(self.entries, params)
+
+
+_FORMULA_CALLS = {"min": min, "max": max}
+
+
+def _evaluate(formula: str, values: dict) -> int:
+    """An integer formula of parameter names: + - * //, parentheses, min() and max()."""
+    def value(node):
+        if isinstance(node, ast.Expression):
+            return value(node.body)
+        if isinstance(node, ast.Constant) and type(node.value) is int:
+            return node.value
+        if isinstance(node, ast.Name) and node.id in values:
+            return int(values[node.id])
+        if isinstance(node, ast.BinOp) and type(node.op) in _FORMULA_OPS:
+            return _FORMULA_OPS[type(node.op)](value(node.left), value(node.right))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _FORMULA_CALLS \
+                and node.args and not node.keywords:
+            return _FORMULA_CALLS[node.func.id](*(value(a) for a in node.args))
+        raise ValueError(ast.dump(node) if isinstance(node, ast.AST) else repr(node))
+
+    return value(ast.parse(formula, mode="eval"))
+
+
+_FORMULA_OPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.FloorDiv: operator.floordiv}
+
+
+@dataclass
 class Plugin:
     name: str
     description: str
@@ -134,6 +183,7 @@ class Plugin:
     splats: bool = False  # the host gives the shader a splat buffer (lift/splat.glsl)
     biased: str = ""  # why the plugin does not converge to the true image ("": it does)
     reduced: ReducedPass | None = None
+    prepass: Prepass | None = None
 
     @property
     def manifest(self) -> Path:
@@ -282,7 +332,8 @@ def load_manifest(folder: Path) -> Plugin:
         fail("description must be a string", r"^\s*description\s*=")
     return Plugin(name=name, description=data.get("description", ""), language=language,
                   entry=data["entry"], primary=primary, folder=Path(folder).resolve(), params=params,
-                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail))
+                  splats=splats, biased=biased, reduced=_reduced(data, params, primary, language, fail),
+                  prepass=_prepass(data, params, language, fail))
 
 
 def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> ReducedPass | None:
@@ -314,6 +365,37 @@ def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> Red
                 or (kind == "int" and not isinstance(spec, int)):
             fail(f"[reduced] {key} must be a positive {kind} or a parameter's name, not {spec!r}", header)
     return ReducedPass(function=function, **{k: table[k] for k in REDUCED_DEFAULTS if k in table})
+
+
+def _prepass(data: dict, params: dict, language: str, fail) -> Prepass | None:
+    """The [prepass] table: a function name and a storage size that evaluates for the defaults."""
+    if "prepass" not in data:
+        return None
+    header = r"^\s*\[prepass\]"
+    table = data["prepass"]
+    if not isinstance(table, dict):
+        fail("'prepass' must be a table: [prepass]", r"^\s*prepass\s*=")
+    unknown = set(table) - _PREPASS_KEYS
+    if unknown:
+        fail(f"[prepass]: unknown keys {sorted(unknown)} (known: {', '.join(sorted(_PREPASS_KEYS))})", header)
+    if language != "glsl":
+        fail("[prepass] is for GLSL plugins (the prepass compiles the plugin's GLSL)", header)
+    function = table.get("function")
+    if not isinstance(function, str) or not _IDENT.match(function):
+        fail("[prepass] needs 'function', the name of a GLSL function void f(ivec2 pixel, inout Rng rng)", header)
+    entries = table.get("entries")
+    prepass = Prepass(function, entries)
+    ints = {name: p.default for name, p in params.items() if p.type == "int"}
+    try:
+        if isinstance(entries, bool) or not isinstance(entries, (int, str)):
+            raise ValueError(entries)
+        count = prepass.entry_count(ints)
+    except (ValueError, SyntaxError, ZeroDivisionError):
+        fail(f"[prepass] entries must be a positive integer or a formula of int parameters "
+             f"(+ - * //, min, max), not {entries!r}", header)
+    if count <= 0:
+        fail(f"[prepass] entries = {entries!r} is {count} for the defaults: it must be positive", header)
+    return prepass
 
 
 def inside(path: Path, folder: Path) -> bool:

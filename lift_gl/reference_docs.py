@@ -189,6 +189,7 @@ def manifest_reference() -> str:
         ("a parameter's keys", getattr(plugins, "_PARAM_KEYS", None)),
         ("a parameter's `type`", getattr(plugins, "PARAM_TYPES", None)),
         ("`[reduced]` keys", getattr(plugins, "_REDUCED_KEYS", None)),
+        ("`[prepass]` keys", getattr(plugins, "_PREPASS_KEYS", None)),
     ]
     lines += ["## Accepted values", "", "| key | values |", "| --- | --- |"]
     for key, values in accepted:

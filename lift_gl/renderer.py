@@ -67,6 +67,7 @@ def _pass(name: str, doc: str) -> property:
 
 class Renderer:
     gbuffer = _pass("gbuffer", "The G-buffer pass (raster or ray cast), or None.")
+    prepass = _pass("prepass", "A [prepass] plugin's prepass, or None.")
     trace = _pass("trace", "The plugin's trace pass.")
     reduced = _pass("reduced", "A [reduced] plugin's reduced-resolution trace pass, or None.")
     upsample = _pass("upsample", "A [reduced] plugin's upsample pass, or None.")
@@ -169,7 +170,7 @@ class Renderer:
         self._denoised_spp = None
 
     def remake_plugin_passes(self, plugin: Plugin, params: dict, choices: ResolvedOptions,
-                             remake=("trace", "reduced", "upsample")) -> None:
+                             remake=("prepass", "trace", "reduced", "upsample")) -> None:
         """The plugin's passes (trace, a [reduced] plugin's two) for another manifest or other
         compile-time parameters; a G-buffer made or dropped as the plugin's primary hit needs.
         If one fails to compile, every pass stays as it was."""
@@ -231,9 +232,11 @@ class Renderer:
         params = dict(self.params)
         for name, value in values.items():
             params[name] = resolve_params(self.plugin, self.scene, {name: value})[name]  # the others keep theirs
-        if param_defines(self.plugin, params) != param_defines(self.plugin, self.params):
-            # a compile-time parameter: new trace (and reduced) programs; if one fails, nothing changed
-            self.remake_plugin_passes(self.plugin, params, self.choices, remake=("trace", "reduced"))
+        prepass = self.plugin.prepass
+        if param_defines(self.plugin, params) != param_defines(self.plugin, self.params) or \
+                prepass is not None and prepass.entry_count(params) != prepass.entry_count(self.params):
+            # a compile-time parameter or the prepass's storage: new programs; if one fails, nothing changed
+            self.remake_plugin_passes(self.plugin, params, self.choices, remake=("prepass", "trace", "reduced"))
         self.params = params
         self.param_overrides.update(values)
         self.reset()

@@ -215,7 +215,7 @@ def _bdpt_pair(depth, splats):
     sized = Renderer(scene, size=(24, 24), integrator="bdpt", seed=7, params={"max_depth": depth})
     fixed = Renderer(scene, size=(24, 24), integrator="bdpt", seed=7, params={"max_depth": depth})
     fixed.trace.release()
-    fixed.trace = TracePass(fixed.ctx, fixed.size, fixed.plugin, dict(fixed.defines, BDPT_MAX_DEPTH=64))
+    fixed.trace = TracePass(fixed.ctx, fixed.size, fixed.plugin, dict(fixed.trace.defines, BDPT_MAX_DEPTH=64))
     if not splats:
         for r in (sized, fixed):
             r.trace.splats.add_to = lambda frame: None

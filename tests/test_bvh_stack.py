@@ -47,23 +47,3 @@ def test_bad_stack_setting_is_refused():
         Options(bvh_stack="registers")
 
 
-@pytest.mark.parametrize("vertices", [2, 40])  # some light vertices in shared memory; all of them (max_depth 6)
-def test_bdpt_light_vertices_in_shared_memory_render_the_same_image(vertices):
-    """BDPT_SHARED_VERTICES (plugins/bdpt/bdpt_vertex.glsl): the first light vertices kept in a
-    shared array beside the BVH stack, the rest in the local one, give the all-local image."""
-    from lift_gl.passes.trace import TracePass
-
-    # all of them on a textured scene (four words a vertex), some on the glass-and-gold box
-    scene = load_scene(REPO / ("tests/data/cornell_textured.toml" if vertices == 40 else "scenes/cornell.toml"))
-    images = []
-    for define in ({}, {"BDPT_SHARED_VERTICES": vertices}):
-        r = Renderer(scene, size=(32, 24), integrator="bdpt", seed=5, params={"max_depth": 6},
-                     options=Options(bvh_stack="shared"))
-        if define:
-            r.trace.release()
-            r.trace = TracePass(r.ctx, r.size, r.plugin, dict(r.defines, BDPT_MAX_DEPTH=6, **define), r.choices)
-            assert f"#define BDPT_SHARED_VERTICES {vertices}" in r.trace.source.text
-        images.append(r.render(spp=3))
-        r.release()
-    assert images[0].max() > 0
-    np.testing.assert_allclose(images[1], images[0], rtol=1e-5, atol=1e-6)  # splats: float atomics' order

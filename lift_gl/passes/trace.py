@@ -106,9 +106,23 @@ def param_uniforms(plugin: Plugin, values: dict) -> dict:
     return out
 
 
+def host_defines(ctx, plugin: Plugin, defines: dict, choices: ResolvedOptions) -> tuple[dict, tuple[int, int]]:
+    """The defines and work group that every program around a plugin's code shares (the trace
+    pass's, the prepass's): the primary hit's source, the splat buffer, the BVH stack's place."""
+    defines = dict(defines)
+    if plugin.primary == "gbuffer":
+        defines["PRIMARY_GBUFFER"] = True
+    if plugin.splats:
+        defines.update(splat_defines(ctx))
+    local_size = work_group(choices["bvh_stack"], choices.device)
+    if choices["bvh_stack"] == "shared":
+        defines["LIFT_BVH_SHARED_STACK"] = local_size[0] * local_size[1]
+    return defines, local_size
+
+
 class TracePass:
     name = "trace"
-    inputs = ("scene", "camera", "visibility?")
+    inputs = ("scene", "camera", "visibility?", "prepass?")
     outputs = ("frame",)
 
     def __init__(self, ctx: moderngl.Context, size, plugin: Plugin, defines: dict,
@@ -121,12 +135,9 @@ class TracePass:
         if choices is None:
             choices = resolve(Options(), Device.of(ctx), Workload(path_steps=plugin_path_steps(plugin, defines),
                                                                    splats=plugin.splats))
-        defines = dict(defines)
-        if plugin.primary == "gbuffer":
-            defines["PRIMARY_GBUFFER"] = True
+        defines, self.local_size = host_defines(ctx, plugin, defines, choices)
         self.splats = None
         if plugin.splats:
-            defines.update(splat_defines(ctx))
             self.splats = SplatBuffer(ctx, size)
             self.outputs = ("frame (with splats)",)
         queued = choices["pixel_queue"] == "on"
@@ -134,11 +145,7 @@ class TracePass:
             defines["LIFT_PIXEL_QUEUE"] = True
             if choices.device.software:   # CPU rasterizers (llvmpipe) end long-running loops
                 defines["LIFT_LOOP_LIMITED"] = True
-        # where the BVH stack lives (renderer.explain says it)
-        self.shared_stack = choices["bvh_stack"] == "shared"
-        self.local_size = work_group(choices["bvh_stack"], choices.device)
-        if self.shared_stack:
-            defines["LIFT_BVH_SHARED_STACK"] = self.local_size[0] * self.local_size[1]
+        self.shared_stack = choices["bvh_stack"] == "shared"   # where the BVH stack lives (renderer.explain says it)
         # paths still under way when the queue runs out go on in the next frame (passes/carry.py)
         self.carry = None
         carry = choices["carry_paths"] if queued else "off"

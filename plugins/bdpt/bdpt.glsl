@@ -13,17 +13,24 @@
 // (mirrors, smooth glass) are never joined; the strategies that would need it get weight 0.
 // A distant light is a delta in direction: no camera subpath can hit it (s = 0 gets weight 0),
 // but it can be sampled (s = 1) and can start light subpaths (s >= 2, t = 1).
-// The light subpath is stored; the camera subpath is joined to it as it is traced, one camera
-// vertex at a time, so that it needs no array (bdpt_subpaths.glsl).
-// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, mis_power, only_s, only_depth.
+// Two passes (Davidovic et al. 2014): the prepass (bdpt_light_pass, [prepass] in plugin.toml)
+// traces each pixel sample's light subpath, stores it (bdpt_vertex.glsl) and splats its t = 1
+// joins; the trace pass (radiance) traces the camera subpath and joins each of its vertices to
+// the stored light subpath as it goes, so that it needs no array (bdpt_subpaths.glsl).
+// With cache_connections = M > 0, the s >= 2 joins go to M light vertices drawn from all the
+// frame's light subpaths instead (a light vertex cache, bdpt_cache.glsl).
+// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, mis_power, only_s, only_depth,
+// cache_connections.
 #include "lift/emission.glsl"
 #include "lift/camera_importance.glsl"
 #include "bdpt_vertex.glsl"
 #include "bdpt_mis.glsl"
 #include "bdpt_strategies.glsl"
+#include "bdpt_cache.glsl"
 #include "bdpt_subpaths.glsl"
 
-vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
+// ==== the prepass: the light subpath, stored, and light tracing ====
+void bdpt_light_pass(ivec2 pixel, inout Rng rng) {
     int depth_limit = bdpt_depth_limit();
 #ifdef LIFT_COHERENT_SAMPLING
     // Coherent sampling shares `rng` by tile, so the tile's camera subpaths travel together; its
@@ -33,15 +40,24 @@ vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
 #else
     int light_vertices = light_subpath(depth_limit, rng);
 #endif
+    store_light_subpath_end(light_vertices, rng);
 
     // ---- t = 1: every light vertex seen by the pinhole, splatted ----
     PathVertex y_prev = light_vertex(0);  // each join reads one stored vertex: y_{s-2} is kept from the last
     for (int s = 2; s <= light_vertices && s - 1 <= depth_limit; ++s) {
         PathVertex y = light_vertex(s - 1);
         if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);
+        if (cache_connections > 0 && vertex_connectible(y)) cache_light_vertex(s - 1);  // bdpt_cache.glsl
         y_prev = y;
     }
+}
 
+// ==== the trace pass: the camera subpath, joined to the stored light subpath ====
+vec3 radiance(Ray ray, Hit hit, inout Rng rng) {
+    int light_vertices = stored_light_vertices();
+#ifndef LIFT_COHERENT_SAMPLING
+    rng = stored_light_rng();  // the sample's numbers go on where the light subpath left them
+#endif
     // ---- t >= 2: each camera vertex joined to every light prefix as the camera subpath is traced ----
-    return camera_subpath(ray, hit, depth_limit, light_vertices, rng);
+    return camera_subpath(ray, hit, bdpt_depth_limit(), light_vertices, rng);
 }

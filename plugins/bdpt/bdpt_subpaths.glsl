@@ -1,7 +1,7 @@
 // bdpt_subpaths.glsl: the two random walks. A subpath is extended by BSDF sampling, as pt
 // does; each new vertex records the area density of being reached (pdf_fwd) and the MIS sum
 // of the vertices before its predecessor (mis_sum, bdpt_mis.glsl), which needs the density of
-// each step walked backwards. The light subpath's vertices are stored (bdpt_light); each camera
+// each step walked backwards. The light subpath's vertices are stored (store_light_vertex); each camera
 // vertex is joined to them when it is made (camera_vertex_joins), then only it and its
 // predecessor are kept.
 
@@ -10,7 +10,7 @@
 // included. `beta` is the throughput the ray carries, `pdf_dir` the solid-angle density of its
 // direction; `first_pdf_pos` > 0 means the ray came from the environment's disk, so the first
 // vertex has the disk's density times |cos| there instead; `mis_sum` is vertex 1's.
-// `importance`: a light subpath, stored in bdpt_light; otherwise a camera subpath, whose
+// `importance`: a light subpath, stored (store_light_vertex); otherwise a camera subpath, whose
 // vertices are joined to the light subpath's first light_vertices vertices and add to L.
 int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir, float first_pdf_pos,
                    float mis_sum, bool importance, int light_vertices, inout vec3 L, inout Rng rng) {

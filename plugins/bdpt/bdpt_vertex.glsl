@@ -3,12 +3,12 @@
 // conversion of a direction's density into an area density at the next vertex. Multiple
 // importance sampling compares strategies by these area densities (Veach 1997, sec. 10.2).
 
-// Only the light subpath is stored: the camera subpath is joined to it vertex by vertex as it
-// is traced (bdpt_subpaths.glsl), keeping just its last two vertices in registers. The light
-// subpath lives in a fixed array, so the longest path is a compile-time bound. The host defines
-// BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml) and recompiles when it changes: an array
-// no longer than the paths keeps an invocation's private memory small (local memory on a GPU,
-// the stack on llvmpipe). Longer paths are cut at 64 bounces.
+// Only the light subpath is stored: the prepass traces it (bdpt_light_pass, bdpt.glsl) into
+// the prepass's storage (lift/prepass.glsl: global buffers, entry-major, so that a warp's lanes
+// read each entry side by side), and the trace pass's camera subpath is joined to it vertex by
+// vertex as it is traced (bdpt_subpaths.glsl), keeping just its last two vertices in registers.
+// The host defines BDPT_MAX_DEPTH as max_depth (`define` in plugin.toml); the storage, sized by
+// the manifest's `entries`, holds paths of up to 64 bounces: longer ones are cut there.
 #ifndef BDPT_MAX_DEPTH
 #define BDPT_MAX_DEPTH 64
 #elif BDPT_MAX_DEPTH > 64
@@ -58,103 +58,61 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
     return v;
 }
 
-// Private to each invocation: the light subpath, y0 first. Stored with its three directions
-// in one word each (lift/octahedral.glsl, about 5e-5 rad), 12 words a vertex rather than 18,
-// since on a GPU this array is local memory, read by every join. The words are laid out as
-// uvec4s by hand: NVIDIA's compiler gives each member of a struct in a local array a 16-byte
-// slot of its own (the program binary's `TEMP lmem0[264]` for 33 vertices of 8 members, 4,224
-// bytes an invocation), where 3 uvec4s (4 with textures) a vertex take 1,584 (docs/gpu.md).
-// BDPT_PACK_NORMALS 0 keeps the directions as floats, in a struct (benchmarks/gpu_pt_variants.py
-// times both).
-#ifndef BDPT_PACK_NORMALS
-#define BDPT_PACK_NORMALS 1
-#endif
-#if BDPT_PACK_NORMALS
+// The stored light subpath of this pixel sample, y0 first. Entry 0 holds the random numbers
+// as the light subpath left them (the camera subpath goes on with them: the numbers of one
+// sample are one stream, as when both subpaths were traced in one pass), entry 1 the number
+// of light vertices, then vertex i in BDPT_STORED_WORDS entries from 2 + i * BDPT_STORED_WORDS,
+// its three directions in one word each (lift/octahedral.glsl, about 5e-5 rad): 3 uvec4s a
+// vertex, 4 with textures. plugin.toml's `entries` is the room for 65 vertices of 4 words, and
+// with cache_connections > 0 for the light vertex cache's list after them (bdpt_cache.glsl).
 #include "lift/octahedral.glsl"
 #ifdef HAS_TEXTURES
 #define BDPT_STORED_WORDS 4  // uvec4s a vertex: (p, pdf_fwd), (beta, mis_sum), (ng, ns, wo, tag), tint
 #else
 #define BDPT_STORED_WORDS 3
 #endif
+const int BDPT_RNG_ENTRY = 0;
+const int BDPT_COUNT_ENTRY = 1;
+const int BDPT_FIRST_VERTEX_ENTRY = 2;
 
-// With BDPT_SHARED_VERTICES n > 0, on GPUs (where the host defines LIFT_BVH_SHARED_STACK to
-// the work group's size, one warp) the first n vertices live in shared memory, one column per
-// invocation as the BVH stack does (lift/bvh.glsl), and only the rest in the local array: most
-// light subpaths are short (3.8 vertices on average on Lift's cornell-box, y0 included). Off by
-// default: not yet timed on a GPU (docs/bdpt.md, benchmarks/bdpt_gpu_final.sh times it).
-#ifndef BDPT_SHARED_VERTICES
-#define BDPT_SHARED_VERTICES 0
-#endif
-#if !defined(LIFT_BVH_SHARED_STACK) || BDPT_SHARED_VERTICES <= 0
-#define BDPT_SHARED_WORDS 0
-#elif BDPT_SHARED_VERTICES >= BDPT_LIGHT_VERTICES
-#define BDPT_SHARED_WORDS (BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS)
-#else
-#define BDPT_SHARED_WORDS (BDPT_SHARED_VERTICES * BDPT_STORED_WORDS)
-#endif
-#define BDPT_LOCAL_WORDS (BDPT_LIGHT_VERTICES * BDPT_STORED_WORDS - BDPT_SHARED_WORDS)
-#if BDPT_SHARED_WORDS > 0
-shared uvec4 bdpt_light_shared[BDPT_SHARED_WORDS * LIFT_BVH_SHARED_STACK];
-#endif
-#if BDPT_LOCAL_WORDS > 0
-uvec4 bdpt_light[BDPT_LOCAL_WORDS];
-#endif
-
-// Word k of the stored subpath (vertex k / BDPT_STORED_WORDS). k is the same in every lane of
-// a warp (the joins loop over s in step), so the branch does not diverge. The local index is
-// clamped at 0: NVIDIA's compiler rejects a constant index out of bounds even in a branch that
-// cannot run (light_vertex(0) inlined: error C1068).
-void store_light_word(int k, uvec4 word) {
-#if BDPT_SHARED_WORDS > 0
-    if (k < BDPT_SHARED_WORDS) {
-        bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex] = word;
-        return;
-    }
-#endif
-#if BDPT_LOCAL_WORDS > 0
-    bdpt_light[max(k - BDPT_SHARED_WORDS, 0)] = word;
-#endif
+void store_light_subpath_end(int light_vertices, Rng rng) {
+    prepass_store(BDPT_RNG_ENTRY, uvec4(rng.state, rng.sample_index, rng.ld_seed, rng.ld_pair));
+    prepass_store(BDPT_COUNT_ENTRY, uvec4(uint(light_vertices), 0u, 0u, 0u));
 }
 
-uvec4 light_word(int k) {
-#if BDPT_SHARED_WORDS > 0
-    if (k < BDPT_SHARED_WORDS) return bdpt_light_shared[uint(k) * uint(LIFT_BVH_SHARED_STACK) + gl_LocalInvocationIndex];
-#endif
-#if BDPT_LOCAL_WORDS > 0
-    return bdpt_light[max(k - BDPT_SHARED_WORDS, 0)];
-#else
-    return uvec4(0u);
-#endif
+int stored_light_vertices() { return int(prepass_load(BDPT_COUNT_ENTRY).x); }
+
+Rng stored_light_rng() {
+    uvec4 words = prepass_load(BDPT_RNG_ENTRY);
+    return Rng(words.x, words.y, words.z, words.w);
 }
 
 void store_light_vertex(int i, PathVertex v) {
-    int k = i * BDPT_STORED_WORDS;
-    store_light_word(k, floatBitsToUint(vec4(v.p, v.pdf_fwd)));
-    store_light_word(k + 1, floatBitsToUint(vec4(v.beta, v.mis_sum)));
-    store_light_word(k + 2, uvec4(pack_unit_vector(v.ng), pack_unit_vector(v.ns), pack_unit_vector(v.wo), v.tag));
+    int k = BDPT_FIRST_VERTEX_ENTRY + i * BDPT_STORED_WORDS;
+    prepass_store(k, floatBitsToUint(vec4(v.p, v.pdf_fwd)));
+    prepass_store(k + 1, floatBitsToUint(vec4(v.beta, v.mis_sum)));
+    prepass_store(k + 2, uvec4(pack_unit_vector(v.ng), pack_unit_vector(v.ns), pack_unit_vector(v.wo), v.tag));
 #ifdef HAS_TEXTURES
-    store_light_word(k + 3, floatBitsToUint(vec4(v.tint, 0.0)));
+    prepass_store(k + 3, floatBitsToUint(vec4(v.tint, 0.0)));
 #endif
 }
 
-PathVertex light_vertex(int i) {
-    int k = i * BDPT_STORED_WORDS;
-    vec4 p_pdf = uintBitsToFloat(light_word(k));
-    vec4 beta_mis = uintBitsToFloat(light_word(k + 1));
-    uvec4 words = light_word(k + 2);
+// Light vertex i of pixel sample `pixel_sample` (the light vertex cache reads other samples'), and of this one.
+PathVertex light_vertex_at(uint pixel_sample, int i) {
+    int k = BDPT_FIRST_VERTEX_ENTRY + i * BDPT_STORED_WORDS;
+    vec4 p_pdf = uintBitsToFloat(prepass_load_at(k, pixel_sample));
+    vec4 beta_mis = uintBitsToFloat(prepass_load_at(k + 1, pixel_sample));
+    uvec4 words = prepass_load_at(k + 2, pixel_sample);
     PathVertex v = path_vertex(p_pdf.xyz, unpack_unit_vector(words.x), unpack_unit_vector(words.y),
                                unpack_unit_vector(words.z), beta_mis.xyz, p_pdf.w, words.w);
     v.mis_sum = beta_mis.w;
 #ifdef HAS_TEXTURES
-    v.tint = uintBitsToFloat(light_word(k + 3)).xyz;
+    v.tint = uintBitsToFloat(prepass_load_at(k + 3, pixel_sample)).xyz;
 #endif
     return v;
 }
-#else
-PathVertex bdpt_light[BDPT_LIGHT_VERTICES];
-void store_light_vertex(int i, PathVertex v) { bdpt_light[i] = v; }
-PathVertex light_vertex(int i) { return bdpt_light[i]; }
-#endif
+
+PathVertex light_vertex(int i) { return light_vertex_at(lift_prepass_sample, i); }
 
 uint vertex_kind(PathVertex v) { return v.tag >> 1u & 7u; }
 uint vertex_material(PathVertex v) { return v.tag >> 4u; }

@@ -25,6 +25,7 @@
 #include "lift/lights.glsl"
 #include "lift/finite.glsl"
 #include "lift/splat.glsl"
+#include "lift/prepass.glsl"
 #include "lift/host_frame.glsl"
 #if !defined(PRIMARY_GBUFFER) && defined(HAS_PIXEL_FILTER)
 #include "lift/pixel_filter.glsl"

@@ -34,13 +34,12 @@ uniform usampler2D u_visibility;
 #endif
 #include "lift/host_tiles.glsl"
 #include "lift/sample_guard.glsl"
+#include "lift/host_report.glsl"
 
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS) && defined(LIFT_PIXEL_QUEUE)
 #define LIFT_QUEUED   // the pixel queue runs instead of main()'s loop
 #endif
 
-Rng lift_sample_rng(ivec2 pixel, uint s);
-void lift_report_invocation();
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS)
 void lift_trace_path_steps(ivec2 pixel, inout vec3 sum, inout float valid);
 #endif
@@ -64,6 +63,9 @@ void main() {
 #else
     for (uint s = 0u; s < u_samples; ++s) {
         Rng rng = lift_sample_rng(pixel, s);
+#ifdef LIFT_PREPASS
+        lift_prepass_begin(s);  // the storage the plugin's prepass left for this sample (lift/prepass.glsl)
+#endif
         Ray ray;
         Hit hit;
 #ifdef PRIMARY_GBUFFER
@@ -94,30 +96,6 @@ void main() {
 }
 
 // ---- what main() calls ----
-
-// The random numbers of this frame's sample s of a pixel.
-Rng lift_sample_rng(ivec2 pixel, uint s) {
-#ifdef LIFT_COHERENT_SAMPLING
-    lift_own_rng = rng_init_pixel_sample(uvec2(pixel), u_frame, s, u_sample_base + s, u_seed ^ 0x68bc21ebu, u_stream);
-#endif
-    return rng_init_pixel_sample(lift_rng_key(uvec2(pixel)), u_frame, s, u_sample_base + s, u_seed, u_stream);
-}
-
-// What an invocation reports once, at its end: its rays (LIFT_COUNT_RAYS: a 64-bit count in two
-// words, a carry into stats[3] when stats[2] wraps around) and whether the driver's loop budget
-// cut its loops short (a loop's first iteration always runs, so the probe needs two to tell:
-// kept, but counted and reported as stats[4]).
-void lift_report_invocation() {
-#ifdef LIFT_COUNT_RAYS
-    if (lift_rays_traced > 0u) {
-        uint before = atomicAdd(stats[2], lift_rays_traced);
-        if (before > 0xffffffffu - lift_rays_traced) atomicAdd(stats[3], 1u);
-    }
-#endif
-    uint probe = 0u;
-    for (uint i = 0u; i < u_samples + 1u; ++i) probe += 1u;
-    if (probe < u_samples + 1u) atomicAdd(stats[4], 1u);
-}
 
 #if defined(PRIMARY_GBUFFER) && defined(LIFT_PATH_STEPS)
 // ==== alternative: the path-steps loop ====
