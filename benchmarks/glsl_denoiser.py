@@ -51,8 +51,8 @@ RANDOM_MODELS = {
     "random-small": dict(encoder=(16, 32, 48, 64), bottleneck=80),
     "random-oidn": dict(encoder=(32, 48, 64, 80), bottleneck=96),
     "random-unet": dict(encoder=(32, 48, 64, 80), bottleneck=80, colour_curve=True),
-    "random-rt": dict(encoder=(32, 48, 64), bottleneck=64, arch="rt", colour_curve=True),
-    "random-rt-temporal": dict(encoder=(32, 48, 64), bottleneck=64, arch="rt", colour_curve=True, in_channels=13),
+    "random-rt": dict(encoder=(24, 32, 48), bottleneck=48, arch="rt", colour_curve=True),
+    "random-rt-temporal": dict(encoder=(24, 32, 48), bottleneck=48, arch="rt", colour_curve=True, in_channels=13),
 }
 
 

@@ -14,7 +14,7 @@ channels, and on the previous colour of a 13-channel temporal input; eps * exp(y
 that a benchmark runs the graph a trained model exports. Weights are He-initialised
 (std sqrt(2 / fan_in)) so activations stay near 1 through the depth.
 
-    random_unet(encoder=(32, 48, 64), bottleneck=64, arch="rt", colour_curve=True)  # the rt model's graph
+    random_unet(encoder=(24, 32, 48), bottleneck=48, arch="rt", colour_curve=True)  # the rt model's graph
 """
 from __future__ import annotations
 

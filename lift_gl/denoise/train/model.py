@@ -43,8 +43,8 @@ from torch.nn import functional as F
 
 ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first model: 16, 32, 48, 64)
 BOTTLENECK = 80  # at 1/16
-RT_ENCODER = (32, 48, 64)  # the rt model's channels at 1/2, 1/4, 1/8
-RT_BOTTLENECK = 64  # at 1/16
+RT_ENCODER = (24, 32, 48)  # the rt model's channels at 1/2, 1/4, 1/8
+RT_BOTTLENECK = 48  # at 1/16
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")
 MODELS = ("unet", "rt")
