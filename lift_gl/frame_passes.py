@@ -171,13 +171,20 @@ def make_denoise(r) -> DenoisePass:
         except (TypeError, ValueError) as exc:
             raise DenoiserError(f"à-trous settings: {exc}") from None
         return DenoisePass(r.ctx, r.size, "atrous", settings=atrous)
+    options = dict(settings.options)
+    if settings.denoiser == "glsl":  # its shaders run in the renderer's context, not a second one
+        from .denoise.glsl_denoiser import DEFAULT_MODEL, model_file
+
+        options.setdefault("ctx", r.ctx)
+        options.setdefault("ensemble", 1)  # the texture road runs the network once (passes/denoise.py)
+        options.setdefault("precision", r.choices["glsl_precision"])
+        every = model_file(r.choices["realtime_model"])
+        options.setdefault("model_path", every if settings.mode == "every" else DEFAULT_MODEL)
+        if r.numpy_denoiser is not None and r.numpy_denoiser.model_path != options["model_path"]:
+            r.numpy_denoiser = None  # the mode changed the network (realtime_model)
     if r.numpy_denoiser is None:
         from .denoise import get_denoiser
 
-        options = dict(settings.options)
-        if settings.denoiser == "glsl":  # its shaders run in the renderer's context, not a second one
-            options.setdefault("ctx", r.ctx)
-            options.setdefault("ensemble", 1)  # the texture road runs the network once (passes/denoise.py)
         r.numpy_denoiser = get_denoiser(settings.denoiser, **options)
     return DenoisePass(r.ctx, r.size, settings.denoiser, numpy_denoiser=r.numpy_denoiser)
 
@@ -190,6 +197,9 @@ def denoise_why(r, made) -> str:
         how = (f"à-trous on the GPU: mean / albedo, {s.iterations} iterations of SVGF edge-stopping "
                f"(sigma luminance {s.sigma_luminance} x sqrt(variance from the half-buffers), normal "
                f"{s.sigma_normal}, depth {s.sigma_depth}), x albedo")
+    elif made.net is not None:  # the glsl network on the renderer's textures
+        net = made.net.net
+        how = f"the network {net.model_path.name} in GLSL ({net.precision} tensors), no readback"
     else:
         how = f"{r.denoise.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
     from .frame import frame_guides  # frame.py imports this module

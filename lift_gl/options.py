@@ -82,6 +82,13 @@ class Options:
     coherent_interleave: int = _option(1, help="with coherent_sampling: a tile's pixels are every k-th pixel of a "
                                                "block k tiles wide (interleaved sampling: neighbours independent)",
                                        minimum=1, maximum=8)
+    glsl_precision: str = _option(AUTO, ("fp32", "fp16"),
+                                  "the glsl denoiser's tensors: float32, or half (rgba16f, the arithmetic float32: "
+                                  "half the bytes each layer moves) (auto: fp16 on GPUs, fp32 on CPU rasterizers)")
+    realtime_model: str = _option(AUTO, ("unet", "rt"),
+                                  "the network the glsl denoiser runs every frame (denoise every): the quality U-Net "
+                                  "of final images, or the real-time rt, a quarter of its work (auto: rt where its "
+                                  "trained weights are installed, assets/denoiser/lift_rt.onnx, else the unet)")
     max_buffer_bytes: object = _option(AUTO, help="the largest scene storage buffer, in bytes: a scene that needs "
                                                   "more is split into several (auto: the GL's limit, "
                                                   "GL_MAX_SHADER_STORAGE_BLOCK_SIZE)",
@@ -346,9 +353,23 @@ def resolve(options: Options, device: Device, work: Workload = Workload()) -> Re
     coherent = c["coherent_sampling"].value == "on"
     c["coherent_interleave"] = Choice(o.coherent_interleave, o.coherent_interleave if coherent else None,
                                       "" if coherent else "no coherent sampling")
+    c["glsl_precision"] = _auto(o.glsl_precision, device, "fp16", "fp32",
+                                   "on GPUs half storage halves each layer's memory traffic",
+                                   "a CPU rasterizer's cost is the arithmetic; half storage only adds conversions")
+    c["realtime_model"] = _realtime_model(o.realtime_model)
     c["max_buffer_bytes"] = Choice(o.max_buffer_bytes, o.max_buffer_bytes,
                                    "the GL's limit" if o.max_buffer_bytes == AUTO else "")
     return ResolvedOptions(options, device, c, gbuffer_stack)
+
+
+def _realtime_model(asked: str) -> Choice:
+    from .denoise.glsl_denoiser import model_file
+
+    if asked != AUTO:
+        return Choice(asked, asked)
+    if model_file("rt").is_file():
+        return Choice(asked, "rt", "the real-time network's weights are installed")
+    return Choice(asked, "unet", f"no trained real-time network ({model_file('rt').name}) is installed")
 
 
 def _light_selection(asked: str, work: Workload) -> Choice:

@@ -333,7 +333,7 @@ class Renderer:
         start = time.perf_counter()
         gbuffer = self.gbuffer if frame_guides else frame.guides(self)
         with self.timed("denoise"):
-            self.denoise_pass.run(self.accumulate, gbuffer)
+            self.denoise_pass.run(self.accumulate, gbuffer, frame_guides)  # history: the frame's own guides
         if not frame_guides:
             frame.guides_done(self)
         self._denoised_on_frame_guides = frame_guides

@@ -100,6 +100,8 @@ def test_export_matches_torch_and_names_the_inputs(name, temporal, tmp_path):
     assert side["input"]["channels"] == list(input_channels(temporal))
     assert side["architecture"]["name"] == name and side["architecture"]["temporal"] == temporal
     assert side["architecture"]["macs_per_pixel"] == macs_per_pixel(model)
+    assert side["architecture"]["inputs"] == list(input_channels(temporal))
+    assert model_from_arch(side["architecture"]).arch == model.arch  # the sidecar rebuilds the model
     x = np.random.default_rng(0).random((1, model.in_channels, 32, 48), dtype=np.float32)
     y = ort.InferenceSession(str(tmp_path / "m.onnx")).run(None, {"input": x})[0]
     with torch.no_grad():

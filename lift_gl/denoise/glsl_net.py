@@ -4,12 +4,16 @@ the denoiser on any GPU (or llvmpipe) without CUDA or onnxruntime.
     net = GlslNet(ctx, "assets/denoiser/lift_unet.onnx")
     y = net.run_numpy(x)            # (1, C, H, W) float32 -> (1, C_out, H, W), any H and W
     net.allocate(width, height)     # or stay on the GPU: sizes multiples of net.multiple
-    net.input_texture.write(...)    # rgba32f image2DArray, channel c in layer c // 4
+    net.input_texture.write(...)    # image2DArray (rgba32f, or rgba16f), channel c in layer c // 4
     net.run(); net.output_texture   # the same layout; row 0 is the top of the picture
 
 The graph is read by lift_gl/denoise/onnx_graph.py into steps; here each step becomes one
 compute dispatch (shaders/denoise/). Weights are uploaded once; intermediate textures are
 allocated once per resolution and reused once their last reader has run.
+
+`precision`: the tensors' storage. "fp32" (rgba32f), "fp16" (rgba16f: half the bytes moved;
+each stored value rounded to 11 significant bits, the arithmetic and the weights staying
+float32), "auto": fp16 on a GPU, fp32 on a CPU rasterizer (`default_precision` says why).
 """
 from __future__ import annotations
 
@@ -37,6 +41,33 @@ def default_shape(ctx) -> tuple[int, int]:
     from ..gl.context import is_software
 
     return (DEFAULT_OUT_BLOCK, DEFAULT_PIXELS) if is_software(ctx) else (GPU_OUT_BLOCK, GPU_PIXELS)
+
+
+PRECISIONS = ("auto", "fp32", "fp16")
+TENSOR_FORMATS = {"fp32": ("rgba32f", "f4", np.float32), "fp16": ("rgba16f", "f2", np.float16)}
+HALF_MAX = 65504.0  # half's largest finite value: fp16 tensors saturate there
+
+
+def default_precision(ctx) -> tuple[str, str]:
+    """(precision, why) for precision "auto" on this context."""
+    from ..gl.context import is_software
+
+    if is_software(ctx):
+        return "fp32", ("fp32 tensors: a CPU rasterizer gains nothing from half storage (its cost is the "
+                        "arithmetic; each half load and store is one more conversion)")
+    return "fp16", ("fp16 tensors (rgba16f) on a GPU: half the bytes each dispatch moves, the arithmetic "
+                    "and the weights float32")
+
+
+def resolve_precision(ctx, precision: str) -> tuple[str, str]:
+    """(fp32 or fp16, why) for an asked precision (one of PRECISIONS)."""
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, not {precision!r}")
+    if precision == "auto":
+        return default_precision(ctx)
+    return precision, f"{precision} tensors, as asked"
+
+
 NEAREST_MODES = ("floor", "ceil", "round_prefer_floor", "round_prefer_ceil")
 
 
@@ -66,10 +97,17 @@ def pack_weights(weight: np.ndarray, part_channels: list[int], out_block: int) -
 class GlslNet:
     """The steps of an ONNX model as compute dispatches on a moderngl context."""
 
-    def __init__(self, ctx, model_path, out_block: int | None = None, pixels: int | None = None):
-        """out_block, pixels: the conv kernel's shape; None: default_shape(ctx)."""
+    def __init__(self, ctx, model_path, out_block: int | None = None, pixels: int | None = None,
+                 precision: str = "auto"):
+        """out_block, pixels: the conv kernel's shape; None: default_shape(ctx). precision:
+        one of PRECISIONS (module docstring); self.precision_why says why the one chosen."""
         self.ctx = ctx
         self.model_path = Path(model_path)
+        self.precision, self.precision_why = resolve_precision(ctx, precision)
+        self.tensor_format, self._texture_dtype, self._numpy_dtype = TENSOR_FORMATS[self.precision]
+        # what a shader writing or reading these tensors is compiled with (shaders/denoise/tensor.glsl)
+        self.tensor_defines = {"TENSOR_FORMAT": self.tensor_format,
+                               **({"TENSOR_HALF": 1} if self.precision == "fp16" else {})}
         self.plan = Plan(self.model_path)
         default_block, default_pixels = default_shape(ctx)
         self.out_block = int(default_block if out_block is None else out_block)
@@ -84,7 +122,7 @@ class GlslNet:
                 raise ModelError(f"{step.output!r} reads {len(self._inputs(step))} concatenated tensors; "
                                  f"at most {MAX_PARTS} are supported", self.model_path)
             self._program(step)  # compile everything now: errors at load, not at the first frame
-            if step.kind == "conv":
+            if step.kind in ("conv", "conv_transpose"):
                 packed, groups = pack_weights(step.params["weight"], step.params["part_channels"], self.out_block)
                 bias = np.zeros((groups * self.out_block * 4,), np.float32)
                 bias[:len(step.params["bias"])] = step.params["bias"]
@@ -103,13 +141,20 @@ class GlslNet:
         return names
 
     def _program(self, step: Step):
-        defines = {"EPILOGUE": " ".join(step.epilogue) or "/* none */"}
+        defines = {"EPILOGUE": " ".join(step.epilogue) or "/* none */", **self.tensor_defines}
         if step.kind == "conv":
             kh, kw = step.params["weight"].shape[2:]
             parts = step.params["part_channels"]
             defines.update(KERNEL_H=kh, KERNEL_W=kw, PAD_TOP=step.params["pad"][0], PAD_LEFT=step.params["pad"][1],
-                           OUT_BLOCK=self.out_block, PIXELS=self.pixels, NUM_PARTS=len(parts))
+                           STRIDE=step.params["stride"], OUT_BLOCK=self.out_block, PIXELS=self.pixels,
+                           NUM_PARTS=len(parts))
+            if step.prologue:
+                defines.update(PROLOGUE=" ".join(step.prologue), PROLOGUE_CHANNELS=parts[0])
             source = "conv.comp"
+        elif step.kind == "conv_transpose":
+            defines.update(STRIDE=step.params["stride"], OUT_BLOCK=self.out_block,
+                           NUM_PARTS=len(step.params["part_channels"]))
+            source = "conv_transpose.comp"
         elif step.kind in ("map", "binary"):
             source = "pointwise.comp"
             if step.kind == "binary":
@@ -162,7 +207,7 @@ class GlslNet:
 
     def _new_texture(self, shape):
         width, height, count = shape
-        texture = self.ctx.texture_array((width, height, count), 4, dtype="f4")
+        texture = self.ctx.texture_array((width, height, count), 4, dtype=self._texture_dtype)
         self._owned.append(texture)
         return texture
 
@@ -175,13 +220,14 @@ class GlslNet:
         return self._textures[self.plan.output_name]
 
     # ---- running ----
-    def run(self) -> None:
-        """All steps, on the textures of the last allocate()."""
+    def run(self, step_timers=None) -> None:
+        """All steps, on the textures of the last allocate(); `step_timers`, one context
+        manager a step (passes.common.GpuTimer), times each dispatch (a benchmark's)."""
         if self.size is None:
             raise RuntimeError("allocate(width, height) first")
         width, height = self.size
         values = self.plan.values
-        for step in self.plan.steps:
+        for index, step in enumerate(self.plan.steps):
             program = self._program(step)
             out = values[step.output]
             out_w, out_h = int(width * out.scale), int(height * out.scale)
@@ -192,7 +238,9 @@ class GlslNet:
                 self._textures[name].bind_to_image(unit, read=True, write=False)
             self._textures[step.output].bind_to_image(7, read=False, write=True)
             z = out_layers
-            if step.kind == "conv":
+            if step.kind in ("conv", "conv_transpose"):
+                source = values[self._inputs(step)[0]]
+                set_uniform(program, "u_in_size", (int(width * source.scale), int(height * source.scale)))
                 weights, bias = self._weights[id(step)]
                 weights.bind_to_storage_buffer(STORAGE_BUFFERS["net_weights"])
                 bias.bind_to_storage_buffer(STORAGE_BUFFERS["net_bias"])
@@ -215,20 +263,28 @@ class GlslNet:
                 set_uniform(program, "u_coord_y", _coordinate_map(step.params, in_h, out_h))
                 set_uniform(program, "u_nearest_mode", NEAREST_MODES.index(step.params["nearest"]))
             columns = -(-out_w // self.pixels) if step.kind == "conv" else out_w
-            program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
+            if step_timers is None:
+                program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
+            else:
+                with step_timers[index]:
+                    program.run(-(-columns // LOCAL_SIZE), -(-out_h // LOCAL_SIZE), z)
             # the next step reads what this one wrote through image loads
             self.ctx.memory_barrier()
 
     def write_input(self, x: np.ndarray) -> None:
         """(C, H, W) float32 at the allocated size into the input texture."""
-        self.input_texture.write(to_layers(x).tobytes())
+        tensor = to_layers(x)
+        if self.precision == "fp16":  # saturate as the shaders' stores do (tensor.glsl TENSOR_HALF)
+            tensor = np.clip(tensor, -HALF_MAX, HALF_MAX)
+        self.input_texture.write(tensor.astype(self._numpy_dtype).tobytes())
 
     def read_output(self) -> np.ndarray:
         """The output texture as (C_out, H, W) float32."""
         width, height = self.size
         count = layers(self.output_channels)
-        data = np.frombuffer(self.output_texture.read(), np.float32).reshape(count, height, width, 4)
-        return np.ascontiguousarray(data.transpose(0, 3, 1, 2).reshape(count * 4, height, width)[:self.output_channels])
+        data = np.frombuffer(self.output_texture.read(), self._numpy_dtype).reshape(count, height, width, 4)
+        data = data.transpose(0, 3, 1, 2).reshape(count * 4, height, width)[:self.output_channels]
+        return np.ascontiguousarray(data, dtype=np.float32)
 
     def run_numpy(self, x: np.ndarray) -> np.ndarray:
         """(1, C, H, W) float32 of any size -> (1, C_out, H, W): padded at the bottom and right

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import LiftError
 from .dihedral import ENSEMBLE_SIZES, ensemble_mean, sidecar_ensemble
-from .model_io import checked_color, network_input, network_output
+from .model_io import TEMPORAL_CHANNELS, checked_color, network_input, network_output
 from .tiling import pad_to_multiple, run_tiled
 
 DEFAULT_MODEL = Path(__file__).resolve().parents[2] / "assets" / "denoiser" / "lift_unet.onnx"
@@ -112,12 +112,21 @@ class OnnxDenoiser:
     def _run(self, x: np.ndarray) -> np.ndarray:
         return self._session.run(None, {"input": x})[0]
 
-    def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
-        """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this model."""
+    @property
+    def temporal(self) -> bool:
+        """Whether the model takes the previous frame (model_io.py: 13 input channels)."""
+        if self._session is None:
+            self._load()
+        return self._session.get_inputs()[0].shape[1] == TEMPORAL_CHANNELS
+
+    def denoise(self, color, albedo, normal, depth=None, variance=None, previous=None, valid=None) -> np.ndarray:
+        """Denoised linear radiance (H, W, 3) float32; depth and variance are not used by this
+        model; previous (H, W, 3: the last denoised frame reprojected here) and valid (H, W:
+        1 where it holds, all 0 when absent) feed a temporal model and are ignored by others."""
         if self._session is None:
             self._load()
         color = checked_color(color, albedo, normal)
-        x, exposure = network_input(color, albedo, normal)  # one exposure for every mirror image
+        x, exposure = network_input(color, albedo, normal, previous, valid, self.temporal)  # one exposure for every mirror image
         y = ensemble_mean(self._run_padded, x, self.ensemble)
         return network_output(y, exposure, albedo)
 

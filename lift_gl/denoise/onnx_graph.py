@@ -1,13 +1,19 @@
 """An ONNX convolutional network read into a plan of GPU steps (lift_gl/denoise/glsl_net.py runs it).
 
-The plan covers what a U-Net denoiser uses: Conv (stride 1, same-size padding, group 1),
-MaxPool / AveragePool (kernel = stride, no padding), Resize / Upsample by an integer factor
-(nearest or linear), Concat and Slice on channels, Add / Sub / Mul / Div of two tensors or of
-a tensor and a scalar, and pointwise Relu, LeakyRelu, Clip, Log, Exp, Sqrt, Sigmoid, Tanh,
-Cast (to float), Identity. Anything else is one ModelError naming the op, node and file.
+The plan covers what a U-Net denoiser uses: Conv (group 1, a square stride s with the
+padding that gives size / s, so stride 1 keeps the size), ConvTranspose (kernel = stride, no
+padding: a learned depth-to-space), MaxPool / AveragePool (kernel = stride, no padding),
+Resize / Upsample by an integer factor (nearest or linear), Concat and Slice on channels,
+Add / Sub / Mul / Div of two tensors or of a tensor and a scalar, and pointwise Relu,
+LeakyRelu, Clip, Log, Exp, Sqrt, Sigmoid, Tanh, Cast (to float), Identity. Anything else is
+one ModelError naming the op, node and file.
 
-Pointwise ops right after a Conv (its only consumer) become the Conv's epilogue, and Concat
-costs nothing when only convolutions read it: a Conv reads its input in parts.
+Fusions, each saving a dispatch and a round trip of a tensor through memory:
+- pointwise ops right after a Conv (its only consumer) become the Conv's epilogue;
+- Concat costs nothing when only convolutions read it: a Conv reads its input in parts;
+- the input transform (channel slices of the input, some through pointwise ops, concatenated
+  back in order: the colour curve of lift_gl/denoise/train/model.py) becomes one map, and a
+  map read only by a Conv becomes that Conv's prologue, applied to each texel it loads.
 """
 from __future__ import annotations
 
@@ -39,13 +45,17 @@ class Value:
 
 @dataclass
 class Step:
-    """One compute dispatch: `kind` is conv, map, binary, gather, pool or resize."""
+    """One compute dispatch: `kind` is conv, conv_transpose, map, binary, gather, pool or resize.
+
+    GLSL statements act on `v` (a vec4 of channels 4 layer .. 4 layer + 3, `layer` in scope):
+    the epilogue on each value stored, a conv's prologue on each input texel it loads."""
 
     kind: str
     inputs: list[str]
     output: str
-    epilogue: list[str] = field(default_factory=list)  # GLSL statements on `v` (vec4)
+    epilogue: list[str] = field(default_factory=list)
     params: dict = field(default_factory=dict)
+    prologue: list[str] = field(default_factory=list)
 
 
 # pointwise ops with no constant operand: their GLSL statement on `v`
@@ -157,7 +167,7 @@ class Plan:
         """A pointwise op: fused into the step that made `source` when nothing else reads it."""
         out = node.output[0]
         producer = self._producer.get(source)
-        if (producer is not None and producer.kind in ("conv", "map", "binary")
+        if (producer is not None and producer.kind in ("conv", "conv_transpose", "map", "binary")
                 and self.consumers.get(source, 0) == 1 and source != self.output_name):
             producer.epilogue.append(statement)
             producer.output = out
@@ -200,6 +210,8 @@ class Plan:
             self._binary(node, op)
         elif op == "Conv":
             self._conv(node, attrs)
+        elif op == "ConvTranspose":
+            self._conv_transpose(node, attrs)
         elif op in ("MaxPool", "AveragePool"):
             self._pool(node, op, attrs)
         elif op in ("Resize", "Upsample"):
@@ -210,7 +222,7 @@ class Plan:
             self._slice(node)
         else:
             raise ModelError(f"node {node.name or node.output[0]!r}: op {op} is not supported by the GLSL "
-                             "executor (it runs Conv, MaxPool, AveragePool, Resize, Upsample, Concat, Slice, "
+                             "executor (it runs Conv, ConvTranspose, MaxPool, AveragePool, Resize, Upsample, Concat, Slice, "
                              "Add, Sub, Mul, Div, Relu, LeakyRelu, Clip, Log, Exp, Sqrt, Sigmoid, Tanh, "
                              "Cast, Identity)", self.path)
 
@@ -239,8 +251,10 @@ class Plan:
         out_ch, in_ch, kh, kw = weight.shape
         if attrs.get("group", 1) != 1:
             raise self._error(node, f"group = {attrs['group']} is not supported (only 1)")
-        if any(s != 1 for s in attrs.get("strides", [1, 1])) or any(d != 1 for d in attrs.get("dilations", [1, 1])):
-            raise self._error(node, "only strides 1 and dilations 1 are supported")
+        strides = list(attrs.get("strides", [1, 1]))
+        if len(set(strides)) != 1 or any(d != 1 for d in attrs.get("dilations", [1, 1])):
+            raise self._error(node, f"only equal strides and dilations 1 are supported, not strides {strides}")
+        stride = int(strides[0])
         auto_pad = attrs.get("auto_pad", b"NOTSET")
         auto_pad = auto_pad.decode() if isinstance(auto_pad, bytes) else auto_pad
         if auto_pad in ("SAME_UPPER", "SAME_LOWER"):
@@ -250,17 +264,58 @@ class Plan:
             pads = list(attrs.get("pads", [0, 0, 0, 0]))
         else:
             raise self._error(node, f"auto_pad {auto_pad} is not supported")
-        if pads[0] + pads[2] != kh - 1 or pads[1] + pads[3] != kw - 1:
-            raise self._error(node, f"pads {pads} do not keep the image size for a {kh}x{kw} kernel")
+        # the output is size / stride for every size that is a multiple of the stride exactly when
+        # k - s <= padding < k (floor((n + padding - k) / s) + 1 = n / s); stride 1: "same" padding
+        if not all(k - stride <= p0 + p1 < k for k, p0, p1 in ((kh, pads[0], pads[2]), (kw, pads[1], pads[3]))):
+            raise self._error(node, f"pads {pads} do not make the image size / {stride} for a {kh}x{kw} kernel "
+                                    f"of stride {stride}")
         source = self._tensor(node, node.input[0])
-        parts = source.parts if source.parts is not None else [node.input[0]]
         if source.channels != in_ch:
             raise self._error(node, f"weights expect {in_ch} input channels, the input has {source.channels}")
+        parts, prologue = self._conv_source(node.input[0])
         bias = np.zeros(out_ch, np.float32) if bias is None else bias.astype(np.float32)
-        self._emit(Step("conv", list(parts), node.output[0],
+        self._emit(Step("conv", list(parts), node.output[0], prologue=prologue,
                         params={"weight": weight.astype(np.float32), "bias": bias, "pad": (pads[0], pads[1]),
-                                "part_channels": [self.values[p].channels for p in parts]}),
-                   out_ch, source.scale)
+                                "stride": stride, "part_channels": [self.values[p].channels for p in parts]}),
+                   out_ch, source.scale / stride)
+
+    def _conv_source(self, name: str) -> tuple[list[str], list[str]]:
+        """The images a conv reads and the prologue on their texels: a map that only this conv
+        reads is folded in (the conv applies its statements to the map's source as it loads)."""
+        value = self.values[name]
+        if value.parts is not None:
+            return list(value.parts), []
+        producer = self._producer.get(name)
+        if (producer is not None and producer.kind == "map" and self.consumers.get(name, 0) == 1
+                and name != self.output_name and self.values[producer.inputs[0]].parts is None):
+            self.steps.remove(producer)
+            del self.values[name], self._producer[name]
+            return [producer.inputs[0]], list(producer.epilogue)
+        return [name], []
+
+    def _conv_transpose(self, node, attrs) -> None:
+        weight = self._const(node, node.input[1])
+        if weight is None or weight.ndim != 4:
+            raise self._error(node, "the weights must be a 4-D constant tensor")
+        in_ch, out_ch, kh, kw = weight.shape  # ONNX: (C_in, C_out / group, kH, kW)
+        strides = list(attrs.get("strides", [1, 1]))
+        if (attrs.get("group", 1) != 1 or [kh, kw] != strides or kh != kw or any(attrs.get("pads", [0] * 4))
+                or any(attrs.get("output_padding", [0, 0])) or "output_shape" in attrs
+                or any(d != 1 for d in attrs.get("dilations", [1, 1]))):
+            raise self._error(node, f"only a square kernel equal to its stride, group 1, without padding is "
+                                    f"supported (kernel {kh}x{kw}, strides {strides}, pads {attrs.get('pads')})")
+        source = self._tensor(node, node.input[0])
+        if source.channels != in_ch:
+            raise self._error(node, f"weights expect {in_ch} input channels, the input has {source.channels}")
+        parts = source.parts if source.parts is not None else [node.input[0]]
+        bias = self._const(node, node.input[2]) if len(node.input) > 2 and node.input[2] else None
+        bias = np.zeros(out_ch, np.float32) if bias is None else bias.astype(np.float32)
+        # output pixel (y, x) is bias + W[:, :, y % s, x % s]^T . input(y / s, x / s): stored as a
+        # conv's (O, I, kH, kW) weights, tap (ky, kx) chosen by the output pixel
+        self._emit(Step("conv_transpose", list(parts), node.output[0],
+                        params={"weight": np.ascontiguousarray(weight.transpose(1, 0, 2, 3)).astype(np.float32),
+                                "bias": bias, "stride": kh, "part_channels": [self.values[p].channels for p in parts]}),
+                   out_ch, source.scale * kh)
 
     def _pool(self, node, op: str, attrs) -> None:
         kernel = list(attrs.get("kernel_shape", []))
@@ -321,8 +376,58 @@ class Plan:
         scales = {self.values[p].scale for p in parts}
         if len(scales) != 1:
             raise self._error(node, "the concatenated tensors have different sizes")
+        if self._fuse_channel_map(node.output[0], parts):
+            return
         self.values[node.output[0]] = Value(node.output[0], sum(self.values[p].channels for p in parts),
                                             scales.pop(), parts=parts)
+
+    def _channel_range(self, name: str):
+        """(source, first, end, statements) when `name` is a slice of channels first..end - 1
+        (step 1) of a stored tensor, possibly through a map, each step read only once."""
+        if self.consumers.get(name, 0) != 1 or name == self.output_name:
+            return None
+        step = self._producer.get(name)
+        statements = []
+        if step is not None and step.kind == "map":
+            statements = step.epilogue
+            inner = step.inputs[0]
+            if self.consumers.get(inner, 0) != 1:
+                return None
+            step = self._producer.get(inner)
+        if step is None or step.kind != "gather" or step.params["step"] != 1 or step.epilogue:
+            return None
+        source = step.inputs[0]
+        if self.values[source].parts is not None:
+            return None
+        first = step.params["start"]
+        return source, first, first + self.values[step.output].channels, statements
+
+    def _fuse_channel_map(self, out: str, parts: list[str]) -> bool:
+        """A Concat of slices that tile one tensor's channels in order, some through pointwise
+        ops: one map of that tensor, each range's statements applied to its channels."""
+        ranges = [self._channel_range(p) for p in parts]
+        if any(r is None for r in ranges) or len({r[0] for r in ranges}) != 1:
+            return False
+        source = ranges[0][0]
+        if [r[1] for r in ranges] != [0] + [r[2] for r in ranges[:-1]] or ranges[-1][2] != self.values[source].channels:
+            return False
+        if not any(r[3] for r in ranges):
+            return False  # a plain copy: the Concat's parts cost nothing as they are
+        for name in parts:  # drop the slices and maps the one map replaces
+            while name in self._producer and name != source:
+                step = self._producer.pop(name)
+                self.steps.remove(step)
+                del self.values[name]
+                name = step.inputs[0]
+        statements = ["vec4 source_v = v; vec4 mapped_v = v;"]
+        for _, first, end, chain in ranges:
+            if chain:
+                statements.append(f"v = source_v; {' '.join(chain)} "
+                                  f"mapped_v = mix(mapped_v, v, channels_in(layer, {first}, {end}));")
+        statements.append("v = mapped_v;")
+        value = self.values[source]
+        self._emit(Step("map", [source], out, epilogue=[" ".join(statements)]), value.channels, value.scale)
+        return True
 
     def _slice(self, node) -> None:
         names = list(node.input) + [""] * 5

@@ -63,9 +63,11 @@ class DenoisePass:
     def sum(self):
         return self.output
 
-    def run(self, accumulate, gbuffer) -> None:
+    def run(self, accumulate, gbuffer, history: bool = False) -> None:
+        """history: `gbuffer` is this frame's own (denoise every), so a temporal network may
+        take the previous frame's output (passes/net_denoise.py)."""
         if self.net is not None:
-            self.net.run(accumulate, gbuffer)
+            self.net.run(accumulate, gbuffer, history)
             return
         if self.numpy_denoiser is not None:
             self._run_numpy(accumulate, gbuffer)

@@ -1,4 +1,6 @@
-// A 2-D convolution (stride 1, the image size kept) plus bias and a fused pointwise epilogue.
+// A 2-D convolution of stride STRIDE (output size = input size / STRIDE) plus bias, a fused
+// pointwise prologue on each input texel loaded (PROLOGUE, masked to PROLOGUE_CHANNELS) and
+// a fused pointwise epilogue on each output.
 // Each invocation computes OUT_BLOCK output layers (4 * OUT_BLOCK channels) of PIXELS pixels
 // of a row, so every input texel it loads is used up to 4 * OUT_BLOCK * KERNEL_W times and
 // every weight PIXELS times. The weights are mat4 blocks in the
@@ -11,42 +13,55 @@
 
 layout(std430, binding = LIFT_BINDING_NET_WEIGHTS) readonly buffer Weights { mat4 weights[]; };
 layout(std430, binding = LIFT_BINDING_NET_BIAS) readonly buffer Bias { vec4 bias[]; };
-layout(rgba32f, binding = 0) readonly uniform image2DArray part0;
+layout(TENSOR_FORMAT, binding = 0) readonly uniform image2DArray part0;
 #if NUM_PARTS > 1
-layout(rgba32f, binding = 1) readonly uniform image2DArray part1;
+layout(TENSOR_FORMAT, binding = 1) readonly uniform image2DArray part1;
 #endif
 #if NUM_PARTS > 2
-layout(rgba32f, binding = 2) readonly uniform image2DArray part2;
+layout(TENSOR_FORMAT, binding = 2) readonly uniform image2DArray part2;
 #endif
 #if NUM_PARTS > 3
-layout(rgba32f, binding = 3) readonly uniform image2DArray part3;
+layout(TENSOR_FORMAT, binding = 3) readonly uniform image2DArray part3;
 #endif
-layout(rgba32f, binding = 7) writeonly uniform image2DArray dst;
+layout(TENSOR_FORMAT, binding = 7) writeonly uniform image2DArray dst;
 
+uniform ivec2 u_in_size;
 uniform int u_out_layers;
+
+#ifndef PROLOGUE
+#define PROLOGUE
+#define PROLOGUE_CHANNELS 0
+#endif
+
+vec4 load_input(vec4 v, int layer) {
+    PROLOGUE
+    return PROLOGUE_CHANNELS > 0 ? mask_to(v, layer, PROLOGUE_CHANNELS) : v;
+}
 uniform ivec4 u_part_layers;
 uniform int u_weights_per_group;
 
 // ---- accumulate one input part ----
-// A row of PIXELS + KERNEL_W - 1 texels is loaded once per input layer and kernel row; each
-// mat4 of weights then serves PIXELS pixels (weight loads are the cost on llvmpipe, where
-// every invocation loads them itself).
+// A row of ROW_TEXELS texels is loaded once per input layer and kernel row; each mat4 of
+// weights then serves PIXELS pixels (weight loads are the cost on llvmpipe, where every
+// invocation loads them itself).
+#define ROW_TEXELS ((PIXELS - 1) * STRIDE + KERNEL_W)
 #define CONV_PART(image, layers)                                                    \
     for (int layer = 0; layer < layers; ++layer) {                                  \
         for (int ky = 0; ky < KERNEL_H; ++ky) {                                     \
-            int y = pixel.y + ky - PAD_TOP;                                         \
-            bool row_inside = y >= 0 && y < u_out_size.y;                           \
-            vec4 row[PIXELS + KERNEL_W - 1];                                        \
-            for (int i = 0; i < PIXELS + KERNEL_W - 1; ++i) {                       \
-                int x = pixel.x + i - PAD_LEFT;                                     \
-                row[i] = (row_inside && x >= 0 && x < u_out_size.x)                 \
-                    ? imageLoad(image, ivec3(x, y, layer)) : vec4(0.0);             \
+            int y = pixel.y * STRIDE + ky - PAD_TOP;                                \
+            bool row_inside = y >= 0 && y < u_in_size.y;                            \
+            vec4 row[ROW_TEXELS];                                                   \
+            for (int i = 0; i < ROW_TEXELS; ++i) {                                  \
+                int x = pixel.x * STRIDE + i - PAD_LEFT;                            \
+                row[i] = (row_inside && x >= 0 && x < u_in_size.x)                  \
+                    ? load_input(imageLoad(image, ivec3(x, y, layer)), layer)       \
+                    : vec4(0.0);                                                    \
             }                                                                       \
             for (int kx = 0; kx < KERNEL_W; ++kx) {                                 \
                 for (int j = 0; j < OUT_BLOCK; ++j) {                               \
                     mat4 weight = weights[w + j];                                   \
                     for (int p = 0; p < PIXELS; ++p)                                \
-                        acc[j * PIXELS + p] += weight * row[p + kx];                \
+                        acc[j * PIXELS + p] += weight * row[p * STRIDE + kx];       \
                 }                                                                   \
                 w += OUT_BLOCK;                                                     \
             }                                                                       \

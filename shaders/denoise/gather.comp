@@ -2,17 +2,17 @@
 // may come in up to 4 parts (a Concat). Slice and the copy of a Concat into one tensor.
 #include "tensor.glsl"
 
-layout(rgba32f, binding = 0) readonly uniform image2DArray part0;
+layout(TENSOR_FORMAT, binding = 0) readonly uniform image2DArray part0;
 #if NUM_PARTS > 1
-layout(rgba32f, binding = 1) readonly uniform image2DArray part1;
+layout(TENSOR_FORMAT, binding = 1) readonly uniform image2DArray part1;
 #endif
 #if NUM_PARTS > 2
-layout(rgba32f, binding = 2) readonly uniform image2DArray part2;
+layout(TENSOR_FORMAT, binding = 2) readonly uniform image2DArray part2;
 #endif
 #if NUM_PARTS > 3
-layout(rgba32f, binding = 3) readonly uniform image2DArray part3;
+layout(TENSOR_FORMAT, binding = 3) readonly uniform image2DArray part3;
 #endif
-layout(rgba32f, binding = 7) writeonly uniform image2DArray dst;
+layout(TENSOR_FORMAT, binding = 7) writeonly uniform image2DArray dst;
 
 uniform int u_start;
 uniform int u_step;

@@ -1,8 +1,8 @@
 // Max or average pooling, kernel = stride = POOL_SIZE, no padding (sizes are multiples).
 #include "tensor.glsl"
 
-layout(rgba32f, binding = 0) readonly uniform image2DArray src;
-layout(rgba32f, binding = 7) writeonly uniform image2DArray dst;
+layout(TENSOR_FORMAT, binding = 0) readonly uniform image2DArray src;
+layout(TENSOR_FORMAT, binding = 7) writeonly uniform image2DArray dst;
 
 void main() {
     ivec3 at = ivec3(gl_GlobalInvocationID);

@@ -3,8 +3,8 @@
 // clamped to the image as onnxruntime does.
 #include "tensor.glsl"
 
-layout(rgba32f, binding = 0) readonly uniform image2DArray src;
-layout(rgba32f, binding = 7) writeonly uniform image2DArray dst;
+layout(TENSOR_FORMAT, binding = 0) readonly uniform image2DArray src;
+layout(TENSOR_FORMAT, binding = 7) writeonly uniform image2DArray dst;
 
 uniform ivec2 u_in_size;
 uniform vec2 u_coord_x;  // (a, b): in = out * a + b

@@ -2,12 +2,8 @@
 //
 // For each pixel, the G-buffer's motion vector says where its first hit was in the previous
 // frame (shaders/passes/motion_vectors.glsl). The history is read there with the 2x2
-// bilinear taps; a tap counts only where the previous frame saw the same surface:
-//   - depth: the tap's view depth (previous frame) matches the view depth this point had in
-//     the previous camera, within 2 x the depth change per pixel (a slanted floor changes
-//     depth quickly from pixel to pixel and must not be rejected) plus a small relative slack;
-//   - normal: the two normals agree within u_normal_cos.
-// The kept taps are blended with their bilinear weights renormalised. When none is kept
+// bilinear taps; a tap counts only where the previous frame saw the same surface (depth and
+// normal tests: history_taps.glsl). The kept taps are blended with their bilinear weights renormalised. When none is kept
 // (a disocclusion, or the point was off screen) the history restarts: everything 0, so the
 // accumulate pass that follows leaves exactly this frame (history length = its samples).
 //
@@ -15,6 +11,8 @@
 // capped at u_history_cap samples, so the frame that follows weighs at least the minimum
 // blend factor: a moving camera gets an exponential moving average, and a ghost fades.
 // Sums, moments and the half difference are scaled alike, so every ratio is kept.
+#include "history_taps.glsl"
+
 layout(local_size_x = 8, local_size_y = 8) in;
 uniform sampler2D u_prev_sum;
 uniform sampler2D u_prev_compensation;
@@ -61,39 +59,26 @@ void main() {
     if (any(greaterThanEqual(p, size))) return;
     vec4 nd = texelFetch(u_normal_depth, p, 0);
     vec4 motion = texelFetch(u_motion, p, 0);
-    // Rejected bilinear weight: (depth, normal, off screen or no surface here).
-    vec3 rejected = vec3(0.0, 0.0, 1.0);
+    HistoryTaps taps = history_taps(p, size, nd, motion, u_prev_normal_depth, u_depth_slack, u_normal_cos);
+    vec3 rejected = taps.rejected;
     float kept = 0.0, count = 0.0, frames = 0.0;
     vec3 mean = vec3(0.0);
     vec2 moments = vec2(0.0);  // per-frame mean luminance and its square
     vec4 half_difference = vec4(0.0);
-    if (nd.w > 0.0) {  // a surface (the background keeps no history)
-        rejected = vec3(0.0);
-        vec2 position = vec2(p) + motion.xy;  // (p + 0.5 + motion) - 0.5: texel centres at integers
-        position = clamp(position, vec2(-2.0), vec2(size) + 1.0);  // far off screen: no int overflow
-        ivec2 base = ivec2(floor(position));
-        vec2 f = position - vec2(base);
-        float tolerance = 2.0 * motion.w + u_depth_slack * motion.z;
-        for (int i = 0; i < 4; ++i) {
-            ivec2 o = ivec2(i & 1, i >> 1);
-            ivec2 q = base + o;
-            float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y);
-            if (w <= 0.0) continue;
-            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) { rejected.z += w; continue; }
-            vec4 prev_nd = texelFetch(u_prev_normal_depth, q, 0);
-            if (!(prev_nd.w > 0.0) || abs(prev_nd.w - motion.z) > tolerance) { rejected.x += w; continue; }
-            if (dot(prev_nd.xyz, nd.xyz) < u_normal_cos) { rejected.y += w; continue; }
-            vec4 total = texelFetch(u_prev_sum, q, 0) + texelFetch(u_prev_compensation, q, 0);
-            if (!(total.a > 0.0)) continue;  // the same surface, but no sample yet
-            vec4 m = texelFetch(u_prev_moments, q, 0);
-            kept += w;
-            mean += w * total.rgb / total.a;
-            count += w * total.a;
-            half_difference += w * texelFetch(u_prev_half_difference, q, 0) / total.a;
-            if (m.z > 0.0) {
-                moments += w * m.xy / m.z;
-                frames += w * m.z;
-            }
+    for (int i = 0; i < 4; ++i) {
+        float w = taps.weight[i];
+        if (w <= 0.0) continue;
+        ivec2 q = taps.base + ivec2(i & 1, i >> 1);
+        vec4 total = texelFetch(u_prev_sum, q, 0) + texelFetch(u_prev_compensation, q, 0);
+        if (!(total.a > 0.0)) continue;  // the same surface, but no sample yet
+        vec4 m = texelFetch(u_prev_moments, q, 0);
+        kept += w;
+        mean += w * total.rgb / total.a;
+        count += w * total.a;
+        half_difference += w * texelFetch(u_prev_half_difference, q, 0) / total.a;
+        if (m.z > 0.0) {
+            moments += w * m.xy / m.z;
+            frames += w * m.z;
         }
     }
     vec4 sum = vec4(0.0), out_half = vec4(0.0), out_moments = vec4(0.0);

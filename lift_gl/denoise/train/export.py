@@ -46,7 +46,7 @@ def sidecar(model: nn.Module, record: dict) -> dict:
         },
         "multiple": MULTIPLE,
         "receptive_radius": RECEPTIVE_RADIUS,
-        "architecture": {**model.arch,
+        "architecture": {**model.arch, "inputs": list(input_channels(model.temporal)),
                          "parameters": sum(p.numel() for p in model.parameters()),
                          "macs_per_pixel": macs_per_pixel(model)},
         "training": record,

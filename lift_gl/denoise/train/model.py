@@ -188,9 +188,13 @@ def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Mod
     raise ValueError(f"unknown denoiser model {name!r} (one of {', '.join(MODELS)})")
 
 
+DERIVED_ARCH_KEYS = ("inputs", "parameters", "macs_per_pixel")  # the sidecar's additions to .arch
+
+
 def model_from_arch(arch: dict) -> nn.Module:
-    """The model `arch` describes (a model's .arch; an arch without a name is a unet's)."""
-    arch = dict(arch)
+    """The model `arch` describes (a model's .arch, or a sidecar's `architecture`; an arch
+    without a name is a unet's)."""
+    arch = {k: v for k, v in arch.items() if k not in DERIVED_ARCH_KEYS}
     return build_model(arch.pop("name", "unet"), **arch)
 
 
