@@ -43,10 +43,11 @@ def test_shapes_channels_and_cost(name, temporal):
     assert macs_per_pixel(model) == pytest.approx(_counted_macs(model), rel=1e-12)
 
 
-def test_rt_costs_about_a_quarter_of_the_unet():
+def test_rt_costs_at_most_a_sixth_of_the_unet():
+    # the real-time budget: 3 ms at 1080p on the H200 where the unet takes 10.9 (docs/denoiser.md)
     rt, unet = macs_per_pixel(build_model("rt")), macs_per_pixel(build_model("unet"))
     assert unet == 51930  # the shipped network's figure (docs/denoiser.md)
-    assert 0.2 < rt / unet < 0.3
+    assert rt / unet < 1 / 6
 
 
 @pytest.mark.parametrize("name,temporal", CASES)
