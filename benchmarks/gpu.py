@@ -704,7 +704,7 @@ def render_tables(records: list[dict]) -> str:
         head += [f"{label} gbuffer ms"] + ([f"{label} prepass ms"] if prepass else []) + \
                 [f"{label} trace ms", f"{label} frame ms", f"{label} Mrays/s"]
     if len(records) > 1:
-        head += [f"trace {lab}/{labels[0]}" for lab in labels[1:]]
+        head += [f"{'prepass + ' if prepass else ''}trace {lab}/{labels[0]}" for lab in labels[1:]]
     head += ["Lift paper ms (RTX 2070)"]
     clocked = any(_lowest_mhz(r) for t in frames for r in t.values())
     head += ["SM MHz (lowest)"] if clocked else []
@@ -724,7 +724,8 @@ def render_tables(records: list[dict]) -> str:
             r = table.get(key)
             qa = first["pass_ms_query"] if not records[0]["machine"].get("software_gl") else first["pass_ms_sync"]
             qb = None if r is None else (r["pass_ms_query"] if not records[0]["machine"].get("software_gl") else r["pass_ms_sync"])
-            cells.append("–" if qb is None else f"{qb['trace'] / qa['trace']:.3f}")
+            traced = lambda q: q["trace"] + q.get("prepass", 0.0)  # a [prepass] plugin's light pass counts with its trace
+            cells.append("–" if qb is None else f"{traced(qb) / traced(qa):.3f}")
         paper = LIFT_PAPER_MS.get(first.get("plugin", key[2]), {}).get(key[0]) if key[1] == (1920, 1080) else None
         cells.append("–" if paper is None else f"{paper}")
         if clocked:
