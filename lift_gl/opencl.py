@@ -53,8 +53,31 @@ def device(needed_by=None):
         except Exception as exc:  # no platform, or PYOPENCL_CTX names none
             raise OpenCLError(f"no OpenCL device: {exc} (pip install pocl-binary-distribution for the CPU)",
                               needed_by) from None
+        _check_compiler(cl, context, needed_by)
         _device = (context, cl.CommandQueue(context))
     return _device
+
+
+def _check_compiler(cl, context, needed_by) -> None:
+    """A device whose compiler refuses a one-line kernel (PoCL's LLVM on a CPU it does not know:
+    "unknown target CPU") is unusable: one clear error here rather than at every program."""
+    try:
+        with _quiet_stderr():
+            cl.Program(context, "__kernel void lift_probe(__global float* a) { a[0] = 1.0f; }").build()
+    except cl.Error as exc:
+        lines = [ln.strip() for ln in str(exc).splitlines() if "error" in ln.lower() and "clBuildProgram" not in ln]
+        raise OpenCLError(f"the OpenCL device {context.devices[0].name.strip()!r} cannot compile kernels: "
+                          f"{lines[0] if lines else str(exc).splitlines()[0]}", needed_by) from None
+
+
+def unusable_reason() -> str | None:
+    """Why OpenCL cannot run kernels here (pyopencl missing, no device, a compiler that refuses
+    a trivial kernel), or None when it can."""
+    try:
+        device()
+    except OpenCLError as exc:
+        return str(exc)
+    return None
 
 
 def describe_device() -> str:

@@ -304,3 +304,17 @@ def _save_failure(golden_path: Path, image, reference, with_flip: bool, label: s
     diff = flip_error(safe, reference)[1] if with_flip else _relative_error_map(safe, reference)
     write_srgb8(diff_png, diff)
     return [actual_exr, actual_png, diff_png]
+
+
+def require_opencl(module: bool = False) -> None:
+    """Skip the calling test, with the reason, where OpenCL cannot run kernels (pyopencl missing,
+    no device, or a PoCL whose LLVM does not know this CPU); `module`: at a test file's top."""
+    import pytest
+
+    pytest.importorskip("pyopencl", reason="OpenCL needs pip install 'lift-gl[opencl]'")
+    from .opencl import unusable_reason
+
+    reason = unusable_reason()
+    if reason:
+        pytest.skip(reason, allow_module_level=module)
+

@@ -17,12 +17,18 @@ import pytest
 
 from lift_gl.renderer import Renderer
 from lift_gl.scene import Camera, Material, Mesh, Scene
-from lift_gl.testing import assert_mean_is
+from lift_gl.testing import assert_mean_is, require_opencl
 
 SIZE = (32, 32)
 SPP = 16
 HALF = 10.0  # planes are 20 x 20; the camera sees points within 0.71 of the centre
 PLUGINS = ["ao", "ao_cl"]
+
+
+def renderer(scene, plugin, **kwargs) -> Renderer:
+    if plugin.endswith("_cl"):
+        require_opencl()
+    return Renderer(scene, size=SIZE, integrator=plugin, **kwargs)
 
 
 def plane(y: float, facing: float) -> Mesh:
@@ -44,7 +50,7 @@ def planes_scene(ceiling_height: float | None) -> Scene:
 
 @pytest.mark.parametrize("plugin", PLUGINS)
 def test_a_plane_alone_is_unoccluded(plugin):
-    r = Renderer(planes_scene(None), size=SIZE, integrator=plugin, seed=1, params={"radius": 0.0})
+    r = renderer(planes_scene(None), plugin, seed=1, params={"radius": 0.0})
     image = r.render(spp=SPP)
     assert r.stats.dropped_samples == 0
     assert np.all(image == 1.0)  # every sample escapes: exactly 1, no noise
@@ -54,7 +60,7 @@ def test_a_plane_alone_is_unoccluded(plugin):
 @pytest.mark.parametrize("plugin", PLUGINS)
 def test_under_a_parallel_plane_ao_is_h_over_r_squared(plugin):
     h = 1.0
-    r = Renderer(planes_scene(h), size=SIZE, integrator=plugin, seed=2)
+    r = renderer(planes_scene(h), plugin, seed=2)
     for radius in (0.9, 1.25, 2.0, 4.0):
         r.set_params(radius=radius)  # restarts accumulation: only this radius is in the image
         image = r.render(spp=SPP)

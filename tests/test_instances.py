@@ -16,6 +16,7 @@ from lift_gl.scene.features import SceneFeatures
 from lift_gl.scene.instances import flatten_instances
 from lift_gl.scene.model import Camera, Instance, Material, Mesh, Scene
 from lift_gl.scene.pack import pack_scene
+from lift_gl.testing import require_opencl
 
 trimesh = pytest.importorskip("trimesh")
 
@@ -497,7 +498,7 @@ def test_bad_instances_from_python_are_refused(change, words):
 def test_opencl_plugin_gets_the_flattened_scene():
     """The OpenCL traversal has one level: an OpenCL plugin renders the instances copied into
     world space, the same image as with the flattened scene given directly."""
-    pytest.importorskip("pyopencl")
+    require_opencl()
     scene = instanced_scene()
     with Renderer(scene, size=(32, 32), integrator="ao_cl", seed=2) as r:
         assert not r.scene.instances and r.packed.num_instances == 0

@@ -9,9 +9,10 @@ import pytest
 from lift_gl.accel import cache as cache_mod
 from lift_gl.accel.bvh import MAX_LEAF, build_bvh, check_invariants, intersect_numpy, moller_trumbore
 
+from lift_gl.testing import require_opencl
 from test_bvh import random_rays, soup
 
-pytest.importorskip("pyopencl")
+require_opencl(module=True)
 from lift_gl.accel.lbvh import build_lbvh  # noqa: E402
 
 

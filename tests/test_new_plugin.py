@@ -13,7 +13,7 @@ from lift_gl import load_scene
 from lift_gl.cli import main
 from lift_gl.plugins import discover, load_manifest
 from lift_gl.renderer import Renderer
-from lift_gl.testing import cornell_scene
+from lift_gl.testing import cornell_scene, require_opencl
 
 CORNELL = str(REPO / "scenes" / "cornell.toml")
 
@@ -107,7 +107,7 @@ def test_a_copy_of_pt_renders_exactly_what_pt_renders(capsys, tmp_path, monkeypa
 
 
 def test_an_opencl_plugin_can_be_the_start(capsys, tmp_path):
-    pytest.importorskip("pyopencl")
+    require_opencl()
     code, _, _ = cli(capsys, "new-plugin", "my_ao", "--from", "ao_cl", "--dir", str(tmp_path))
     assert code == 0
     plugin = load_manifest(tmp_path / "my_ao")

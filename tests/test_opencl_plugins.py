@@ -14,9 +14,9 @@ import pytest
 from conftest import REPO
 from lift_gl.errors import LiftError, ShaderError
 from lift_gl.renderer import Renderer
-from lift_gl.testing import assert_same_expectation, cornell_scene, render_seeds
+from lift_gl.testing import assert_same_expectation, cornell_scene, render_seeds, require_opencl
 
-pytest.importorskip("pyopencl", reason="OpenCL plugins need pip install 'lift-gl[opencl]'")
+require_opencl(module=True)
 
 SIZE = (32, 32)
 CORNELL = str(REPO / "scenes" / "cornell.toml")

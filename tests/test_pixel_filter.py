@@ -22,6 +22,7 @@ from lift_gl.passes.pixel_filter import filtered_jitter, pixel_kernel
 from lift_gl.renderer import Renderer
 from lift_gl.scene.model import PixelFilter
 from lift_gl.scene.toml_writer import save_toml
+from lift_gl.testing import require_opencl
 
 SHARED = Path(__file__).resolve().parent.parent.parent / "shared"
 FRAMES = 256
@@ -238,7 +239,7 @@ def test_a_splat_is_spread_by_the_kernel(tmp_path, filter_lines, radius):
 def test_opencl_camera_rays_sample_the_filter(tmp_path):
     """An OpenCL plugin with traced camera rays (lift_gl/passes/trace_cl.py) draws its
     subpixel positions from the same kernel: 1 where the ray hits the emitter's quad."""
-    pytest.importorskip("pyopencl")
+    require_opencl()
     folder = tmp_path / "hits_cl"
     folder.mkdir()
     (folder / "plugin.toml").write_text('name = "hits_cl"\nlanguage = "opencl"\nentry = "hits_cl.cl"\n'

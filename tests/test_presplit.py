@@ -13,6 +13,7 @@ from lift_gl.accel import cache as cache_mod
 from lift_gl.accel import presplit as ps
 from lift_gl.accel.bvh import build_bvh, check_invariants, intersect_numpy, sah_cost
 from test_bvh import MISMATCH_BOUND, disagreements, random_rays, soup, trimesh_closest
+from lift_gl.testing import require_opencl
 
 
 def _renderers_split_with(monkeypatch, splits) -> None:
@@ -81,7 +82,7 @@ def test_split_boxes_cover_their_triangles():
 @pytest.mark.parametrize("builder", ["sah", "lbvh"])
 def test_split_tree_closest_hits_match_trimesh(builder):
     if builder == "lbvh":
-        pytest.importorskip("pyopencl")
+        require_opencl()
     tris = slivers()
     b = cache_mod.build_with(tris, builder, FORCED)
     assert b.order.size > len(tris)                       # triangles are repeated

@@ -12,7 +12,7 @@ import pytest
 
 from lift_gl.options import Options
 from lift_gl.renderer import Renderer
-from lift_gl.testing import cornell_scene
+from lift_gl.testing import cornell_scene, require_opencl
 
 SIZE = (8, 8)
 SPP = 2
@@ -151,7 +151,7 @@ def test_the_reduced_pass_drops_and_counts_exactly_the_bad_samples(tmp_path):
 
 
 def test_the_opencl_kernel_drops_and_counts_exactly_the_bad_samples(tmp_path):
-    pytest.importorskip("pyopencl", reason="OpenCL plugins need pip install 'lift-gl[opencl]'")
+    require_opencl()
     folder = make_plugin(tmp_path, "guard_cl", OPENCL, language="opencl")
     r = Renderer(cornell_scene(), size=SIZE, integrator=str(folder), seed=2)
     try:

@@ -10,6 +10,7 @@ import pytest
 from lift_gl.accel import bvh as bvh_mod
 from lift_gl.accel.bvh import build_bvh
 from test_bvh import NO_HIT, gl  # noqa: F401 (gl: a fixture, the headless GL context)
+from lift_gl.testing import require_opencl
 
 CL_KERNEL = """
 #include "lift/bvh.h"
@@ -77,7 +78,7 @@ def run_glsl(ctx, tris, o, d, nodes=None, tmin=0.0, tmax=np.inf, defines=None):
 
 def run_opencl(tris, o, d, nodes=None, tmin=0.0, tmax=np.inf, defines=None):
     """The same through shaders/opencl/lift/bvh.h (pyopencl, PoCL)."""
-    pytest.importorskip("pyopencl", reason="OpenCL needs pip install 'lift-gl[opencl]'")
+    require_opencl()
     import pyopencl as cl
 
     from lift_gl import opencl

@@ -55,7 +55,11 @@ def bins_for_one_build(value: int | str | None = None) -> int:
 def _opencl_available() -> bool:
     import importlib.util
 
-    return importlib.util.find_spec("pyopencl") is not None
+    if importlib.util.find_spec("pyopencl") is None:
+        return False
+    from ..opencl import unusable_reason  # a device that can compile, not only the package
+
+    return unusable_reason() is None
 
 
 def resolve_builder(builder: str | None, n_tris: int) -> str:
