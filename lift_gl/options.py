@@ -85,10 +85,11 @@ class Options:
     glsl_precision: str = _option(AUTO, ("fp32", "fp16"),
                                   "the glsl denoiser's tensors: float32, or half (rgba16f, the arithmetic float32: "
                                   "half the bytes each layer moves) (auto: fp16 on GPUs, fp32 on CPU rasterizers)")
-    realtime_model: str = _option(AUTO, ("unet", "rt"),
+    realtime_model: str = _option("unet", ("unet", "rt"),
                                   "the network the glsl denoiser runs every frame (denoise every): the quality U-Net "
-                                  "of final images, or the real-time rt, a quarter of its work (auto: rt where its "
-                                  "trained weights are installed, assets/denoiser/lift_rt.onnx, else the unet)")
+                                  "of final images (10.9 ms at 1080p on an H200), or the real-time rt (2.1 ms, a "
+                                  "seventh of its work, with the previous frame as an input; its colours are not yet "
+                                  "faithful: docs/denoiser.md)")
     max_buffer_bytes: object = _option(AUTO, help="the largest scene storage buffer, in bytes: a scene that needs "
                                                   "more is split into several (auto: the GL's limit, "
                                                   "GL_MAX_SHADER_STORAGE_BLOCK_SIZE)",
@@ -356,20 +357,10 @@ def resolve(options: Options, device: Device, work: Workload = Workload()) -> Re
     c["glsl_precision"] = _auto(o.glsl_precision, device, "fp16", "fp32",
                                    "on GPUs half storage halves each layer's memory traffic",
                                    "a CPU rasterizer's cost is the arithmetic; half storage only adds conversions")
-    c["realtime_model"] = _realtime_model(o.realtime_model)
+    c["realtime_model"] = Choice(o.realtime_model, o.realtime_model)
     c["max_buffer_bytes"] = Choice(o.max_buffer_bytes, o.max_buffer_bytes,
                                    "the GL's limit" if o.max_buffer_bytes == AUTO else "")
     return ResolvedOptions(options, device, c, gbuffer_stack)
-
-
-def _realtime_model(asked: str) -> Choice:
-    from .denoise.glsl_denoiser import model_file
-
-    if asked != AUTO:
-        return Choice(asked, asked)
-    if model_file("rt").is_file():
-        return Choice(asked, "rt", "the real-time network's weights are installed")
-    return Choice(asked, "unet", f"no trained real-time network ({model_file('rt').name}) is installed")
 
 
 def _light_selection(asked: str, work: Workload) -> Choice:

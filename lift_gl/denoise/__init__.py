@@ -65,8 +65,8 @@ def choose_denoiser(mode: str, software_gl: bool) -> tuple[str, str]:
     """The denoiser "auto" stands for, and why (--explain): the final image gets the trained
     network, the best of lift-gl's (docs/denoiser.md: SSIM 0.92 against the à-trous filter's 0.81
     on a validation scene at 4 spp), through onnxruntime; every frame of the viewer gets a
-    network in GLSL on a GPU (the option realtime_model: the real-time rt where its weights are
-    installed, else the same network, 10.8 ms at 1080p on an H200) and the à-trous filter on a
+    network in GLSL on a GPU (the option realtime_model: the same network by default, 10.9 ms at
+    1080p on an H200, or the real-time rt, 2.1 ms) and the à-trous filter on a
     CPU rasterizer, where a network takes seconds a frame."""
     from importlib.util import find_spec
 
