@@ -88,8 +88,9 @@ def reference(args) -> None:
         print(f"{tag}: {info['spp_per_half']} spp per half", flush=True)
 
 
-def load_reference(out: Path):
-    """The pooled reference, its own relMSE noise, and what it is made of."""
+def load_halves(out: Path):
+    """The reference's two independent halves (every run's, pooled by samples) and what they
+    are made of."""
     runs = [json.loads(path.read_text()) for path in sorted(out.glob("reference_s*.json"))]
     if not runs:
         raise SystemExit(f"no reference in {out}: run the reference command first")
@@ -98,10 +99,14 @@ def load_reference(out: Path):
     for k in range(2):
         parts = [np.load(out / f"reference_s{run['seeds'][0]}_half{k}.npy").astype(np.float64) for run in runs]
         halves.append(sum(w * part for w, part in zip(weights, parts)) / weights.sum())
-    a, b = halves
+    return halves[0], halves[1], {"spp": int(2 * weights.sum()), "runs": runs}
+
+
+def load_reference(out: Path):
+    """The pooled reference, its own relMSE noise, and what it is made of."""
+    a, b, info = load_halves(out)
     ref = (a + b) / 2
     noise = float(np.mean((a - b) ** 2 / (ref ** 2 + REL_MSE_EPS)) / 4)
-    info = {"spp": int(2 * weights.sum()), "runs": runs}
     return ref, noise, info
 
 

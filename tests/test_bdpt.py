@@ -56,6 +56,17 @@ def test_pt_and_bdpt_agree(path, sky, mis_power):
     assert_same_image(pt, bdpt, block=8, label=f"{path.name}, sky {sky}: pt vs bdpt (mis_power {mis_power})")
 
 
+# The caustic of scenes/glass_caustic.toml (a glass sphere focusing a small lamp onto the
+# floor): pt reaches it only by a floor bounce aimed through the sphere at the lamp, bdpt
+# mostly by light tracing. Blocks of 4x4 pixels at 16x16, so that the caustic has blocks of
+# its own; pt gets more samples a run, its caustic being far noisier.
+def test_pt_and_bdpt_agree_on_the_glass_caustic():
+    scene = load_scene(REPO / "scenes" / "glass_caustic.toml")
+    pt = renders(scene, "pt", 64, range(1, RUNS + 1), size=(16, 16))
+    bdpt = renders(scene, "bdpt", 16, range(101, RUNS + 101), size=(16, 16))
+    assert_same_image(pt, bdpt, block=4, label="glass_caustic.toml: pt vs bdpt")
+
+
 # ---------------------------------------------------------------- each strategy alone
 # Paths of one length (only_depth) made by one strategy alone (only_s, unweighted) against all
 # strategies combined by MIS: s = 0 pure path tracing, s = 1 next event estimation, s = d + 1
