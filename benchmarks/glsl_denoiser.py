@@ -1,9 +1,9 @@
 """The GLSL denoiser (lift_gl/denoise/glsl_net.py) against onnxruntime: time per frame and the
-largest difference, at 256x256, 1280x720 and 1920x1080, per tensor precision, and with
+largest difference, at 256x256, 1280x720 and 1920x1080, per conv variant, and with
 --per-dispatch each dispatch's time and a cost model's prediction (lift_gl/denoise/cost_model.py).
 
     python benchmarks/glsl_denoiser.py [--models shipped,random-unet,random-rt] [--sizes 256x256,1920x1080]
-                                       [--precisions fp32,fp16] [--variants 1x8,2x4] [--repeat 3]
+                                       [--variants 1x8,2x4] [--repeat 3]
                                        [--per-dispatch] [--calibrate shipped] [--no-onnxruntime] [--out FILE.json]
 
 Models: `shipped` is assets/denoiser/lift_unet.onnx (skipped where absent); random-weight
@@ -23,9 +23,9 @@ as the baseline; `--variants` compares the conv kernel's variants in the same in
 BxP = B output layers (of 4 channels) times P pixels of a row per invocation (default: the
 context's, glsl_net.default_shape). `--per-dispatch` also times each dispatch alone (a timer
 around each: their sum exceeds the whole run's by the overlap it forbids), fits the cost
-model to the `--calibrate` model's dispatches at the largest size, per precision and
-variant, and prints every model's predicted time against its measured one. Headless (EGL),
-so it runs on the GPU machine as it does here.
+model to the `--calibrate` model's dispatches at the largest size, per variant, and prints
+every model's predicted time against its measured one. Headless (EGL), so it runs on the
+GPU machine as it does here.
 """
 from __future__ import annotations
 
@@ -95,7 +95,6 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default="shipped,random-unet,random-rt,random-rt-temporal")
     parser.add_argument("--sizes", default="256x256,1280x720,1920x1080")
-    parser.add_argument("--precisions", default="fp32,fp16", help="tensor storage: fp32, fp16 (or auto)")
     parser.add_argument("--variants", default=None, help="conv variants BxP to compare, e.g. 1x8,2x4 "
                                                          "(default: the context's)")
     parser.add_argument("--repeat", type=int, default=3)
@@ -114,8 +113,8 @@ def main() -> None:
     workdir.mkdir(parents=True, exist_ok=True)
     sizes = [tuple(int(v) for v in s.split("x")) for s in args.sizes.split(",")]
     variants = args.variants.split(",") if args.variants else ["{}x{}".format(*default_shape(ctx))]
-    configs = [(v, p) for p in args.precisions.split(",") for v in variants]
-    label = {c: f"{c[1]} {c[0]}" for c in configs}
+    configs = variants
+    label = {c: c for c in configs}
     results = []
     for name in args.models.split(","):
         path = model_path(name, workdir)
@@ -127,8 +126,7 @@ def main() -> None:
             import onnxruntime as ort
 
             session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
-        nets = {c: GlslNet(ctx, path, out_block=int(c[0].split("x")[0]), pixels=int(c[0].split("x")[1]),
-                           precision=c[1]) for c in configs}
+        nets = {c: GlslNet(ctx, path, out_block=int(c.split("x")[0]), pixels=int(c.split("x")[1])) for c in configs}
         input_name = session.get_inputs()[0].name if session else None
         any_net = nets[configs[0]]
         for width, height in sizes:

@@ -204,7 +204,6 @@ def make_denoise(r) -> DenoisePass:
 
         options.setdefault("ctx", r.ctx)
         options.setdefault("ensemble", 1)  # the texture road runs the network once (passes/denoise.py)
-        options.setdefault("precision", r.choices["glsl_precision"])
         every = model_file(r.choices["realtime_model"])
         options.setdefault("model_path", every if settings.mode == "every" else DEFAULT_MODEL)
         if r.numpy_denoiser is not None and r.numpy_denoiser.model_path != options["model_path"]:
@@ -226,7 +225,7 @@ def denoise_why(r, made) -> str:
                f"{s.sigma_normal}, depth {s.sigma_depth}), x albedo")
     elif made.net is not None:  # the glsl network on the renderer's textures
         net = made.net.net
-        how = f"the network {net.model_path.name} in GLSL ({net.precision} tensors), no readback"
+        how = f"the network {net.model_path.name} in GLSL, no readback"
     else:
         how = f"{r.denoise.denoiser} on the CPU: mean, albedo, normal, depth and variance read back, result uploaded"
     from .frame import frame_guides  # frame.py imports this module

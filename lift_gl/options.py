@@ -82,9 +82,6 @@ class Options:
     coherent_interleave: int = _option(1, help="with coherent_sampling: a tile's pixels are every k-th pixel of a "
                                                "block k tiles wide (interleaved sampling: neighbours independent)",
                                        minimum=1, maximum=8)
-    glsl_precision: str = _option(AUTO, ("fp32", "fp16"),
-                                  "the glsl denoiser's tensors: float32, or half (rgba16f, the arithmetic float32: "
-                                  "half the bytes each layer moves) (auto: fp16 on GPUs, fp32 on CPU rasterizers)")
     realtime_model: str = _option("unet", ("unet", "rt"),
                                   "the network the glsl denoiser runs every frame (denoise every): the quality U-Net "
                                   "of final images (10.9 ms at 1080p on an H200), or the real-time rt (2.1 ms, a "
@@ -354,9 +351,6 @@ def resolve(options: Options, device: Device, work: Workload = Workload()) -> Re
     coherent = c["coherent_sampling"].value == "on"
     c["coherent_interleave"] = Choice(o.coherent_interleave, o.coherent_interleave if coherent else None,
                                       "" if coherent else "no coherent sampling")
-    c["glsl_precision"] = _auto(o.glsl_precision, device, "fp16", "fp32",
-                                   "on GPUs half storage halves each layer's memory traffic",
-                                   "a CPU rasterizer's cost is the arithmetic; half storage only adds conversions")
     c["realtime_model"] = Choice(o.realtime_model, o.realtime_model)
     c["max_buffer_bytes"] = Choice(o.max_buffer_bytes, o.max_buffer_bytes,
                                    "the GL's limit" if o.max_buffer_bytes == AUTO else "")

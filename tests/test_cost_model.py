@@ -26,7 +26,7 @@ def test_multiply_adds_match_the_graphs_count(gl_ctx, tmp_path, arch):
 
     model = random_unet(in_channels=8, out_channels=4, encoder=(8, 12, 16), bottleneck=20, arch=arch)
     onnx.save(model, tmp_path / "m.onnx")
-    net = GlslNet(gl_ctx, tmp_path / "m.onnx", precision="fp32")
+    net = GlslNet(gl_ctx, tmp_path / "m.onnx")
     try:
         costs = step_costs(net, 64, 48)
     finally:

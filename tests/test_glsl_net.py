@@ -11,12 +11,6 @@ A float64 numpy forward pass of the same graph propagates this variance alongsid
 differ by 6 * sqrt(2) * sigma elementwise (6 standard deviations of a difference of two
 independent errors: about 1e-9 per element to fail by chance). An indexing bug (a wrong tap,
 channel or weight) changes values by O(1), orders of magnitude above that.
-
-Half-precision storage (precision "fp16": rgba16f tensors, float32 arithmetic) adds one
-rounding of each value the executor stores (the input texture and each dispatch's output,
-not the values fused inside a dispatch), unit roundoff u16 = 2^-11, and an absolute 2^-25
-below fp16's normal range: the same uniform model gives (u16^2 y^2 + 2^-50) / 3 more variance
-at each stored value, propagated through the later layers as the float32 roundings are.
 """
 from __future__ import annotations
 
@@ -33,7 +27,6 @@ from lift_gl.denoise.onnx_graph import ModelError, Plan  # noqa: E402
 from lift_gl.denoise.random_unet import random_unet  # noqa: E402
 
 U = 2.0 ** -24
-U16, HALF_SUBNORMAL_ERROR = 2.0 ** -11, 2.0 ** -25
 
 
 @pytest.fixture(scope="module")
@@ -48,31 +41,14 @@ def onnxruntime_run(model, x):
     return session.run(None, {"input": x})[0]
 
 
-def storage_variance(y):
-    """The variance one rounding to fp16 adds to the values y (module docstring)."""
-    return (U16 ** 2 * y ** 2 + HALF_SUBNORMAL_ERROR ** 2) / 3
-
-
-def stored_values(path):
-    """The names whose values the GLSL executor stores (input and each dispatch's output)."""
-    plan = Plan(path)
-    return {plan.input_name} | {step.output for step in plan.steps if "#" not in step.output}
-
-
-def forward_float64(model, x, stored=()):
-    """The graph in float64 numpy, with the float32 rounding variance of every value, and
-    fp16 storage's at the names in `stored`."""
+def forward_float64(model, x):
+    """The graph in float64 numpy, with the float32 rounding variance of every value."""
     from onnx import helper, numpy_helper
 
     consts = {t.name: numpy_helper.to_array(t).astype(np.float64) for t in model.graph.initializer}
-    x0 = x[0].astype(np.float64)
-    env = {model.graph.input[0].name: (x0, storage_variance(x0) if model.graph.input[0].name in stored
-                                       else np.zeros(x0.shape))}  # (C, H, W) value, variance
+    env = {model.graph.input[0].name: (x[0].astype(np.float64), np.zeros(x[0].shape))}  # (C, H, W) value, variance
     for node in model.graph.node:
         _forward_node(node, env, consts, helper, numpy_helper)
-        if node.output[0] in stored:
-            v, var = env[node.output[0]]
-            env[node.output[0]] = (v, var + storage_variance(v))
     v, var = env[model.graph.output[0].name]
     return v[None], var[None]
 
@@ -204,16 +180,15 @@ def pad_edge(x, multiple):
     return np.pad(x, ((0, 0), (0, 0), (0, -h % multiple), (0, -w % multiple)), mode="edge")
 
 
-def compare(gl_ctx, tmp_path, model, size, out_block, pixels, precision="fp32"):
-    """GLSL, onnxruntime and the float64 reference pairwise within the derived bound; returns
-    the bound's largest value over the output's (how tight the comparison was)."""
+def compare(gl_ctx, tmp_path, model, size, out_block, pixels):
+    """GLSL, onnxruntime and the float64 reference pairwise within the derived bound."""
     path = tmp_path / "net.onnx"
     onnx.save(model, path)
     rng = np.random.default_rng(1)
     w, h = size
     channels = model.graph.input[0].type.tensor_type.shape.dim[1].dim_value
     x = rng.standard_normal((1, channels, h, w)).astype(np.float32)
-    net = GlslNet(gl_ctx, path, out_block=out_block, pixels=pixels, precision=precision)
+    net = GlslNet(gl_ctx, path, out_block=out_block, pixels=pixels)
     try:
         got = net.run_numpy(x)
         with pytest.raises(ValueError, match="multiple"):  # the GPU path takes padded sizes only
@@ -224,13 +199,6 @@ def compare(gl_ctx, tmp_path, model, size, out_block, pixels, precision="fp32"):
     padded = pad_edge(x, net.multiple)
     want = onnxruntime_run(model, padded)[:, :, :h, :w]
     exact, variance = forward_float64(model, padded)
-    if precision == "fp16":  # the GLSL side's variance with its storage roundings (module docstring)
-        _, variance_glsl = forward_float64(model, padded, stored=stored_values(path))
-        bound_glsl = 6 * np.sqrt(variance[:, :, :h, :w] + variance_glsl[:, :, :h, :w])
-        diff = np.abs(got - want)
-        worst = np.unravel_index(np.argmax(diff / bound_glsl), diff.shape)
-        assert (diff <= bound_glsl).all(), f"GLSL fp16 vs onnxruntime: {diff[worst]:.3g} > {bound_glsl[worst]:.3g}"
-        got = want  # the float32 checks below then hold onnxruntime to the reference
     bound = 6 * np.sqrt(2 * variance[:, :, :h, :w])
     assert got.shape == want.shape == (1, 3, h, w)
     assert np.isfinite(got).all()
@@ -240,9 +208,7 @@ def compare(gl_ctx, tmp_path, model, size, out_block, pixels, precision="fp32"):
         worst = np.unravel_index(np.argmax(diff / bound), diff.shape)
         assert (diff <= bound).all(), f"{label}: diff {diff[worst]:.3g} > bound {bound[worst]:.3g} at {worst}"
     # the comparison means something: the bound is far below the output and its variation
-    loosest = bound_glsl.max() if precision == "fp16" else bound.max()
-    assert bound.max() < 1e-3 * np.abs(want).max() and want.std() > 5 * loosest
-    return float(loosest / np.abs(want).max())
+    assert bound.max() < 1e-3 * np.abs(want).max() and want.std() > 5 * bound.max()
 
 
 def test_unet_concat_maxpool_nearest_matches_onnxruntime(gl_ctx, tmp_path):
@@ -274,44 +240,6 @@ def test_colour_curve_fused_into_the_first_conv_matches_onnxruntime(gl_ctx, tmp_
     steps = Plan(tmp_path / "curve.onnx").steps
     assert steps[0].kind == "conv" and steps[0].prologue and not any(s.kind in ("gather", "map") for s in steps)
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=1, pixels=8)
-
-
-@pytest.mark.parametrize("arch", ["unet", "rt"])
-def test_fp16_storage_matches_onnxruntime_within_half_rounding(gl_ctx, tmp_path, arch):
-    """rgba16f tensors: GLSL against onnxruntime within the bound with fp16 storage roundings
-    (module docstring), which is far looser than float32's but still far below the output."""
-    model = random_unet(encoder=(8, 12, 16), bottleneck=20, arch=arch, colour_curve=arch == "rt", seed=9)
-    relative = compare(gl_ctx, tmp_path, model, (37, 29), out_block=1, pixels=8, precision="fp16")
-    assert relative < 0.02  # 0.004 (unet) and 0.007 (rt) of the largest output here
-
-
-def test_fp16_saturates_a_firefly_instead_of_overflowing(gl_ctx, tmp_path):
-    """An exposed colour above half's range (65504) is stored as 65504: the fp16 output is the
-    network's on that saturated input (within the fp16 bound's scale), finite, never Inf or 0."""
-    model = random_unet(encoder=(8, 12, 16), bottleneck=20, arch="rt", colour_curve=True, seed=10)
-    onnx.save(model, tmp_path / "m.onnx")
-    x = np.random.default_rng(2).random((1, 9, 32, 48), dtype=np.float32)
-    x[0, :3, 10, 20] = 1e7
-    net = GlslNet(gl_ctx, tmp_path / "m.onnx", precision="fp16")
-    try:
-        got = net.run_numpy(x)
-    finally:
-        net.release()
-    saturated = x.copy()
-    saturated[0, :3, 10, 20] = 65504.0
-    want = onnxruntime_run(model, saturated)
-    assert np.isfinite(got).all() and (got > 0).all()
-    assert np.abs(got - want).max() < 0.02 * np.abs(want).max()  # the fp16 test's bound scale (< 0.02)
-
-
-def test_precision_auto_is_fp32_on_a_cpu_rasterizer(gl_ctx, tmp_path):
-    from lift_gl.denoise.glsl_net import resolve_precision
-    from lift_gl.gl.context import is_software
-
-    precision, why = resolve_precision(gl_ctx, "auto")
-    assert precision == ("fp32" if is_software(gl_ctx) else "fp16") and why
-    with pytest.raises(ValueError, match="precision"):
-        resolve_precision(gl_ctx, "fp8")
 
 
 def test_unsupported_conv_transpose_is_clear(tmp_path):
@@ -429,18 +357,16 @@ def test_renderer_texture_path_refuses_an_ensemble(gl_ctx):
         DenoisePass(gl_ctx, (16, 16), "glsl", numpy_denoiser=GlslDenoiser(ctx=gl_ctx, ensemble=2))
 
 
-def denoiser_bound(color, albedo, normal, want, precision="fp32"):
+def denoiser_bound(color, albedo, normal, want):
     """How far GlslDenoiser may differ from OnnxDenoiser on these inputs: the network's
     rounding bound (above) carried through the output transform (divide by the exposure,
-    times albedo), plus the output transform's own two roundings on each side; fp16: with
-    the storage roundings of both sides (two fp16 executors on the same inputs)."""
+    times albedo), plus the output transform's own two roundings on each side."""
     from lift_gl.denoise.demodulate import safe_albedo
     from lift_gl.denoise.model_io import network_input
 
     h, w = color.shape[:2]
     x, exposure = network_input(color, albedo, normal)
-    stored = stored_values(SHIPPED) if precision == "fp16" else ()
-    _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16), stored=stored)
+    _, variance = forward_float64(onnx.load(str(SHIPPED)), pad_edge(x, 16))
     bound = 6 * np.sqrt(2 * variance[0, :, :h, :w]).transpose(1, 2, 0) / exposure * safe_albedo(np.clip(albedo, 0, 1))
     return bound + 4 * U * np.abs(want)
 

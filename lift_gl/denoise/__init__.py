@@ -29,7 +29,7 @@ def get_denoiser(name: str, **options):
     onnx: the trained network (lift_gl/denoise/onnx_denoiser.py; options model_path, ensemble);
     oidn: Intel Open Image Denoise through pyoidn (pip install 'lift-gl[oidn]');
     glsl: the onnx model's graph run by GLSL compute shaders (lift_gl/denoise/glsl_denoiser.py;
-    options model_path, ctx, ensemble, precision), needing the onnx package to read the model but
+    options model_path, ctx, ensemble), needing the onnx package to read the model but
     not onnxruntime. The networks' denoise() also takes previous= and valid= for a temporal
     model (lift_gl/denoise/model_io.py).
     """

@@ -12,8 +12,7 @@ measured on one network (benchmarks/glsl_denoiser.py --per-dispatch, the shipped
 Bytes moved are each tensor read once and written once (texel caches serve a conv's
 overlapping taps) plus the conv's weights read once per work group of 8x8 invocations: the
 traffic a dispatch cannot avoid. Multiply-adds count the padded channels the shaders compute
-(4 a layer). Both depend on the tensors' storage (fp32 or fp16: 16 or 8 bytes a texel), so one
-fit per precision.
+(4 a layer). A texel of the tensors (rgba32f) is 16 bytes.
 """
 from __future__ import annotations
 
@@ -40,7 +39,7 @@ class StepCost:
 
 def step_costs(net, width: int, height: int) -> list[StepCost]:
     """Each dispatch of `net` (a GlslNet) at an input of width x height: multiply-adds and bytes."""
-    texel = 16 if net.precision == "fp32" else 8
+    texel = 16  # rgba32f
     values = net.plan.values
     costs = []
     for step in net.plan.steps:

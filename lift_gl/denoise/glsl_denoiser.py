@@ -1,12 +1,10 @@
 """The ONNX denoiser run by the GLSL executor instead of onnxruntime: the same model file,
-the same input preparation (lift_gl/denoise/model_io.py), the same result within the rounding
-of its tensors' precision, on any OpenGL 4.3 device.
+the same input preparation (lift_gl/denoise/model_io.py), the same result within float32
+rounding, on any OpenGL 4.3 device.
 
     GlslDenoiser().denoise(color, albedo, normal)  # (H, W, 3) float32 each
 
-The model is read and its shaders compiled on the first denoise() call; `precision` picks the
-tensors' storage (glsl_net.py: fp16 on a GPU by default, then within fp16 rounding of
-onnxruntime rather than float32's). `ensemble` (1, 2, 4
+The model is read and its shaders compiled on the first denoise() call. `ensemble` (1, 2, 4
 or 8; None: the sidecar's `inference.ensemble`, as OnnxDenoiser) averages over that many
 mirror images as the onnxruntime path does (lift_gl/denoise/dihedral.py); the renderer's
 texture path (passes/net_denoise.py, `network()`, the viewer's real-time road) always runs
@@ -31,10 +29,8 @@ def model_file(name: str) -> Path:
 class GlslDenoiser:
     name = "glsl"
 
-    def __init__(self, model_path=None, ctx=None, ensemble: int | None = None, precision: str = "auto",
-                 **net_options):
-        """precision: the tensors' storage, "auto", "fp32" or "fp16" (glsl_net.PRECISIONS);
-        net_options: GlslNet's kernel shape (out_block, pixels)."""
+    def __init__(self, model_path=None, ctx=None, ensemble: int | None = None, **net_options):
+        """net_options: GlslNet's kernel shape (out_block, pixels)."""
         from .dihedral import ENSEMBLE_SIZES
 
         if ensemble is not None and ensemble not in ENSEMBLE_SIZES:
@@ -42,7 +38,7 @@ class GlslDenoiser:
         self.model_path = Path(model_path) if model_path is not None else DEFAULT_MODEL
         self.ensemble = ensemble
         self._ctx = ctx
-        self._net_options = dict(net_options, precision=precision)
+        self._net_options = dict(net_options)
         self.net = None
 
     def _load(self) -> None:

@@ -4,16 +4,13 @@ the denoiser on any GPU (or llvmpipe) without CUDA or onnxruntime.
     net = GlslNet(ctx, "assets/denoiser/lift_unet.onnx")
     y = net.run_numpy(x)            # (1, C, H, W) float32 -> (1, C_out, H, W), any H and W
     net.allocate(width, height)     # or stay on the GPU: sizes multiples of net.multiple
-    net.input_texture.write(...)    # image2DArray (rgba32f, or rgba16f), channel c in layer c // 4
+    net.input_texture.write(...)    # image2DArray (rgba32f), channel c in layer c // 4
     net.run(); net.output_texture   # the same layout; row 0 is the top of the picture
 
 The graph is read by lift_gl/denoise/onnx_graph.py into steps; here each step becomes one
 compute dispatch (shaders/denoise/). Weights are uploaded once; intermediate textures are
-allocated once per resolution and reused once their last reader has run.
-
-`precision`: the tensors' storage. "fp32" (rgba32f), "fp16" (rgba16f: half the bytes moved;
-each stored value rounded to 11 significant bits, the arithmetic and the weights staying
-float32), "auto": fp16 on a GPU, fp32 on a CPU rasterizer (`default_precision` says why).
+allocated once per resolution and reused once their last reader has run. Tensors are
+float32 (rgba32f); half storage (rgba16f) measured slower on an H200 (docs/denoiser.md).
 """
 from __future__ import annotations
 
@@ -43,29 +40,7 @@ def default_shape(ctx) -> tuple[int, int]:
     return (DEFAULT_OUT_BLOCK, DEFAULT_PIXELS) if is_software(ctx) else (GPU_OUT_BLOCK, GPU_PIXELS)
 
 
-PRECISIONS = ("auto", "fp32", "fp16")
-TENSOR_FORMATS = {"fp32": ("rgba32f", "f4", np.float32), "fp16": ("rgba16f", "f2", np.float16)}
-HALF_MAX = 65504.0  # half's largest finite value: fp16 tensors saturate there
-
-
-def default_precision(ctx) -> tuple[str, str]:
-    """(precision, why) for precision "auto" on this context."""
-    from ..gl.context import is_software
-
-    if is_software(ctx):
-        return "fp32", ("fp32 tensors: a CPU rasterizer gains nothing from half storage (its cost is the "
-                        "arithmetic; each half load and store is one more conversion)")
-    return "fp16", ("fp16 tensors (rgba16f) on a GPU: half the bytes each dispatch moves, the arithmetic "
-                    "and the weights float32")
-
-
-def resolve_precision(ctx, precision: str) -> tuple[str, str]:
-    """(fp32 or fp16, why) for an asked precision (one of PRECISIONS)."""
-    if precision not in PRECISIONS:
-        raise ValueError(f"precision must be one of {', '.join(PRECISIONS)}, not {precision!r}")
-    if precision == "auto":
-        return default_precision(ctx)
-    return precision, f"{precision} tensors, as asked"
+TENSOR_FORMAT = "rgba32f"  # the tensors' image format (shaders/denoise/tensor.glsl)
 
 
 NEAREST_MODES = ("floor", "ceil", "round_prefer_floor", "round_prefer_ceil")
@@ -97,17 +72,13 @@ def pack_weights(weight: np.ndarray, part_channels: list[int], out_block: int) -
 class GlslNet:
     """The steps of an ONNX model as compute dispatches on a moderngl context."""
 
-    def __init__(self, ctx, model_path, out_block: int | None = None, pixels: int | None = None,
-                 precision: str = "auto"):
-        """out_block, pixels: the conv kernel's shape; None: default_shape(ctx). precision:
-        one of PRECISIONS (module docstring); self.precision_why says why the one chosen."""
+    def __init__(self, ctx, model_path, out_block: int | None = None, pixels: int | None = None):
+        """out_block, pixels: the conv kernel's shape; None: default_shape(ctx)."""
         self.ctx = ctx
         self.model_path = Path(model_path)
-        self.precision, self.precision_why = resolve_precision(ctx, precision)
-        self.tensor_format, self._texture_dtype, self._numpy_dtype = TENSOR_FORMATS[self.precision]
+        self.tensor_format = TENSOR_FORMAT
         # what a shader writing or reading these tensors is compiled with (shaders/denoise/tensor.glsl)
-        self.tensor_defines = {"TENSOR_FORMAT": self.tensor_format,
-                               **({"TENSOR_HALF": 1} if self.precision == "fp16" else {})}
+        self.tensor_defines = {"TENSOR_FORMAT": self.tensor_format}
         self.plan = Plan(self.model_path)
         default_block, default_pixels = default_shape(ctx)
         self.out_block = int(default_block if out_block is None else out_block)
@@ -207,7 +178,7 @@ class GlslNet:
 
     def _new_texture(self, shape):
         width, height, count = shape
-        texture = self.ctx.texture_array((width, height, count), 4, dtype=self._texture_dtype)
+        texture = self.ctx.texture_array((width, height, count), 4, dtype="f4")
         self._owned.append(texture)
         return texture
 
@@ -273,16 +244,13 @@ class GlslNet:
 
     def write_input(self, x: np.ndarray) -> None:
         """(C, H, W) float32 at the allocated size into the input texture."""
-        tensor = to_layers(x)
-        if self.precision == "fp16":  # saturate as the shaders' stores do (tensor.glsl TENSOR_HALF)
-            tensor = np.clip(tensor, -HALF_MAX, HALF_MAX)
-        self.input_texture.write(tensor.astype(self._numpy_dtype).tobytes())
+        self.input_texture.write(to_layers(x).tobytes())
 
     def read_output(self) -> np.ndarray:
         """The output texture as (C_out, H, W) float32."""
         width, height = self.size
         count = layers(self.output_channels)
-        data = np.frombuffer(self.output_texture.read(), self._numpy_dtype).reshape(count, height, width, 4)
+        data = np.frombuffer(self.output_texture.read(), np.float32).reshape(count, height, width, 4)
         data = data.transpose(0, 3, 1, 2).reshape(count * 4, height, width)[:self.output_channels]
         return np.ascontiguousarray(data, dtype=np.float32)
 

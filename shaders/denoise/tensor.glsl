@@ -1,18 +1,13 @@
 // Activations of the GLSL denoiser: one image2DArray per tensor, channel c in layer c / 4,
-// component c % 4, row 0 = the top of the picture (numpy order); TENSOR_FORMAT is rgba32f, or
-// rgba16f for half-precision storage (the arithmetic stays float32). Channels past the
-// tensor's count are written as zero, so that the next convolution's zero weights never
-// meet an Inf or a NaN there.
+// component c % 4, row 0 = the top of the picture (numpy order); TENSOR_FORMAT is the tensors'
+// image format, rgba32f. Channels past the tensor's count are written as zero, so that the
+// next convolution's zero weights never meet an Inf or a NaN there.
 #ifndef DENOISE_TENSOR_GLSL
 #define DENOISE_TENSOR_GLSL
 
 #ifndef TENSOR_FORMAT
 #define TENSOR_FORMAT rgba32f
 #endif
-// TENSOR_HALF (with rgba16f): values are clamped to half's largest finite value as they are
-// stored, so that a firefly or a bright output saturates instead of becoming Inf (which the
-// output transform would turn to 0)
-#define HALF_MAX 65504.0
 
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -22,9 +17,6 @@ uniform int u_out_channels; // real channels of the output
 // Zero the components of layer `layer` past `channels` (a select, so NaN cannot leak).
 vec4 mask_to(vec4 v, int layer, int channels) {
     ivec4 channel = ivec4(4 * layer) + ivec4(0, 1, 2, 3);
-#ifdef TENSOR_HALF
-    v = clamp(v, -HALF_MAX, HALF_MAX);
-#endif
     return mix(vec4(0.0), v, lessThan(channel, ivec4(channels)));
 }
 

@@ -59,16 +59,10 @@ void main() {
     vec3 color = net_demodulated(p, albedo) * u_exposure;
     vec3 n = texelFetch(u_normal_depth, p, 0).xyz;
     n = clamp(mix(n, vec3(0.0), isnan(n)), -1.0, 1.0);  // nan_to_num then clip, as model_io
-#ifdef TENSOR_HALF
-    color = min(color, vec3(65504.0));  // half's largest finite value: a firefly saturates (tensor.glsl)
-#endif
     imageStore(u_input, ivec3(at, 0), vec4(color, albedo.r));
     imageStore(u_input, ivec3(at, 1), vec4(albedo.gb, n.xy));
 #ifdef TEMPORAL
     vec4 previous = previous_frame(p);
-#ifdef TENSOR_HALF
-    previous.rgb = min(previous.rgb * u_exposure, vec3(65504.0)) / u_exposure;
-#endif
     imageStore(u_input, ivec3(at, 2), vec4(n.z, previous.rgb * u_exposure));
     imageStore(u_input, ivec3(at, 3), vec4(previous.a, 0.0, 0.0, 0.0));
 #else
