@@ -4,14 +4,14 @@
 # length 32), for every checkout in TREES and this one, alternately, then one table.
 #
 #   SHARED=.devout/shared TREES="base=/path/to/checkout" [LABEL=new] [ROUNDS=2] [SIZES=1920x1080]
-#   [MAX_DEPTH=32] [PARAMS=":cache_connections=1"] [EXTRA="--frames 8 --repeat 2"]
+#   [MAX_DEPTH=32] [PARAMS=":mis_power=1"] [EXTRA="--frames 8 --repeat 2"]
 #   bash benchmarks/bdpt_passes.sh OUTDIR
 #
 # Writes OUTDIR/LABEL_ROUND.json (gpu.py's records: frame_ms, pass_ms_query per pass, rays a
 # path, Mrays/s) and OUTDIR/table.md. A checkout whose bdpt has a [prepass] (its light pass)
 # shows it as the `prepass` pass beside `trace` (the camera pass); a one-pass bdpt has `trace` only.
-# PARAMS is appended to "bdpt" in this checkout's runs only (e.g. ":cache_connections=1"; an
-# older bdpt lacks the parameter); with it, this checkout is also measured without it.
+# PARAMS is appended to "bdpt" in this checkout's runs only (e.g. ":mis_power=1", or a new
+# parameter an older bdpt lacks); with it, this checkout is also measured without it.
 set -uo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 out=${1:?usage: bdpt_passes.sh OUTDIR}

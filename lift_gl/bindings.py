@@ -46,14 +46,13 @@ STORAGE_BUFFERS = {
     "net_bias": 20,        # ... and its bias
     "pixel_queue": 13,     # passes/trace.py: the megakernel's next pixel (LIFT_PIXEL_QUEUE)
     "carry": 15,           # passes/carry.py: paths parked for the next frame (LIFT_CARRY_PATHS)
-    "splats": 17,
+    "splats": 17,          # passes/splat.py: light-tracing splats (shaders/lift/splat.glsl)
     # passes/prepass.py: a plugin's prepass storage (shaders/lift/prepass.glsl), split over up
     # to four buffers where one would pass GL_MAX_SHADER_STORAGE_BLOCK_SIZE
     "prepass0": 11,
     "prepass1": 14,
     "prepass2": 21,
     "prepass3": 22,
-    "prepass_counters": 23,  # ... and its frame's counters, zeroed before each prepass          # passes/splat.py: light-tracing splats (shaders/lift/splat.glsl)
     "prev_positions": 18,  # temporal reprojection: last frame's positions (shaders/passes/motion_vectors.glsl)
     **{f"heap{k}": HEAP_FIRST_BINDING + k for k in range(MAX_HEAP_CHUNKS)},   # scene/split.py
 }

@@ -99,9 +99,8 @@ def _fake_ctx(max_block):
 
 def test_storage_splits_over_buffers_at_the_block_limit():
     bdpt = find_plugin("bdpt")
-    entries = bdpt.prepass.entry_count({"max_depth": 32, "cache_connections": 0})
+    entries = bdpt.prepass.entry_count({"max_depth": 32})
     assert entries == 4 * 33 + 2
-    assert bdpt.prepass.entry_count({"max_depth": 32, "cache_connections": 3}) == entries + 17  # the cache's list
     size, local = (1920, 1080), (8, 4)
     invocations = 1920 * 1080   # 8x4 groups cover 1080p exactly
     whole = entries * invocations * 16
@@ -152,42 +151,5 @@ def test_bad_prepass_tables_are_refused(tmp_path, table, message):
 
 def test_prepass_entries_follow_the_parameters():
     bdpt = find_plugin("bdpt")
-    assert [bdpt.prepass.entry_count({"max_depth": d, "cache_connections": 0}) for d in (0, 16, 64, 1000)] == \
-        [6, 70, 262, 262]
+    assert [bdpt.prepass.entry_count({"max_depth": d}) for d in (0, 16, 64, 1000)] == [6, 70, 262, 262]
 
-
-# ---------------------------------------------------------------- the light vertex cache
-# Joins to M light vertices of the whole frame's cache (cache_connections) instead of the sample's
-# own light subpath: another unbiased estimator of the same image, against pt as the bdpt tests
-# do (independent runs, their standard errors: tests/image_stats.py). The pixels of one run share
-# its cache, so the blocks of a run are correlated: the whole image's t and the largest block's
-# (a union bound, valid whatever the correlation) are tested, not the mean of the blocks' t^2,
-# whose bound assumes independent blocks.
-@pytest.mark.parametrize("scene_file, connections", [("scenes/cornell.toml", 1),
-                                                     ("tests/data/cornell_diffuse.toml", 3)],
-                         ids=["cornell-glass-gold-M1", "cornell-diffuse-smooth-M3"])
-def test_pt_and_bdpt_through_the_light_vertex_cache_agree(scene_file, connections):
-    from image_stats import agreement
-    from test_bdpt import RUNS, renders
-
-    scene = load_scene(REPO / scene_file)
-    pt = renders(scene, "pt", 16, range(1, RUNS + 1))
-    cached = renders(scene, "bdpt", 4, range(201, RUNS + 201), cache_connections=connections)
-    result = agreement(pt, cached, 8)
-    message = f"{scene_file}: pt vs bdpt, {connections} cached joins: {result}"
-    assert abs(result.image_t) < 3.0, message
-    assert np.abs(result.block_t).max() < result.block_bound, message
-
-
-def test_cache_lists_every_connectible_light_vertex():
-    """The cache's length (the prepass's counter 0) against the light subpaths' stored vertex
-    counts: on a scene without mirrors or glass every light vertex but y0 (on the emitter) is
-    connectible, so the cache holds sum(count - 1)."""
-    scene = load_scene(REPO / "tests" / "data" / "cornell_diffuse.toml")   # no delta vertices
-    r = Renderer(scene, size=(16, 12), integrator="bdpt", seed=3, params={"cache_connections": 2})
-    r.render(spp=1)
-    cached = int(np.frombuffer(r.prepass.counters.read(), dtype=np.uint32)[0])
-    stride = r.prepass.layout.stride(1)
-    counts = np.frombuffer(r.prepass.buffers[0].read(), dtype=np.uint32).reshape(-1, stride, 4)[1, :, 0]
-    assert cached == int(np.maximum(counts.astype(np.int64) - 1, 0).sum()) > 0
-    r.release()

@@ -1,8 +1,7 @@
 """Prepass: a plugin's `[prepass]` function for every pixel sample, before the trace pass.
 
 inputs:  scene buffers, camera
-outputs: prepass (the plugin's storage: `entries` uvec4s a pixel sample, and four counters of
-         the frame zeroed before the prepass: shaders/lift/prepass.glsl),
+outputs: prepass (the plugin's storage: `entries` uvec4s a pixel sample, shaders/lift/prepass.glsl),
          which the trace pass's radiance() of the same pixel sample reads; splats, where the
          plugin has them (they go into the trace pass's splat buffer, added after the trace)
 
@@ -31,7 +30,6 @@ from .trace import host_defines, program_head
 HOST_PREPASS = "lift/host_prepass.comp"
 MAX_BUFFERS = 4          # binding points prepass0..3 (lift_gl/bindings.py)
 UVEC4_BYTES = 16
-PREPASS_COUNTERS = 4     # lift_prepass_counters (shaders/lift/prepass.glsl)
 
 
 @dataclass(frozen=True)
@@ -94,7 +92,6 @@ class PrepassPass:
         self.program = shaders.compile_compute(ctx, self.source)
         self.buffers = []
         self.samples = 0   # the samples a frame the buffers hold
-        self.counters = ctx.buffer(reserve=4 * PREPASS_COUNTERS)
 
     def uniforms(self, samples: int) -> dict:
         """What both passes index the storage by, for a frame of `samples` per pixel."""
@@ -116,14 +113,11 @@ class PrepassPass:
     def bind(self) -> None:
         for k, buffer in enumerate(self.buffers):
             buffer.bind_to_storage_buffer(STORAGE_BUFFERS[f"prepass{k}"])
-        self.counters.bind_to_storage_buffer(STORAGE_BUFFERS["prepass_counters"])
 
     def run(self, uniforms: dict, splats=None) -> None:
         """One frame of u_samples per pixel; `splats`: the trace pass's splat buffer."""
         self._allocate(int(uniforms["u_samples"]))
         set_uniforms(self.program, uniforms)
-        self.ctx.memory_barrier()   # the last frame's passes are done with the counters before they are zeroed
-        self.counters.write(bytes(4 * PREPASS_COUNTERS))
         self.bind()
         if splats is not None:
             splats.bind()
@@ -132,6 +126,5 @@ class PrepassPass:
 
     def release(self) -> None:
         self.program.release()
-        self.counters.release()
         for buffer in self.buffers:
             buffer.release()

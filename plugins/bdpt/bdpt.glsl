@@ -17,16 +17,12 @@
 // traces each pixel sample's light subpath, stores it (bdpt_vertex.glsl) and splats its t = 1
 // joins; the trace pass (radiance) traces the camera subpath and joins each of its vertices to
 // the stored light subpath as it goes, so that it needs no array (bdpt_subpaths.glsl).
-// With cache_connections = M > 0, the s >= 2 joins go to M light vertices drawn from all the
-// frame's light subpaths instead (a light vertex cache, bdpt_cache.glsl).
-// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, mis_power, only_s, only_depth,
-// cache_connections.
+// Parameters (plugin.toml): max_depth, rr_depth, rr_min_survival, mis_power, only_s, only_depth.
 #include "lift/emission.glsl"
 #include "lift/camera_importance.glsl"
 #include "bdpt_vertex.glsl"
 #include "bdpt_mis.glsl"
 #include "bdpt_strategies.glsl"
-#include "bdpt_cache.glsl"
 #include "bdpt_subpaths.glsl"
 
 // ==== the prepass: the light subpath, stored, and light tracing ====
@@ -47,7 +43,6 @@ void bdpt_light_pass(ivec2 pixel, inout Rng rng) {
     for (int s = 2; s <= light_vertices && s - 1 <= depth_limit; ++s) {
         PathVertex y = light_vertex(s - 1);
         if (strategy_kept(s, 1)) strategy_light_tracing(y, y_prev);
-        if (cache_connections > 0 && vertex_connectible(y)) cache_light_vertex(s - 1);  // bdpt_cache.glsl
         y_prev = y;
     }
 }

@@ -119,15 +119,11 @@ Join strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex 
     return Join(contribution * mis_weight(camera_side, light_side), wi, dist);
 }
 
-vec3 cache_joins(PathVertex z, PathVertex z_prev, int t, inout Rng rng);  // bdpt_cache.glsl
-
 // ---- Camera vertex z = z_{t-1} joined to every light prefix whose path has at most depth_limit bounces ----
-// (or, with cache_connections > 0, for s >= 2 to light vertices of the frame's cache: bdpt_cache.glsl)
 vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,
                          inout Rng rng) {
     vec3 L = vec3(0.0);
     int last_s = min(max(light_vertices, 1), bdpt_depth_limit() + 2 - t);
-    if (cache_connections > 0) last_s = min(last_s, 1);  // s >= 2: through the cache (bdpt_cache.glsl)
     PathVertex y_prev;  // y_{s-2}: the vertex the join before read (each join reads one stored vertex)
     for (int s = 0; s <= last_s; ++s) {
         if (s == 0) {
@@ -146,6 +142,5 @@ vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int
         // Joins whose contribution is zero (MIS weight aside) trace no ray, as before.
         if (join.dist > 0.0 && vertex_sees(z, join.dir, join.dist)) L += join.contribution;
     }
-    if (cache_connections > 0) L += cache_joins(z, z_prev, t, rng);
     return L;
 }

@@ -63,8 +63,7 @@ PathVertex path_vertex(vec3 p, vec3 ng, vec3 ns, vec3 wo, vec3 beta, float pdf_f
 // sample are one stream, as when both subpaths were traced in one pass), entry 1 the number
 // of light vertices, then vertex i in BDPT_STORED_WORDS entries from 2 + i * BDPT_STORED_WORDS,
 // its three directions in one word each (lift/octahedral.glsl, about 5e-5 rad): 3 uvec4s a
-// vertex, 4 with textures. plugin.toml's `entries` is the room for 65 vertices of 4 words, and
-// with cache_connections > 0 for the light vertex cache's list after them (bdpt_cache.glsl).
+// vertex, 4 with textures. plugin.toml's `entries` is the room for 65 vertices of 4 words.
 #include "lift/octahedral.glsl"
 #ifdef HAS_TEXTURES
 #define BDPT_STORED_WORDS 4  // uvec4s a vertex: (p, pdf_fwd), (beta, mis_sum), (ng, ns, wo, tag), tint
@@ -97,22 +96,19 @@ void store_light_vertex(int i, PathVertex v) {
 #endif
 }
 
-// Light vertex i of pixel sample `pixel_sample` (the light vertex cache reads other samples'), and of this one.
-PathVertex light_vertex_at(uint pixel_sample, int i) {
+PathVertex light_vertex(int i) {
     int k = BDPT_FIRST_VERTEX_ENTRY + i * BDPT_STORED_WORDS;
-    vec4 p_pdf = uintBitsToFloat(prepass_load_at(k, pixel_sample));
-    vec4 beta_mis = uintBitsToFloat(prepass_load_at(k + 1, pixel_sample));
-    uvec4 words = prepass_load_at(k + 2, pixel_sample);
+    vec4 p_pdf = uintBitsToFloat(prepass_load(k));
+    vec4 beta_mis = uintBitsToFloat(prepass_load(k + 1));
+    uvec4 words = prepass_load(k + 2);
     PathVertex v = path_vertex(p_pdf.xyz, unpack_unit_vector(words.x), unpack_unit_vector(words.y),
                                unpack_unit_vector(words.z), beta_mis.xyz, p_pdf.w, words.w);
     v.mis_sum = beta_mis.w;
 #ifdef HAS_TEXTURES
-    v.tint = uintBitsToFloat(prepass_load_at(k + 3, pixel_sample)).xyz;
+    v.tint = uintBitsToFloat(prepass_load(k + 3)).xyz;
 #endif
     return v;
 }
-
-PathVertex light_vertex(int i) { return light_vertex_at(lift_prepass_sample, i); }
 
 uint vertex_kind(PathVertex v) { return v.tag >> 1u & 7u; }
 uint vertex_material(PathVertex v) { return v.tag >> 4u; }

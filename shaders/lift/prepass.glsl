@@ -4,8 +4,6 @@
 // uvec4s (the manifest's count), which both passes reach by entry number:
 //   prepass_store(entry, value)   in the prepass (or the trace pass)
 //   prepass_load(entry)           in the trace pass (or the prepass)
-// (and, for another pixel sample's entries, prepass_store_at / prepass_load_at / prepass_store_word_at;
-// four counters of the frame that the host zeroes before each prepass: prepass_count_add, prepass_count).
 // The host sets the current pixel sample (lift_prepass_begin, lift/host_report.glsl: it needs
 // the work group's size, declared after this file) before calling the plugin.
 //
@@ -31,15 +29,11 @@ layout(std430, binding = LIFT_BINDING_PREPASS2) buffer LiftPrepass2 { uvec4 lift
 layout(std430, binding = LIFT_BINDING_PREPASS3) buffer LiftPrepass3 { uvec4 lift_prepass3[]; };
 #endif
 
-// the frame's four counters, zeroed by the host before each prepass (prepass_count_add)
-layout(std430, binding = LIFT_BINDING_PREPASS_COUNTERS) buffer LiftPrepassCounters { uint lift_prepass_counters[4]; };
-
 uint lift_prepass_sample;  // the current pixel sample's number: lift_prepass_begin (lift/host_report.glsl)
 
-// Entry `entry` of pixel sample `pixel_sample` (any of this frame's: lift_prepass_sample is the current one).
-void prepass_store_at(int entry, uint pixel_sample, uvec4 value) {
+void prepass_store(int entry, uvec4 value) {
     uint run = uint(entry) % uint(LIFT_PREPASS_BUFFER_ENTRIES), part = uint(entry) / uint(LIFT_PREPASS_BUFFER_ENTRIES);
-    uint i = run * u_prepass_stride + pixel_sample;
+    uint i = run * u_prepass_stride + lift_prepass_sample;
 #if LIFT_PREPASS_BUFFERS > 1
     if (part == 1u) { lift_prepass1[i] = value; return; }
 #endif
@@ -52,9 +46,9 @@ void prepass_store_at(int entry, uint pixel_sample, uvec4 value) {
     lift_prepass0[i] = value;
 }
 
-uvec4 prepass_load_at(int entry, uint pixel_sample) {
+uvec4 prepass_load(int entry) {
     uint run = uint(entry) % uint(LIFT_PREPASS_BUFFER_ENTRIES), part = uint(entry) / uint(LIFT_PREPASS_BUFFER_ENTRIES);
-    uint i = run * u_prepass_stride + pixel_sample;
+    uint i = run * u_prepass_stride + lift_prepass_sample;
 #if LIFT_PREPASS_BUFFERS > 1
     if (part == 1u) return lift_prepass1[i];
 #endif
@@ -66,31 +60,5 @@ uvec4 prepass_load_at(int entry, uint pixel_sample) {
 #endif
     return lift_prepass0[i];
 }
-
-// One word (component 0-3) of an entry, leaving the entry's other words as they are: for lists
-// that any pixel sample appends to.
-void prepass_store_word_at(int entry, uint pixel_sample, uint component, uint word) {
-    uint run = uint(entry) % uint(LIFT_PREPASS_BUFFER_ENTRIES), part = uint(entry) / uint(LIFT_PREPASS_BUFFER_ENTRIES);
-    uint i = run * u_prepass_stride + pixel_sample;
-#if LIFT_PREPASS_BUFFERS > 1
-    if (part == 1u) { lift_prepass1[i][component] = word; return; }
-#endif
-#if LIFT_PREPASS_BUFFERS > 2
-    if (part == 2u) { lift_prepass2[i][component] = word; return; }
-#endif
-#if LIFT_PREPASS_BUFFERS > 3
-    if (part == 3u) { lift_prepass3[i][component] = word; return; }
-#endif
-    lift_prepass0[i][component] = word;
-}
-
-// The current pixel sample's entries.
-void prepass_store(int entry, uvec4 value) { prepass_store_at(entry, lift_prepass_sample, value); }
-uvec4 prepass_load(int entry) { return prepass_load_at(entry, lift_prepass_sample); }
-
-// Four counters of the frame, zeroed by the host before each prepass (e.g. the length of a
-// list that pixel samples append to): prepass_count_add returns the value before its add.
-uint prepass_count_add(int counter, uint n) { return atomicAdd(lift_prepass_counters[counter], n); }
-uint prepass_count(int counter) { return lift_prepass_counters[counter]; }
 #endif
 #endif
