@@ -567,8 +567,9 @@ def occupancy(edit=None):
         text = edit(text) if edit else text
         enter, leave, decl = occupancy_probe()
         text = _after_version(text, "#extension GL_NV_shader_thread_group : require")
-        text = _sub(text, "void lift_report_invocation() {", "void lift_report_invocation() {\n" + leave)
-        return _sub(text, "void main() {", decl + "void main() {\n" + enter)
+        # the buffer before the report (lift/host_report.glsl), which main() follows
+        text = _sub(text, "void lift_report_invocation() {", decl + "void lift_report_invocation() {\n" + leave)
+        return _sub(text, "void main() {", "void main() {\n" + enter)
     probed.local = getattr(edit, "local", None)
     return probed
 

@@ -236,6 +236,6 @@ def test_explain_lists_the_graphs_passes_from_their_declarations(cornell):
     lines = text.splitlines()
     start = lines.index("passes (inputs -> outputs, from each pass's declarations):")
     assert lines[start + 1:start + 1 + len(r.passes)] == r.graph.explain()
-    assert "  trace       scene, camera, visibility -> frame (with splats): runs bdpt.glsl" in text   # its splats
+    assert "  trace       scene, camera, visibility, prepass -> frame (with splats): runs bdpt.glsl" in text   # its splats, its light subpaths
     assert "tonemap     accumulation -> display [on demand]" in text
     r.release()
