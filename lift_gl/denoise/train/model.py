@@ -96,6 +96,31 @@ class _ColourTransform(nn.Module):
         e = torch.exp(torch.clamp(y, max=LOG_CLAMP))
         return e * LOG_EPS if self.transform == "log" else torch.relu(e - 1.0)
 
+    def _make_bottom(self, channels, bottleneck: int) -> None:
+        """Both models' lower half: two convs at the bottleneck below the deepest encoder level,
+        then a conv a level back up on the upsampled features and that level's skip."""
+        self.bottleneck = nn.Sequential(conv(channels[-1], bottleneck), nn.ReLU(inplace=True),
+                                        conv(bottleneck, bottleneck), nn.ReLU(inplace=True))
+        ups, prev = [], bottleneck
+        for ch in reversed(channels):
+            ups.append(conv(prev + ch, ch))
+            prev = ch
+        self.dec = nn.ModuleList(ups)
+
+    def _decode(self, h: torch.Tensor, skips: list) -> torch.Tensor:
+        h = self.bottleneck(F.max_pool2d(h, 2))
+        for layer, skip in zip(self.dec, reversed(skips)):
+            h = F.interpolate(h, scale_factor=2.0, mode="nearest")
+            h = torch.relu(layer(torch.cat([h, skip], dim=1)))
+        return h
+
+    def _output(self, layer: nn.Module, h: torch.Tensor) -> torch.Tensor:
+        # the output layer in float32 even under autocast: a bfloat16 y would quantise the
+        # radiance in steps of ~2% (y is a log)
+        with torch.autocast(device_type=h.device.type, enabled=False):
+            y = layer(h.float())
+        return self._color_out(y)
+
 
 class DenoiseUNet(_ColourTransform):
     def __init__(self, encoder=ENCODER, bottleneck=BOTTLENECK, transform=TRANSFORM, full_res_convs: int = 1,
@@ -107,13 +132,7 @@ class DenoiseUNet(_ColourTransform):
         self.enc = nn.ModuleList([conv(self.in_channels, c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         # further convs at full resolution after the first encoder and the last decoder conv
         self.enc_extra = nn.ModuleList([conv(c[0], c[0]) for _ in range(full_res_convs - 1)])
-        self.bottleneck = nn.Sequential(conv(c[-1], bottleneck), nn.ReLU(inplace=True),
-                                        conv(bottleneck, bottleneck), nn.ReLU(inplace=True))
-        ups, prev = [], bottleneck
-        for ch in reversed(c):
-            ups.append(conv(prev + ch, ch))
-            prev = ch
-        self.dec = nn.ModuleList(ups)
+        self._make_bottom(c, bottleneck)
         self.dec_extra = nn.ModuleList([conv(c[0], c[0]) for _ in range(full_res_convs - 1)])
         self.out = conv(c[0], 3)
 
@@ -128,17 +147,10 @@ class DenoiseUNet(_ColourTransform):
                 for extra in self.enc_extra:
                     h = torch.relu(extra(h))
             skips.append(h)
-        h = self.bottleneck(F.max_pool2d(h, 2))
-        for layer, skip in zip(self.dec, reversed(skips)):
-            h = F.interpolate(h, scale_factor=2.0, mode="nearest")
-            h = torch.relu(layer(torch.cat([h, skip], dim=1)))
+        h = self._decode(h, skips)
         for extra in self.dec_extra:
             h = torch.relu(extra(h))
-        # the output conv in float32 even under autocast: a bfloat16 y would quantise the
-        # radiance in steps of ~2% (y is a log)
-        with torch.autocast(device_type=h.device.type, enabled=False):
-            y = self.out(h.float())
-        return self._color_out(y)
+        return self._output(self.out, h)
 
 
 class RealTimeUNet(_ColourTransform):
@@ -152,13 +164,7 @@ class RealTimeUNet(_ColourTransform):
                      "temporal": self.temporal}
         self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
         self.enc = nn.ModuleList([conv(c[0], c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
-        self.bottleneck = nn.Sequential(conv(c[-1], bottleneck), nn.ReLU(inplace=True),
-                                        conv(bottleneck, bottleneck), nn.ReLU(inplace=True))
-        ups, prev = [], bottleneck
-        for ch in reversed(c):
-            ups.append(conv(prev + ch, ch))
-            prev = ch
-        self.dec = nn.ModuleList(ups)
+        self._make_bottom(c, bottleneck)
         self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)  # 1/2 -> full, the output's log colour
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -169,13 +175,7 @@ class RealTimeUNet(_ColourTransform):
                 h = F.max_pool2d(h, 2)
             h = torch.relu(layer(h))
             skips.append(h)
-        h = self.bottleneck(F.max_pool2d(h, 2))
-        for layer, skip in zip(self.dec, reversed(skips)):
-            h = F.interpolate(h, scale_factor=2.0, mode="nearest")
-            h = torch.relu(layer(torch.cat([h, skip], dim=1)))
-        with torch.autocast(device_type=h.device.type, enabled=False):  # float32 y, as the unet's
-            y = self.up(h.float())
-        return self._color_out(y)
+        return self._output(self.up, self._decode(h, skips))
 
 
 def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Module:
