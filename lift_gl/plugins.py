@@ -336,17 +336,26 @@ def load_manifest(folder: Path) -> Plugin:
                   prepass=_prepass(data, params, language, fail))
 
 
+def _table(data: dict, key: str, known: list, fail) -> dict | None:
+    """The manifest's [key] table (None when absent), refused when it is not a table or names
+    a key outside `known`."""
+    if key not in data:
+        return None
+    table = data[key]
+    if not isinstance(table, dict):
+        fail(f"'{key}' must be a table: [{key}]", rf"^\s*{key}\s*=")
+    unknown = set(table) - set(known)
+    if unknown:
+        fail(f"[{key}]: unknown keys {sorted(unknown)} (known: {', '.join(known)})", rf"^\s*\[{key}\]")
+    return table
+
+
 def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> ReducedPass | None:
     """The [reduced] table: checked against the parameters it names."""
-    if "reduced" not in data:
+    table = _table(data, "reduced", list(_REDUCED_KEYS), fail)
+    if table is None:
         return None
     header = r"^\s*\[reduced\]"
-    table = data["reduced"]
-    if not isinstance(table, dict):
-        fail("'reduced' must be a table: [reduced]", r"^\s*reduced\s*=")
-    unknown = set(table) - set(_REDUCED_KEYS)
-    if unknown:
-        fail(f"[reduced]: unknown keys {sorted(unknown)} (known: {', '.join(_REDUCED_KEYS)})", header)
     if primary != "gbuffer":
         fail("[reduced] needs primary = \"gbuffer\" (it is guided by the G-buffer's normals and depth)", header)
     if language != "glsl":
@@ -369,15 +378,10 @@ def _reduced(data: dict, params: dict, primary: str, language: str, fail) -> Red
 
 def _prepass(data: dict, params: dict, language: str, fail) -> Prepass | None:
     """The [prepass] table: a function name and a storage size that evaluates for the defaults."""
-    if "prepass" not in data:
+    table = _table(data, "prepass", sorted(_PREPASS_KEYS), fail)
+    if table is None:
         return None
     header = r"^\s*\[prepass\]"
-    table = data["prepass"]
-    if not isinstance(table, dict):
-        fail("'prepass' must be a table: [prepass]", r"^\s*prepass\s*=")
-    unknown = set(table) - _PREPASS_KEYS
-    if unknown:
-        fail(f"[prepass]: unknown keys {sorted(unknown)} (known: {', '.join(sorted(_PREPASS_KEYS))})", header)
     if language != "glsl":
         fail("[prepass] is for GLSL plugins (the prepass compiles the plugin's GLSL)", header)
     function = table.get("function")
