@@ -27,6 +27,7 @@ _LOG_ERRORS = (re.compile(r"^(?P<path>.*?):(?P<line>\d+):(?:\d+:)?\s*(?:fatal )?
                re.compile(r"^\s*error:\s*(?P<path>.*?):(?P<line>\d+):(?:\d+:)?\s*(?P<message>.*)$"))
 
 _device = None
+_unusable = None  # unusable_reason(): "" once the device works, else why not
 
 
 class OpenCLError(LiftError):
@@ -72,12 +73,15 @@ def _check_compiler(cl, context, needed_by) -> None:
 
 def unusable_reason() -> str | None:
     """Why OpenCL cannot run kernels here (pyopencl missing, no device, a compiler that refuses
-    a trivial kernel), or None when it can."""
-    try:
-        device()
-    except OpenCLError as exc:
-        return str(exc)
-    return None
+    a trivial kernel), or None when it can; asked once per process, as device() is made once."""
+    global _unusable
+    if _unusable is None:
+        try:
+            device()
+            _unusable = ""
+        except OpenCLError as exc:
+            _unusable = str(exc)
+    return _unusable or None
 
 
 def describe_device() -> str:
