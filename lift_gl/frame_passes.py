@@ -107,7 +107,7 @@ def trace_node(r, plugin, params, choices) -> Node:
 def make_trace(r, plugin, params, choices):
     defines = r.plugin_defines(plugin, params, choices)
     if plugin.prepass is not None:
-        defines.update(plugin_prepass_layout(r, plugin, params, choices).defines())
+        defines.update(plugin_prepass_layout(r, defines, plugin, params, choices).defines())
     if plugin.language == "opencl":
         from .passes.trace_cl import OpenCLTracePass
 
@@ -115,16 +115,17 @@ def make_trace(r, plugin, params, choices):
     return TracePass(r.ctx, r.size, plugin, defines, choices)
 
 
-def plugin_prepass_layout(r, plugin, params, choices):
-    """Where the prepass's storage goes, for r's image and samples a frame (passes/prepass.py)."""
-    defines = r.plugin_defines(plugin, params, choices)
+def plugin_prepass_layout(r, defines, plugin, params, choices):
+    """Where the prepass's storage goes, for r's image and samples a frame (passes/prepass.py);
+    `defines` the plugin's programs'."""
     return prepass_layout(r.ctx, plugin, params, r.size, defines, work_group(choices["bvh_stack"], choices.device),
                           r.samples_per_frame)
 
 
 def make_prepass(r, plugin, params, choices):
-    return PrepassPass(r.ctx, r.size, plugin, r.plugin_defines(plugin, params, choices), choices,
-                       plugin_prepass_layout(r, plugin, params, choices))
+    defines = r.plugin_defines(plugin, params, choices)
+    layout = plugin_prepass_layout(r, defines, plugin, params, choices)
+    return PrepassPass(r.ctx, r.size, plugin, defines, choices, layout)
 
 
 def prepass_why(plugin, made) -> str:
