@@ -21,7 +21,9 @@ class RenderStats:
     reprojected: int = 0  # frames that began with a reprojection (temporal="reproject": something moved)
     denoiser: str | None = None  # e.g. "atrous, final frame"; None: not denoised
     denoise_runs: int = 0
-    denoise_seconds: float = 0.0  # wall time of the denoiser runs (GPU work finished), inside render_seconds
+    # wall time of the denoiser runs on final images (GPU work finished), inside render_seconds; the
+    # per-frame runs of denoise="every" are not waited for (their time: the per-pass timers)
+    denoise_seconds: float = 0.0
 
     def read_counters(self, counters) -> None:
         """Take the GPU's statistics counters (SceneBuffers.read_stats)."""

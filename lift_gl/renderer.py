@@ -340,10 +340,13 @@ class Renderer:
         if not frame_guides:
             frame.guides_done(self)
         self._denoised_on_frame_guides = frame_guides
-        self.ctx.finish()
-        self.stats.denoise_seconds += time.perf_counter() - start
         self.stats.denoise_runs += 1
         self._denoised_spp = self.stats.spp
+        if not frame_guides:
+            # a frame's denoise (denoise="every") is not waited for: a wait here would keep the
+            # CPU from preparing the next frame while the GPU works (its time: the per-pass timers)
+            self.ctx.finish()
+            self.stats.denoise_seconds += time.perf_counter() - start
 
     @property
     def denoised_current(self) -> bool:

@@ -108,3 +108,10 @@ def test_schedule_parsing():
     for bad in ("10:1e-3", "10:1e-3:0.2,5:1e-3:0.2"):
         with pytest.raises(SystemExit):
             plan.parse_schedule(bad, 0.0)
+
+
+def test_a_crop_larger_than_the_scenes_is_refused_before_rendering(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        plan.arguments(["--out", str(tmp_path / "run"), "--size", "64", "--crop", "128"])
+    assert "--crop 128 is larger than the scenes' --size 64" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()

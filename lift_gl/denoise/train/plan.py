@@ -74,6 +74,8 @@ def arguments(argv=None) -> argparse.Namespace:
     a = p.parse_args(argv)
     if a.temporal is None:
         a.temporal = a.model == "rt"
+    if a.crop > a.size:
+        p.error(f"--crop {a.crop} is larger than the scenes' --size {a.size}")
     return a
 
 
