@@ -4,7 +4,7 @@
 # length 32), for every checkout in TREES and this one, alternately, then one table.
 #
 #   SHARED=.devout/shared TREES="base=/path/to/checkout" [LABEL=new] [ROUNDS=2] [SIZES=1920x1080]
-#   [MAX_DEPTH=32] [PARAMS=":mis_power=1"] [EXTRA="--frames 8 --repeat 2"]
+#   [MAX_DEPTH=32] [PARAMS=":mis_power=1"] [EXTRA="--frames 8 --repeat 2"] [SCENES="dining-room classroom"]
 #   bash benchmarks/bdpt_passes.sh OUTDIR
 #
 # Writes OUTDIR/LABEL_ROUND.json (gpu.py's records: frame_ms, pass_ms_query per pass, rays a
@@ -18,8 +18,8 @@ out=${1:?usage: bdpt_passes.sh OUTDIR}
 mkdir -p "$out"
 py=${PYTHON:-python3}
 shared=${SHARED:-$here/../shared}
-scenes="$shared/scenes_lift/cornell-box/scene.pbrt $shared/scenes_lift/dining-room/scene.pbrt
-        $shared/scenes_lift/classroom/scene.pbrt"
+scenes=""
+for name in ${SCENES:-cornell-box dining-room classroom}; do scenes="$scenes $shared/scenes_lift/$name/scene.pbrt"; done
 versions=(${TREES:-} "${LABEL:-new}=$here")
 for round in $(seq 1 "${ROUNDS:-2}"); do
     order=("${versions[@]}")

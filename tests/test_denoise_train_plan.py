@@ -115,3 +115,22 @@ def test_a_crop_larger_than_the_scenes_is_refused_before_rendering(tmp_path, cap
         plan.arguments(["--out", str(tmp_path / "run"), "--size", "64", "--crop", "128"])
     assert "--crop 128 is larger than the scenes' --size 64" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
+
+
+def test_init_from_loads_an_exported_model_and_refuses_another_architecture(tmp_path):
+    import torch
+    from lift_gl.denoise.train.export import export, load_onnx_weights
+    from lift_gl.denoise.train.model import build_model
+
+    torch.manual_seed(1)
+    source = build_model("rt", temporal=True, encoder=(8, 12, 16), bottleneck=16)
+    export(source, tmp_path / "source.onnx", {})
+    again = build_model("rt", temporal=True, encoder=(8, 12, 16), bottleneck=16)
+    load_onnx_weights(again, tmp_path / "source.onnx")
+    x = torch.rand(1, 13, 32, 32)
+    with torch.no_grad():
+        assert torch.equal(again(x), source(x))
+    with pytest.raises(SystemExit, match="not a model of this architecture"):
+        load_onnx_weights(build_model("rt", temporal=True), tmp_path / "source.onnx")
+    with pytest.raises(SystemExit, match="cannot read"):
+        load_onnx_weights(again, tmp_path / "missing.onnx")

@@ -231,15 +231,6 @@ def test_rt_strided_conv_and_transposed_conv_match_onnxruntime(gl_ctx, tmp_path)
 
 
 @pytest.mark.parametrize("channels", [9, 13])
-def test_rt_head_reads_the_full_resolution_input_matches_onnxruntime(gl_ctx, tmp_path, channels):
-    """The rt model's head: a 3x3 conv over the ConvTranspose's features and the network's
-    input (through the colour curve) at full resolution, then a 1x1 conv."""
-    model = random_unet(in_channels=channels, encoder=(8, 12, 16), bottleneck=20, arch="rt",
-                        colour_curve=True, head=8, seed=9)
-    compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=4)
-
-
-@pytest.mark.parametrize("channels", [9, 13])
 def test_colour_curve_fused_into_the_first_conv_matches_onnxruntime(gl_ctx, tmp_path, channels):
     """The trained models' colour curve (13 channels: the temporal input's previous colour
     too), fused as the first conv's prologue: no gather or map left."""

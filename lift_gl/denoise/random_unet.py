@@ -26,12 +26,10 @@ LOG_EPS, LOG_CLAMP = 0.01, 25.0  # lift_gl/denoise/train/model.py's (that module
 def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48, 64), bottleneck: int = 80,
                 pool: str = "MaxPool", upsample=("nearest", "asymmetric"), activation: str = "Relu",
                 add_skips: bool = False, final_kernel: int = 3, seed: int = 0, opset: int = 17,
-                arch: str = "unet", colour_curve: bool = False, head: int = 0):
+                arch: str = "unet", colour_curve: bool = False):
     """An onnx.ModelProto; `upsample` is (mode, coordinate_transformation_mode), or a list of
     those, one per decoder level (deepest first); `arch` "unet" or "rt", `colour_curve` the
-    trained models' colour transform (module docstring); `head` (rt) the full-resolution features
-    of the rt model's head: the ConvTranspose to `head` channels, a 3x3 conv over those and the
-    (transformed) input, a 1x1 conv out."""
+    trained models' colour transform (module docstring)."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -96,7 +94,6 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         if in_channels > 9:
             pieces += [curve(channels(9, 12)), channels(12, in_channels)]
         h = node("Concat", pieces, axis=1)
-    network_input = h
     if arch == "rt":  # full resolution -> 1/2, a learned space-to-depth
         h = conv(h, prev, encoder[0], k=2, stride=2)
         prev = encoder[0]
@@ -129,11 +126,7 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
             nodes.append(helper.make_node("Concat", [u, skip], [c], axis=1))
             h = conv(c, prev + ch, ch)
         prev = ch
-    if arch == "rt" and head:  # 1/2 -> full resolution features, refined with the full-resolution input
-        u = conv(h, prev, head, k=2, stride=2, transpose=True)
-        r = conv(node("Concat", [u, network_input], axis=1), head + in_channels, head)
-        y = conv(r, head, out_channels, k=1, act=False)
-    elif arch == "rt":  # 1/2 -> full resolution, a learned depth-to-space
+    if arch == "rt":  # 1/2 -> full resolution, a learned depth-to-space
         y = conv(h, prev, out_channels, k=2, stride=2, act=False, transpose=True)
     else:
         y = conv(h, prev, out_channels, k=final_kernel, act=False)

@@ -67,3 +67,23 @@ def export(model: nn.Module, onnx_path: Path, record: dict) -> Path:
     json_path = onnx_path.with_suffix(".json")
     json_path.write_text(json.dumps(sidecar(model, record), indent=2) + "\n")
     return json_path
+
+
+def load_onnx_weights(model: nn.Module, onnx_path: Path) -> None:
+    """Set `model`'s parameters from an exported model's initializers (export() keeps the
+    parameter names), refusing a file of another architecture."""
+    import onnx
+    from onnx import numpy_helper
+
+    onnx_path = Path(onnx_path)
+    try:
+        graph = onnx.load(str(onnx_path)).graph
+    except Exception as exc:  # a missing or corrupt file: one message naming it
+        raise SystemExit(f"{onnx_path}: cannot read the model to start from ({exc})")
+    weights = {i.name: numpy_helper.to_array(i) for i in graph.initializer}
+    state = model.state_dict()
+    wrong = [k for k, v in state.items() if k not in weights or tuple(weights[k].shape) != tuple(v.shape)]
+    if wrong:
+        raise SystemExit(f"{onnx_path}: not a model of this architecture ({model.arch}): "
+                         f"{len(wrong)} of {len(state)} parameters missing or of another shape, e.g. {wrong[0]}")
+    model.load_state_dict({k: torch.from_numpy(weights[k].copy()) for k in state})

@@ -7,11 +7,8 @@
 - "rt" (RealTimeUNet): the lean model for every frame of the viewer. A stride-2 2x2 conv takes
   full resolution to 1/2 (a learned space-to-depth: all four pixels of a block reach the
   features), an encoder at 1/2, 1/4, 1/8, a bottleneck at 1/16, a decoder with skips back to
-  1/2, and a stride-2 2x2 transposed conv back to full resolution (a learned depth-to-space)
-  to `head` (8) features, then the head: a 3x3 conv over those and the full-resolution input
-  (what a 2x2 block's four pixels differ by: edges, albedo, the history) and a 1x1 conv out.
-  About 9k multiply-adds a pixel (head 0, the first rt model: the transposed conv gives the
-  output, 7.7k).
+  1/2, and a stride-2 2x2 transposed conv back to full resolution (a learned depth-to-space).
+  Nothing runs at full resolution but those two: about 14k multiply-adds a pixel.
 
 Input channels (`input_channels`): colour (3), albedo (3), normal (3), and with
 `temporal=True` the previous frame's denoised output (3: linear, demodulated and exposed as
@@ -48,7 +45,6 @@ ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first
 BOTTLENECK = 80  # at 1/16
 RT_ENCODER = (24, 32, 48)  # the rt model's channels at 1/2, 1/4, 1/8
 RT_BOTTLENECK = 48  # at 1/16
-RT_HEAD = 8  # the rt model's full-resolution features (0: the transposed conv gives the output)
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")
 MODELS = ("unet", "rt")
@@ -161,37 +157,25 @@ class RealTimeUNet(_ColourTransform):
     """The "rt" model (module docstring): full resolution only in the 2x2 stride-2 conv in and
     the 2x2 stride-2 transposed conv out."""
 
-    def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False,
-                 head: int = RT_HEAD):
+    def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False):
         super().__init__(transform, temporal)
         c = list(encoder)
         self.arch = {"name": "rt", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
-                     "temporal": self.temporal, "head": int(head)}
+                     "temporal": self.temporal}
         self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
         self.enc = nn.ModuleList([conv(c[0], c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         self._make_bottom(c, bottleneck)
-        if head:  # 1/2 -> full as `head` features, then a 3x3 conv that also sees the full-resolution input
-            self.up = nn.ConvTranspose2d(c[0], head, 2, stride=2)
-            self.refine = conv(head + self.in_channels, head)
-            self.out = nn.Conv2d(head, 3, 1)
-        else:  # 1/2 -> full straight to the output's log colour
-            self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)
+        self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)  # 1/2 -> full, the output's log colour
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        t = self.transformed_input(x)
-        h = torch.relu(self.down(t))
+        h = torch.relu(self.down(self.transformed_input(x)))
         skips = []
         for i, layer in enumerate(self.enc):
             if i:
                 h = F.max_pool2d(h, 2)
             h = torch.relu(layer(h))
             skips.append(h)
-        h = self._decode(h, skips)
-        if not self.arch["head"]:
-            return self._output(self.up, h)
-        h = torch.relu(self.up(h))
-        h = torch.relu(self.refine(torch.cat([h, t], dim=1)))
-        return self._output(self.out, h)
+        return self._output(self.up, self._decode(h, skips))
 
 
 def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Module:
@@ -211,8 +195,6 @@ def model_from_arch(arch: dict) -> nn.Module:
     """The model `arch` describes (a model's .arch, or a sidecar's `architecture`; an arch
     without a name is a unet's)."""
     arch = {k: v for k, v in arch.items() if k not in DERIVED_ARCH_KEYS}
-    if arch.get("name") == "rt":
-        arch.setdefault("head", 0)  # an rt model saved before the head existed
     return build_model(arch.pop("name", "unet"), **arch)
 
 
@@ -223,8 +205,6 @@ def macs_per_pixel(model: nn.Module) -> float:
     if isinstance(model, RealTimeUNet):
         levels = [4 ** (i + 1) for i in range(len(model.enc))]  # the encoder starts at 1/2
         total = (model.down.weight.numel() + model.up.weight.numel()) / 4
-        if model.arch["head"]:
-            total += model.refine.weight.numel() + model.out.weight.numel()
         deepest = 4 ** (len(model.enc) + 1)
     else:
         levels = [1] + [4 ** i for i in range(1, len(model.enc))]

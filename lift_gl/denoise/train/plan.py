@@ -54,6 +54,9 @@ def arguments(argv=None) -> argparse.Namespace:
                    help="train with the previous frame's output as an input (default: on for rt)")
     p.add_argument("--out", type=Path, required=True, help="working folder: data, checkpoint, status, record")
     p.add_argument("--onnx", type=Path, default=None, help="the model to write at the end (default OUT/MODEL.onnx)")
+    p.add_argument("--init-from", type=Path, default=None,
+                   help="start from this model's weights (an ONNX file of the same architecture, e.g. the shipped "
+                        "one, to fine-tune it) instead of random ones; ignored once OUT has a checkpoint")
     p.add_argument("--time-budget-s", type=float, default=None,
                    help="stop before this many seconds (checkpoint saved, exit status 3); run again to continue")
     p.add_argument("--scenes", type=int, default=400, help="training scenes")
@@ -128,7 +131,12 @@ def main(argv=None, clock=time.monotonic) -> int:
                              f"not {a.model} (temporal {a.temporal}): use another --out")
     torch.manual_seed(a.seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
-    model = build_model(a.model, temporal=a.temporal).to(device).to(memory_format=torch.channels_last)
+    model = build_model(a.model, temporal=a.temporal)
+    if a.init_from is not None and not ckpt_path.exists():
+        from .export import load_onnx_weights
+        load_onnx_weights(model, a.init_from)
+        log(f"plan: starting from the weights of {a.init_from}")
+    model = model.to(device).to(memory_format=torch.channels_last)
     if a.temporal:
         from .temporal import PairExamples as Data
     else:
@@ -147,7 +155,8 @@ def main(argv=None, clock=time.monotonic) -> int:
     from .export import export
     from .train import mean_ratios
     model = result["model"]
-    record = {"command": status["command"], "model": a.model, "temporal": a.temporal, "train_scenes": len(train_paths),
+    record = {"command": status["command"], "model": a.model, "temporal": a.temporal,
+              "init_from": None if a.init_from is None else a.init_from.name, "train_scenes": len(train_paths),
               "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
               "val_seeds": [val_seeds[0], val_seeds[-1]] if val_seeds else [], "size": a.size, "ref_spp": a.ref_spp,
               "spp_levels": [1, 2, 4, 8, 16, 32, 64], "schedule": a.schedule, "mean_weight": mean_weight,
