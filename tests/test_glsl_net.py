@@ -131,26 +131,28 @@ def _forward_node(node, env, consts, helper, numpy_helper):
     elif op in ("MaxPool", "AveragePool"):
         v, var = env[ins[0]]
         c, h, wd = v.shape
-        blocks = v.reshape(c, h // 2, 2, wd // 2, 2)
-        vb = var.reshape(c, h // 2, 2, wd // 2, 2)
+        k = int(attrs["kernel_shape"][0])
+        blocks = v.reshape(c, h // k, k, wd // k, k)
+        vb = var.reshape(c, h // k, k, wd // k, k)
         if op == "MaxPool":
             env[node.output[0]] = (blocks.max(axis=(2, 4)), vb.max(axis=(2, 4)))
         else:
             mean = blocks.mean(axis=(2, 4))
-            env[node.output[0]] = (mean, vb.mean(axis=(2, 4)) + U ** 2 * 4 * mean ** 2)
+            env[node.output[0]] = (mean, vb.mean(axis=(2, 4)) + U ** 2 * k * k * mean ** 2)
     elif op == "Resize":
         v, var = env[ins[0]]
         mode, transform = attrs["mode"].decode(), attrs["coordinate_transformation_mode"].decode()
         c, h, wd = v.shape
+        f = int(consts[ins[2]].reshape(-1)[2])  # the scales' factor on H (the same on W)
 
         def coords(n):
-            out = np.arange(2 * n, dtype=np.float64)
+            out = np.arange(f * n, dtype=np.float64)
             if transform == "align_corners":
-                x = out * (n - 1) / (2 * n - 1)
-            elif transform == "half_pixel":
-                x = (out + 0.5) / 2 - 0.5
+                x = out * (n - 1) / (f * n - 1)
+            elif transform in ("half_pixel", "pytorch_half_pixel"):  # the same for sizes above 1
+                x = (out + 0.5) / f - 0.5
             else:
-                x = out / 2
+                x = out / f
             if mode == "nearest":
                 return np.clip(np.floor(x), 0, n - 1).astype(int), None, None
             x = np.clip(x, 0, n - 1)
@@ -228,6 +230,19 @@ def test_rt_strided_conv_and_transposed_conv_match_onnxruntime(gl_ctx, tmp_path)
     """The rt shape: a 2x2 stride-2 conv in, a 2x2 stride-2 ConvTranspose out."""
     model = random_unet(encoder=(8, 12, 16), bottleneck=20, arch="rt", seed=7)
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=3)  # 3 pixels: a strided row of odd length
+
+
+def test_rt_colour_skip_matches_onnxruntime_and_keeps_the_curve_fused(gl_ctx, tmp_path):
+    """The rt model's colour skip (the input pooled, its colour through the curve, upsampled
+    bilinearly, added to the output's log) runs, and the first conv still reads the input
+    through its own fused curve: the skip's pool reads the input whole."""
+    model = random_unet(in_channels=13, encoder=(8, 12, 16), bottleneck=20, arch="rt",
+                        colour_curve=True, colour_skip=4, seed=9)
+    onnx.save(model, tmp_path / "skip.onnx")
+    steps = Plan(tmp_path / "skip.onnx").steps
+    assert steps[0].kind == "conv" and steps[0].prologue
+    assert [s.kind for s in steps].count("resize") == 4  # three decoder levels and the skip
+    compare(gl_ctx, tmp_path, model, (40, 32), out_block=2, pixels=4)
 
 
 @pytest.mark.parametrize("channels", [9, 13])

@@ -9,7 +9,7 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from lift_gl.denoise.train.model import (MULTIPLE, RECEPTIVE_RADIUS, build_model, input_channels,  # noqa: E402
+from lift_gl.denoise.train.model import (LOG_EPS, MULTIPLE, RECEPTIVE_RADIUS, build_model, input_channels,  # noqa: E402
                                          macs_per_pixel, model_from_arch)
 
 CASES = [(name, temporal) for name in ("unet", "rt") for temporal in (False, True)]
@@ -109,3 +109,24 @@ def test_export_matches_torch_and_names_the_inputs(name, temporal, tmp_path):
         expect = model(torch.from_numpy(x)).numpy()
     # two float32 evaluations of the same graph: a few roundings of the largest value apart
     np.testing.assert_allclose(y, expect, rtol=1e-4, atol=1e-4 * float(np.abs(expect).max()))
+
+
+def test_rt_colour_skip_carries_the_colour_when_the_network_adds_nothing():
+    """With the last layer zeroed the output is the skip alone: for a flat colour c the curve's
+    inverse gives c + eps back (eps * exp(log(1 + c/eps))), whatever the other inputs hold."""
+    model = build_model("rt", temporal=True).eval()
+    assert model.arch["colour_skip"] == 4
+    with torch.no_grad():
+        model.up.weight.zero_()
+        model.up.bias.zero_()
+        x = torch.rand(1, 13, 32, 48)
+        colour = torch.tensor([0.7, 0.05, 2.5])
+        x[:, :3] = colour[None, :, None, None]
+        y = model(x)
+    want = (colour + LOG_EPS)[None, :, None, None].expand_as(y)
+    assert torch.allclose(y, want, rtol=1e-5)
+
+
+def test_an_rt_arch_without_a_colour_skip_is_the_first_rt_model():
+    first = {"name": "rt", "encoder": [24, 32, 48], "bottleneck": 48, "transform": "log", "temporal": True}
+    assert model_from_arch(first).arch["colour_skip"] == 0

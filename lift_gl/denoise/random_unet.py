@@ -26,10 +26,12 @@ LOG_EPS, LOG_CLAMP = 0.01, 25.0  # lift_gl/denoise/train/model.py's (that module
 def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48, 64), bottleneck: int = 80,
                 pool: str = "MaxPool", upsample=("nearest", "asymmetric"), activation: str = "Relu",
                 add_skips: bool = False, final_kernel: int = 3, seed: int = 0, opset: int = 17,
-                arch: str = "unet", colour_curve: bool = False):
+                arch: str = "unet", colour_curve: bool = False, colour_skip: int = 0):
     """An onnx.ModelProto; `upsample` is (mode, coordinate_transformation_mode), or a list of
     those, one per decoder level (deepest first); `arch` "unet" or "rt", `colour_curve` the
-    trained models' colour transform (module docstring)."""
+    trained models' colour transform (module docstring); `colour_skip` k (rt) the rt model's
+    colour skip: the curve of the input colour's kxk block means, upsampled bilinearly, added to
+    the output's log (model.py)."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -130,6 +132,13 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         y = conv(h, prev, out_channels, k=2, stride=2, act=False, transpose=True)
     else:
         y = conv(h, prev, out_channels, k=final_kernel, act=False)
+    if colour_skip:  # model.py's colour skip: the input pooled whole, its colour sliced, curved, upsampled
+        pooled = node("AveragePool", ["input"], kernel_shape=[colour_skip, colour_skip],
+                      strides=[colour_skip, colour_skip])
+        colour = node("Slice", [pooled, constant_int([0]), constant_int([3]), constant_int([1]), constant_int([1])])
+        up = node("Resize", [curve(colour), "", constant([1, 1, colour_skip, colour_skip])], mode="linear",
+                  coordinate_transformation_mode="pytorch_half_pixel")
+        y = node("Add", [y, node("Mul", [up, constant(np.log1p(1.0 / LOG_EPS))])])
     if colour_curve:  # model.py's output: eps * exp(min(y, LOG_CLAMP))
         y = node("Mul", [node("Exp", [node("Clip", [y, "", constant(LOG_CLAMP)])]), constant(LOG_EPS)])
     nodes.append(helper.make_node("Identity", [y], ["output"]))

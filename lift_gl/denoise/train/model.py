@@ -8,7 +8,11 @@
   full resolution to 1/2 (a learned space-to-depth: all four pixels of a block reach the
   features), an encoder at 1/2, 1/4, 1/8, a bottleneck at 1/16, a decoder with skips back to
   1/2, and a stride-2 2x2 transposed conv back to full resolution (a learned depth-to-space).
-  Nothing runs at full resolution but those two: about 14k multiply-adds a pixel.
+  Nothing runs at full resolution but those two: about 8k multiply-adds a pixel. With
+  `colour_skip` k (default 4) the output adds the colour curve of the input's kxk block means,
+  upsampled bilinearly, so that the network predicts a correction of a blurred input
+  and need not carry the colour through its features (without it the first rt model's colours
+  drifted towards grey: a channel of a dim, saturated scene 1.8x off). k = 0: the first rt.
 
 Input channels (`input_channels`): colour (3), albedo (3), normal (3), and with
 `temporal=True` the previous frame's denoised output (3: linear, demodulated and exposed as
@@ -45,6 +49,7 @@ ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first
 BOTTLENECK = 80  # at 1/16
 RT_ENCODER = (24, 32, 48)  # the rt model's channels at 1/2, 1/4, 1/8
 RT_BOTTLENECK = 48  # at 1/16
+RT_COLOUR_SKIP = 4  # the block of the rt model's colour skip (module docstring; 0: none)
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")
 MODELS = ("unet", "rt")
@@ -114,12 +119,18 @@ class _ColourTransform(nn.Module):
             h = torch.relu(layer(torch.cat([h, skip], dim=1)))
         return h
 
-    def _output(self, layer: nn.Module, h: torch.Tensor) -> torch.Tensor:
+    def _output(self, layer: nn.Module, h: torch.Tensor, offset: torch.Tensor | None = None) -> torch.Tensor:
         # the output layer in float32 even under autocast: a bfloat16 y would quantise the
         # radiance in steps of ~2% (y is a log)
         with torch.autocast(device_type=h.device.type, enabled=False):
             y = layer(h.float())
+            if offset is not None:
+                y = y + offset.float()
         return self._color_out(y)
+
+    def _log_colour(self, t_colour: torch.Tensor) -> torch.Tensor:
+        """The transformed colour as the output's y: what _color_out maps back to (about) it."""
+        return t_colour * math.log1p(1.0 / LOG_EPS) if self.transform == "log" else t_colour
 
 
 class DenoiseUNet(_ColourTransform):
@@ -157,25 +168,32 @@ class RealTimeUNet(_ColourTransform):
     """The "rt" model (module docstring): full resolution only in the 2x2 stride-2 conv in and
     the 2x2 stride-2 transposed conv out."""
 
-    def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False):
+    def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False,
+                 colour_skip: int = RT_COLOUR_SKIP):
         super().__init__(transform, temporal)
         c = list(encoder)
         self.arch = {"name": "rt", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
-                     "temporal": self.temporal}
+                     "temporal": self.temporal, "colour_skip": int(colour_skip)}
         self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
         self.enc = nn.ModuleList([conv(c[0], c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         self._make_bottom(c, bottleneck)
         self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)  # 1/2 -> full, the output's log colour
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        h = torch.relu(self.down(self.transformed_input(x)))
+        t = self.transformed_input(x)
+        h = torch.relu(self.down(t))
         skips = []
         for i, layer in enumerate(self.enc):
             if i:
                 h = F.max_pool2d(h, 2)
             h = torch.relu(layer(h))
             skips.append(h)
-        return self._output(self.up, self._decode(h, skips))
+        k = self.arch["colour_skip"]
+        base = None
+        if k:  # the curve of the block means (a log of the mean, not a mean of logs: noise would darken it)
+            means = self._color_in(F.avg_pool2d(x, k)[:, :3])  # pooled whole: the input stays one read
+            base = self._log_colour(F.interpolate(means, scale_factor=float(k), mode="bilinear", align_corners=False))
+        return self._output(self.up, self._decode(h, skips), base)
 
 
 def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Module:
@@ -195,6 +213,8 @@ def model_from_arch(arch: dict) -> nn.Module:
     """The model `arch` describes (a model's .arch, or a sidecar's `architecture`; an arch
     without a name is a unet's)."""
     arch = {k: v for k, v in arch.items() if k not in DERIVED_ARCH_KEYS}
+    if arch.get("name") == "rt":
+        arch.setdefault("colour_skip", 0)  # an rt model saved before the colour skip
     return build_model(arch.pop("name", "unet"), **arch)
 
 
