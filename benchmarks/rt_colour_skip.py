@@ -22,29 +22,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
-def channel_means(model, val, level: int = 2) -> np.ndarray:
-    import torch
-    from lift_gl.denoise.train.train import single_frame_input
-
-    model.eval()
-    out = []
-    with torch.no_grad():
-        for i in range(len(val)):
-            e = val.exposure[i, level]
-            x = single_frame_input(model, torch.cat([val.noisy[i, level].float() * e, val.guides[i].float()])[None])
-            div = val.divisor[i].float()[None]
-            pred = model(x).float() * div
-            ref = val.target[i].float()[None] * e * div
-            out.append((pred.mean((0, 2, 3)) / ref.mean((0, 2, 3))).numpy())
-    model.train()
-    return np.array(out)
-
-
 def main(argv=None) -> int:
     import torch
     from lift_gl.denoise.train.model import build_model
     from lift_gl.denoise.train.temporal import PairExamples
-    from lift_gl.denoise.train.train import Examples, Stage, fit, validation_loss
+    from lift_gl.denoise.train.train import Examples, Stage, fit, mean_ratios, validation_loss
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", type=Path, required=True)
@@ -66,7 +48,7 @@ def main(argv=None) -> int:
             result = fit(model, train, val, [Stage(a.steps, 2e-3, 0.2, 4.0)], Path(tmp) / "c.pt", a.batch, a.crop,
                          a.seed, log=lambda m: None, checkpoint_every=10 ** 9)
             seconds = time.perf_counter() - t0
-        means = channel_means(result["model"], val)
+        means = np.array(mean_ratios(result["model"], val, per_channel=True))
         run = {"colour_skip": k, "steps": a.steps, "seconds": round(seconds, 1),
                "val_loss": round(validation_loss(result["model"], val, torch.autocast("cpu", enabled=False)), 4),
                "channel_mean_ratio_4spp": np.round(means, 3).tolist(),

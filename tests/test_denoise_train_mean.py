@@ -70,3 +70,34 @@ def test_l1_keeps_the_median_and_the_mean_term_keeps_the_mean():
     assert float(c) == pytest.approx(fixed_point, rel=1e-3)  # the descent converged
     assert abs(float(c) - MEAN) < 5 * standard_error, (float(c), MEAN, standard_error)
     assert float(c) / median > 1.5  # the gap the term closes: the mean is 65 % above the median
+
+
+def test_mean_ratios_whole_and_per_channel():
+    """A model that scales the colour by (2, 1, 0.5) against a reference equal to its input: the
+    per-channel ratios are those factors, the whole-image ratio their mean weighted by the
+    reference's channel means."""
+    from lift_gl.denoise.train.train import mean_ratios
+
+    class Scale(torch.nn.Module):
+        in_channels = 9
+
+        def forward(self, x):
+            return x[:, :3] * torch.tensor([2.0, 1.0, 0.5])[None, :, None, None]
+
+    class Val:  # what mean_ratios reads of train.Examples
+        gen = torch.Generator().manual_seed(3)
+        noisy = torch.rand(2, 3, 3, 8, 8, generator=gen)  # scene, spp level, channel, y, x
+        exposure = torch.full((2, 3), 0.5)
+        guides = torch.rand(2, 6, 8, 8, generator=gen)
+        divisor = torch.rand(2, 3, 8, 8, generator=gen) + 0.5
+        target = noisy[:, 2].clone()
+
+        def __len__(self):
+            return 2
+
+    val = Val()
+    per_channel = np.array(mean_ratios(Scale(), val, level=2, per_channel=True))
+    np.testing.assert_allclose(per_channel, [[2.0, 1.0, 0.5]] * 2, rtol=1e-6)
+    whole = np.array(mean_ratios(Scale(), val, level=2))
+    ref_means = (val.target * val.divisor).mean(dim=(2, 3)).numpy()
+    np.testing.assert_allclose(whole, (per_channel * ref_means).sum(1) / ref_means.sum(1), rtol=1e-6)

@@ -180,8 +180,7 @@ class RealTimeUNet(_ColourTransform):
         self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)  # 1/2 -> full, the output's log colour
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        t = self.transformed_input(x)
-        h = torch.relu(self.down(t))
+        h = torch.relu(self.down(self.transformed_input(x)))
         skips = []
         for i, layer in enumerate(self.enc):
             if i:

@@ -243,16 +243,19 @@ def validation_loss(model, val: Examples, amp, loss_tonemap: str = "log", levels
 
 
 @torch.no_grad()
-def mean_ratios(model, val: Examples, level: int = 2) -> list[float]:
+def mean_ratios(model, val: Examples, level: int = 2, per_channel: bool = False) -> list:
     """Per validation image, mean(denoised radiance) / mean(reference radiance) at one spp level
-    (index into SPP_LEVELS; 2 is 4 spp), on whole images: 1 keeps the mean."""
+    (index into SPP_LEVELS; 2 is 4 spp), on whole images: 1 keeps the mean. per_channel: a list
+    of the R, G and B ratios for each image instead."""
     model.eval()
     ratios = []
+    axes = (0, 2, 3) if per_channel else (0, 1, 2, 3)
     for i in range(len(val)):
         e = val.exposure[i, level]
         x = single_frame_input(model, torch.cat([val.noisy[i, level].float() * e, val.guides[i].float()])[None])
         div = val.divisor[i].float()[None]
         pred = model(x.contiguous(memory_format=torch.channels_last)).float() * div
-        ratios.append(float(pred.mean() / (val.target[i].float()[None] * e * div).mean()))
+        ratio = pred.mean(axes) / (val.target[i].float()[None] * e * div).mean(axes)
+        ratios.append(ratio.tolist() if per_channel else float(ratio))
     model.train()
     return ratios
