@@ -114,8 +114,7 @@ def test_export_matches_torch_and_names_the_inputs(name, temporal, tmp_path):
 def test_rt_colour_skip_carries_the_colour_when_the_network_adds_nothing():
     """With the last layer zeroed the output is the skip alone: for a flat colour c the curve's
     inverse gives c + eps back (eps * exp(log(1 + c/eps))), whatever the other inputs hold."""
-    model = build_model("rt", temporal=True).eval()
-    assert model.arch["colour_skip"] == 4
+    model = build_model("rt", temporal=True, colour_skip=4).eval()
     with torch.no_grad():
         model.up.weight.zero_()
         model.up.bias.zero_()
@@ -125,6 +124,10 @@ def test_rt_colour_skip_carries_the_colour_when_the_network_adds_nothing():
         y = model(x)
     want = (colour + LOG_EPS)[None, :, None, None].expand_as(y)
     assert torch.allclose(y, want, rtol=1e-5)
+
+
+def test_the_default_rt_is_the_shipped_one_without_a_colour_skip():
+    assert build_model("rt").arch["colour_skip"] == 0  # the documented training command rebuilds it
 
 
 def test_an_rt_arch_without_a_colour_skip_is_the_first_rt_model():

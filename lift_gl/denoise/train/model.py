@@ -9,7 +9,7 @@
   features), an encoder at 1/2, 1/4, 1/8, a bottleneck at 1/16, a decoder with skips back to
   1/2, and a stride-2 2x2 transposed conv back to full resolution (a learned depth-to-space).
   Nothing runs at full resolution but those two: about 8k multiply-adds a pixel. With
-  `colour_skip` k (default 4) the output adds the colour curve of the input's kxk block means,
+  `colour_skip` k (plan's --colour-skip; 0, the shipped rt, by default) the output adds the colour curve of the input's kxk block means,
   upsampled bilinearly, so that the network predicts a correction of a blurred input
   and need not carry the colour through its features (without it the first rt model's colours
   drifted towards grey: a channel of a dim, saturated scene 1.8x off). k = 0: the first rt.
@@ -49,7 +49,8 @@ ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first
 BOTTLENECK = 80  # at 1/16
 RT_ENCODER = (24, 32, 48)  # the rt model's channels at 1/2, 1/4, 1/8
 RT_BOTTLENECK = 48  # at 1/16
-RT_COLOUR_SKIP = 4  # the block of the rt model's colour skip (module docstring; 0: none)
+RT_COLOUR_SKIP = 0  # the block of the rt model's colour skip (module docstring; 0: none, as the shipped rt:
+# at 19,000 steps the skip measured lower SSIM, docs/denoiser.md)
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")
 MODELS = ("unet", "rt")

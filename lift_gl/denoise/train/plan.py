@@ -65,6 +65,8 @@ def arguments(argv=None) -> argparse.Namespace:
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
     p.add_argument("--schedule", default=SCHEDULE, help="stages END:LR:SSIM,... (default: the shipped model's)")
     p.add_argument("--mean-weight", type=float, default=None, help="weight of the loss's mean term (default loss.W_MEAN)")
+    p.add_argument("--colour-skip", type=int, default=0,
+                   help="rt: the block of the colour skip (model.py; 0: none, as the shipped rt)")
     p.add_argument("--history-drop", type=float, default=0.25,
                    help="temporal: the share of samples trained without history")
     p.add_argument("--batch", type=int, default=16)
@@ -77,6 +79,8 @@ def arguments(argv=None) -> argparse.Namespace:
     a = p.parse_args(argv)
     if a.temporal is None:
         a.temporal = a.model == "rt"
+    if a.colour_skip and a.model != "rt":
+        p.error("--colour-skip is an option of --model rt")
     if a.crop > a.size:
         p.error(f"--crop {a.crop} is larger than the scenes' --size {a.size}")
     return a
@@ -126,12 +130,15 @@ def main(argv=None, clock=time.monotonic) -> int:
     ckpt_path = out / "checkpoint.pt"
     if ckpt_path.exists():
         saved = torch.load(ckpt_path, map_location="cpu").get("plan", {})
-        if saved and (saved.get("model"), saved.get("temporal")) != (a.model, a.temporal):
-            raise SystemExit(f"{ckpt_path} trains --model {saved.get('model')} (temporal {saved.get('temporal')}), "
-                             f"not {a.model} (temporal {a.temporal}): use another --out")
+        # the skip has no weights: a checkpoint of another --colour-skip would load without an error
+        if saved and (saved.get("model"), saved.get("temporal"), saved.get("colour_skip", 0)) != \
+                (a.model, a.temporal, a.colour_skip):
+            raise SystemExit(f"{ckpt_path} trains --model {saved.get('model')} (temporal {saved.get('temporal')}, "
+                             f"colour skip {saved.get('colour_skip', 0)}), not {a.model} (temporal {a.temporal}, "
+                             f"colour skip {a.colour_skip}): use another --out")
     torch.manual_seed(a.seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
-    model = build_model(a.model, temporal=a.temporal)
+    model = build_model(a.model, temporal=a.temporal, **({"colour_skip": a.colour_skip} if a.model == "rt" else {}))
     if a.init_from is not None and not ckpt_path.exists():
         from .export import load_onnx_weights
         load_onnx_weights(model, a.init_from)
@@ -143,7 +150,7 @@ def main(argv=None, clock=time.monotonic) -> int:
         Data = Examples
     result = fit(model, Data(train_paths, device), Data(val_paths, device) if val_paths else None, stages, ckpt_path,
                  a.batch, a.crop, a.seed, deadline, a.stop_at, log,
-                 checkpoint_extra={"plan": {"model": a.model, "temporal": a.temporal}},
+                 checkpoint_extra={"plan": {"model": a.model, "temporal": a.temporal, "colour_skip": a.colour_skip}},
                  checkpoint_every=a.checkpoint_every, history_drop=a.history_drop, clock=clock)
     status.update(step=result["steps"], device=result["device"], train_seconds=round(result["seconds"], 1),
                   checkpoint_bytes=ckpt_path.stat().st_size)
