@@ -24,7 +24,8 @@ For bdpt the two images differ by their random numbers (mean_rgb tells whether t
 
 bdpt diagnostics (issue 10; docs/bdpt.md "On the GPU"): bdpt_no_lt, bdpt_no_connect,
 bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one part of its work
-(bdpt's prepass, the light pass, is timed as its own pass: lift-gl bench, benchmarks/gpu.py); the counting variants'
+(bdpt's prepass, the light pass, runs untimed before each dispatch, its splats dropped: it is timed
+as its own pass by lift-gl bench and benchmarks/gpu.py); the counting variants'
 images are per-pixel counts (count_rays: closest-hit and shadow rays, and for bdpt light-tracing
 joins; bdpt_count_paths: light vertices, camera vertices, s >= 2 joins, with the loop
 iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
@@ -309,10 +310,10 @@ def count_rays(text: str) -> str:
 
 
 def bdpt_count_paths(text: str) -> str:
-    """Counts per pixel: light subpath vertices (r, y0 included), camera vertices joined (g, z1
-    on), s >= 2 joins attempted (b). The image of this variant is the counts."""
+    """Counts per pixel: light subpath vertices (r, y0 included, as the prepass stored them), camera
+    vertices joined (g, z1 on), s >= 2 joins attempted (b). The image of this variant is the counts."""
     return _counting(text, [
-        ("int light_vertices = light_subpath(depth_limit, rng);", "diag_r += float(light_vertices);"),
+        ("int light_vertices = stored_light_vertices();", "diag_r += float(light_vertices);"),
         ("vec3 camera_vertex_joins(PathVertex z, PathVertex z_prev, float emitter_pdf, int t, int light_vertices,\n"
          "                         inout Rng rng) {", "diag_g += 1.0;"),
         ("Join strategy_connect(PathVertex y, PathVertex y_prev, PathVertex z, PathVertex z_prev) {", "diag_b += 1.0;")])
@@ -849,10 +850,13 @@ def trace_uniforms(renderer) -> dict:
 
     # The pixel filter's uniforms too: without them (this script before issue 10's bdpt work)
     # bdpt's splats covered no pixel, so its light tracing added nothing and no atomics ran.
-    return dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
-                u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
-                u_jitter=frame_jitter(7, renderer.seed),
-                **filter_uniforms(compiled_pixel_filter(renderer), renderer.scene.film_size, renderer.size))
+    uniforms = dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
+                    u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
+                    u_jitter=frame_jitter(7, renderer.seed),
+                    **filter_uniforms(compiled_pixel_filter(renderer), renderer.scene.film_size, renderer.size))
+    if renderer.prepass is not None:   # where the trace pass finds the prepass's storage
+        uniforms.update(renderer.prepass.uniforms(1))
+    return uniforms
 
 
 def camera_source(renderer):
@@ -909,7 +913,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     scene = load_scene(path)
     r = Renderer(scene, size=size, integrator=integrator, params={"max_depth": max_depth, **(settings or {})}, ctx=ctx,
                  options=options)
-    if base_tree is not None and r.packed.bvh_width != 2 \
+    if "main" in names and base_tree is not None and r.packed.bvh_width != 2 \
             and "LIFT_BVH_WIDTH" not in (Path(base_tree) / "shaders" / "lift" / "bvh.glsl").read_text():
         raise SystemExit(f"{base_tree} traverses only the binary BVH and this scene's is {r.packed.bvh_width}-wide: "
                          "run with --option bvh_width=2 (lift_gl/options.py)")
@@ -968,6 +972,8 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     def dispatch(name):
         prog, unif, (lx, ly) = programs[name]
         r.buffers.bind()
+        if r.prepass is not None:
+            r.prepass.bind()
         set_uniforms(prog, unif)
         if "u_visibility" in prog:
             r.gbuffer.visibility.use(location=0)
@@ -994,6 +1000,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         if r.gbuffer is not None:
             r.buffers.bind()
             r.gbuffer.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
+        if r.prepass is not None:   # bdpt's light subpaths, stored for the trace pass to join
+            r.buffers.bind()
+            r.prepass.run(uniforms, splats)
+            splats.buffer.clear()   # light tracing's splats: the prepass's work, not the trace pass's image
 
     def raster(name):
         r.buffers.bind()

@@ -36,12 +36,11 @@ def test_each_bdpt_edit_finds_its_place(renderer, name):
     assert edit(source) != source  # _sub raises where an anchor is gone
 
 
-@pytest.mark.skip(reason="a diagnostic of one-pass bdpt: its light subpath is traced by the prepass "
-                         "now, which benchmarks/gpu_pt_variants.py does not edit (to redo for two passes)")
 def test_counted_rays_are_the_rays_the_host_counts():
     """count_rays' per-pixel closest-hit and shadow rays, summed, against the host's own counter
     (LIFT_COUNT_RAYS, lift/bvh.glsl) of the same dispatches. The prepass (the light subpaths)
-    is rebuilt without the counter: the variant counts the trace pass's rays."""
+    is rebuilt without the counter, and its splats (light tracing) are kept out of the image:
+    the variant counts the trace pass's rays."""
     r = Renderer(load_scene(CORNELL), size=(24, 16), integrator="bdpt", seed=3, params={"max_depth": 6},
                  count_rays=True)
     assert "#define LIFT_COUNT_RAYS\n" in r.prepass.source.text
@@ -49,6 +48,7 @@ def test_counted_rays_are_the_rays_the_host_counts():
     r.prepass.program = r.ctx.compute_shader(r.prepass.source.text.replace("#define LIFT_COUNT_RAYS\n", ""))
     r.trace.program.release()
     r.trace.program = r.ctx.compute_shader(variants.count_rays(r.trace.source.text))
+    r.trace.splats.add_to = lambda frame: None
     counts = r.render(spp=2)  # per pixel, the mean over the samples of the counts
     w, h = r.size
     closest, shadow = counts[..., 0].sum() * 2, counts[..., 1].sum() * 2
