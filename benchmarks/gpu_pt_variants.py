@@ -575,6 +575,24 @@ def occupancy(edit=None):
     return probed
 
 
+# Variants whose edit is meant for the light subpath as well (bdpt's, coherent sampling's): a
+# two-pass plugin's prepass (its light subpaths, passes/prepass.py) is edited alike and run
+# before the variant's trace dispatch. Other variants keep the renderer's prepass.
+PREPASS_EDITED = ("bdpt_", "coherent_")
+
+
+def prepass_variant(edit, text: str) -> str | None:
+    """The prepass source with a variant's edit, or None where the edit does not apply there
+    (an anchor only the trace program has) or changes nothing."""
+    if edit is None:
+        return None
+    try:
+        edited = edit(text)
+    except ValueError:
+        return None
+    return edited if edited != text else None
+
+
 def variant(name: str):
     """VARIANTS[name], or for occ_NAME that variant with the occupancy probe."""
     if name.startswith("occ_") and name[4:] in VARIANTS:
@@ -924,6 +942,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     base_source = r.trace.source.text
     uniforms = trace_uniforms(r)
     programs, info, coherence = {}, {}, {}
+    prepasses = {}   # variant: (its prepass program, its coherence defines), where its edit changes the prepass
     for name in names:
         if name == "camera":
             src, over, exact, local = camera_source(r), {}, False, r.trace.local_size
@@ -940,6 +959,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
             if short:   # its traversal could write past its stack: garbage entries can loop forever
                 print(f"{Path(path).parent.name}: {name} skipped: {short}", flush=True)
                 continue
+        if r.prepass is not None and name.removeprefix("occ_").startswith(PREPASS_EDITED):
+            edited = prepass_variant(edit, r.prepass.source.text)
+            if edited is not None:
+                prepasses[name] = (ctx.compute_shader(edited), coherence_defines(edited))
         start = time.perf_counter()
         prog = ctx.compute_shader(src)
         compile_s = time.perf_counter() - start
@@ -996,13 +1019,18 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         if splats is not None:
             splats.add_to(frame)
 
-    def refresh():  # the renderer's own G-buffer (raster or traced) for the trace variants
+    def refresh(name=None):  # the renderer's own G-buffer (raster or traced), and the prepass of variant `name`
         if r.gbuffer is not None:
             r.buffers.bind()
             r.gbuffer.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
         if r.prepass is not None:   # bdpt's light subpaths, stored for the trace pass to join
+            prog, defines = prepasses.get(name, (r.prepass.program, r.prepass.defines))
             r.buffers.bind()
-            r.prepass.run(uniforms, splats)
+            set_uniforms(prog, uniforms)
+            r.prepass.bind()
+            splats.bind()
+            prog.run(*groups(*tile_dispatch_size(defines, (w, h), r.prepass.local_size), r.prepass.local_size))
+            ctx.memory_barrier()
             splats.buffer.clear()   # light tracing's splats: the prepass's work, not the trace pass's image
 
     def raster(name):
@@ -1035,10 +1063,10 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     # images first (one dispatch each), then the timing rounds; the frame is filled with NaN
     # before each, so that a variant that leaves pixels unwritten cannot pass for exact
     images = {}
-    refresh()
     unwritten = np.full((h, w, 4), np.nan, np.float32).tobytes()
     occupancy_seen = {}
     for name in names:
+        refresh(name)
         frame.write(unwritten)
         probe.write(bytes(4 * OCCUPANCY_WORDS))
         dispatch(name)
@@ -1051,12 +1079,12 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     gb_times = {name: [] for name in gb_names}
     # an idle GPU's clock rises only under sustained work (lift_gl/report/gpu_clock.py)
     clock = ClockReader(ctx.info.get("GL_RENDERER", ""))
-    warm = warm_up(lambda: [(refresh(), dispatch(names[0]), ctx.finish()) for _ in range(4)], clock)
+    warm = warm_up(lambda: [(refresh(names[0]), dispatch(names[0]), ctx.finish()) for _ in range(4)], clock)
     round_mhz = []
     for rep in range(reps + 1):
         order = names if rep % 2 == 0 else names[::-1]
         for name in order:
-            refresh()
+            refresh(name)
             ms = timed(dispatch, name)
             resolve_splats()
             if rep:
@@ -1084,6 +1112,7 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
     result["gbuffer_kind"] = type(r.gbuffer).__name__ if r.gbuffer is not None else None
     result["sm_clock"] = {"warm_up": warm, "rounds_mhz": round_mhz}  # NVIDIA only, else None
     for obj in [*gb_vaos.values(), *gb_programs.values(), *(p for p, _, _ in programs.values()),
+                *(p for p, _ in prepasses.values()),
                 *([raster_pass, traced_pass] if gb else [])]:
         obj.release()
     queue.release()

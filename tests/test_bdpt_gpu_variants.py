@@ -98,13 +98,12 @@ def test_warp_costs_match_a_lane_by_lane_walk():
     assert got["join_iterations_warp"] > got["join_iterations_lane"]
 
 
-@pytest.mark.skip(reason="a diagnostic of one-pass bdpt: its light subpath is traced by the prepass "
-                         "now, which benchmarks/gpu_pt_variants.py does not edit (to redo for two passes)")
 def test_coherent_bdpt_variants_compile_and_the_kept_one_is_the_parameter():
     """bdpt_own_light (what `coherent_sampling` does), bdpt_shared (its first version: light
     subpaths shared by the tile too) and bdpt_own_camera compile on today's bdpt (a variant that
     declared the host's lift_own_rng a second time failed only on the GPU machine); the first
-    gives the image of bdpt's coherent_tiles, and the other two other images."""
+    gives the image of bdpt's coherent_tiles, and the other two other images. bdpt_shared edits
+    only the light subpath: its image differs only if the harness edits the prepass too."""
     from lift_gl.gl.context import create_context
 
     names = ["base", "coherent_tiles", "bdpt_own_light", "bdpt_shared", "bdpt_own_camera"]
