@@ -4,6 +4,7 @@ first bounce, pt from the fourth; docs/gpu.md "Ninth session").
 
     python benchmarks/roulette_efficiency.py SCENE... [--configs pt,pt:rr_depth=1:rr_min_survival=0,...]
         [--size 960x540] [--spp 256] [--seeds 3] [--ref-spp 8192] [--times MEASURE.json] [--out FILE.json]
+    python benchmarks/roulette_efficiency.py --results FILE.json... --times MEASURE.json   (a table only)
 
 Per scene: a reference (pt with its defaults, --ref-spp samples), then every configuration at
 --spp samples with each seed, and its relMSE against the reference (lift_gl.metrics.rel_mse:
@@ -36,13 +37,20 @@ DEFAULT_CONFIGS = "pt,pt:rr_depth=1:rr_min_survival=0,pt:rr_depth=2,pt:rr_depth=
 
 
 def frame_ms(records: list[dict]) -> dict:
-    """{(scene name, configuration): frame ms} from gpu.py measure records (the fastest of repeats)."""
+    """{(scene name, configuration): frame ms} from gpu.py measure records (the fastest of repeats).
+    A record measured at --max-depth N also answers for the configuration with max_depth=N first."""
     out = {}
     for rec in records:
+        depth = rec.get("max_depth")
         for r in rec.get("results", []):
             if r.get("kind") == "frame":
-                key = (r["scene_name"], r["integrator"])
-                out[key] = min(out.get(key, np.inf), r["frame_ms"])
+                plugin, _, params = r["integrator"].partition(":")
+                names = [r["integrator"]]
+                if depth is not None:
+                    names.append(f"{plugin}:max_depth={depth}" + (f":{params}" if params else ""))
+                for name in names:
+                    key = (r["scene_name"], name)
+                    out[key] = min(out.get(key, np.inf), r["frame_ms"])
     return out
 
 
@@ -111,7 +119,7 @@ def main(argv=None) -> int:
     from lift_gl.cli import _size
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("scenes", nargs="*")
     ap.add_argument("--configs", default=DEFAULT_CONFIGS, help="comma-separated, as lift-gl compare's --integrators; "
                                                                "the first is the baseline of the ratios")
     ap.add_argument("--size", default="960x540")
@@ -121,9 +129,14 @@ def main(argv=None) -> int:
     ap.add_argument("--times", type=Path, action="append", default=[], help="gpu.py measure JSON (repeatable)")
     ap.add_argument("--backend", default="auto")
     ap.add_argument("--out", type=Path)
+    ap.add_argument("--results", type=Path, action="append", default=[],
+                    help="an --out file of an earlier run (repeatable): its errors tabulated with --times, nothing rendered")
     args = ap.parse_args(argv)
     configs = [c.strip() for c in args.configs.split(",") if c.strip()]
     times = frame_ms([json.loads(p.read_text()) for p in args.times])
+    if args.results:
+        print(table([r for p in args.results for r in json.loads(p.read_text())["results"]], times))
+        return 0
     results = []
     for path in args.scenes:
         results.append(measure_scene(path, configs, _size(args.size), args.spp, args.seeds, args.ref_spp, args.backend))
