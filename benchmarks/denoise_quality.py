@@ -13,7 +13,7 @@ Two steps, so that the rendering can run on a GPU machine and the denoising on a
     python benchmarks/denoise_quality.py evaluate eval/*.npz --denoisers onnx,oidn,atrous,onnx:model_rt.onnx \
         [--out benchmarks/results/denoise_quality.md] [--images DIR]
     # --out FILE.md writes the tables there and every row (scene, sampling, spp, method, ssim,
-    # relmse, mean_ratio) to FILE.json
+    # relmse, mean_ratio, mean_split: the bright pixels' and the rest's) to FILE.json
 
 Each npz holds, per scene NAME: NAME/noisy1, noisy4, noisy16, albedo, normal, depth (G-buffer),
 reference (float16). Denoisers get color, albedo, normal and depth (no variance: the inputs
@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import denoiser_spec  # noqa: E402
-from temporal_error import mean_ratio  # noqa: E402
+from temporal_error import BRIGHT_OVER_MEAN, mean_ratio, mean_split  # noqa: E402
 
 SPP = (1, 4, 16)
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "scenes_lift"
@@ -208,7 +208,7 @@ def evaluate(args) -> None:
                 for method, img in results.items():
                     rows.append({"scene": name, "sampling": sampling, "spp": spp, "method": method,
                                  "ssim": ssim(img, ref), "relmse": rel_mse(img, ref),
-                                 "mean_ratio": mean_ratio(img, ref)})
+                                 "mean_ratio": mean_ratio(img, ref), "mean_split": mean_split(img, ref)})
                 if args.images:
                     save_strip(args.images / f"{name}_{spp}spp{sampling_suffix(sampling)}.png",
                                [results[m] for m in results] + [ref])
@@ -248,6 +248,18 @@ def table(rows, denoisers, scenes) -> str:
                     cells.append(f"{np.mean([g['ssim'] for g in got]):.4f} / {np.mean([g['relmse'] for g in got]):.4f}"
                                  f" / {np.mean([g.get('mean_ratio', np.nan) for g in got]):.3f}" if got else "-")
                 lines.append(f"| {sampling} | {spp} | " + " | ".join(cells) + " |")
+    split = [(n, s) for n, s in scenes.items()
+             if (n, "independent", 4, "noisy") in get and get[(n, "independent", 4, "noisy")].get("mean_split", {}).get("bright")]
+    if split:  # scenes with lights seen directly: the energy kept there and elsewhere
+        lines += ["", f"Where the mean goes, 4 spp: mean/ref on the bright pixels (reference above {BRIGHT_OVER_MEAN:g}x "
+                      "its mean luminance) / on the rest:", "",
+                  "| scene | bright pixels | their share of the energy | " + " | ".join(methods) + " |",
+                  "|" + " --- |" * (3 + len(methods))]
+        for name, _ in split:
+            first = get[(name, "independent", 4, "noisy")]["mean_split"]
+            cells = [f"{g['mean_split']['bright']:.3f} / {g['mean_split']['rest']:.3f}"
+                     for g in (get[(name, "independent", 4, m)] for m in methods)]
+            lines.append(f"| {name} | {first['bright_pixels']:.2%} | {first['bright_energy']:.0%} | " + " | ".join(cells) + " |")
     for onnx in [d for d in denoisers if d.startswith("onnx")] if "oidn" in denoisers else []:
         vals = [n for n in scenes if n.startswith("val")]
         gaps = {n: get[(n, "independent", 4, onnx)]["ssim"] - get[(n, "independent", 4, "oidn")]["ssim"] for n in vals}

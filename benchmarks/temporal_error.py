@@ -22,6 +22,26 @@ def mean_ratio(image, reference) -> float:
     return float(np.mean(image, dtype=np.float64) / max(np.mean(reference, dtype=np.float64), 1e-12))
 
 
+BRIGHT_OVER_MEAN = 8.0  # "bright": reference luminance above this many times the image's mean (emitters seen)
+
+
+def mean_split(image, reference) -> dict:
+    """Where the energy a denoiser keeps or loses lies: mean over the reference's on the bright
+    pixels (reference luminance above BRIGHT_OVER_MEAN x its mean: lights seen directly, a few
+    pixels that can hold much of the image's energy) and on the rest, with the bright pixels'
+    share of the pixels and of the reference's energy. None for a part with no pixels."""
+    image = np.asarray(image, dtype=np.float64)
+    reference = np.asarray(reference, dtype=np.float64)
+    lum = reference.mean(axis=-1)
+    bright = lum > BRIGHT_OVER_MEAN * max(lum.mean(), 1e-12)
+
+    def ratio(mask):
+        return float(image[mask].mean() / max(reference[mask].mean(), 1e-12)) if mask.any() else None
+
+    return {"bright": ratio(bright), "rest": ratio(~bright), "bright_pixels": float(bright.mean()),
+            "bright_energy": float(reference[bright].sum() / max(reference.sum(), 1e-12))}
+
+
 def temporal_error(images, references) -> dict:
     """Per frame and averaged: the output's change, the references', their difference, relMSE
     and mean/ref. The change lists start at frame 1; relMSE and mean/ref cover every frame."""

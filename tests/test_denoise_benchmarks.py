@@ -9,7 +9,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 
 import denoiser_spec  # noqa: E402
-from temporal_error import frame_changes, mean_ratio, temporal_error  # noqa: E402
+from temporal_error import frame_changes, mean_ratio, mean_split, temporal_error  # noqa: E402
 
 
 def test_a_static_sequence_does_not_change():
@@ -76,3 +76,17 @@ def test_a_network_name_carries_its_model_file_and_ensemble(tmp_path):
         denoiser_spec.parse("oidn:x.onnx")  # a model file for a denoiser that takes none
     with pytest.raises(SystemExit):
         denoiser_spec.parse(f"onnx:{tmp_path / 'absent.onnx'}")
+
+
+def test_mean_split_finds_the_energy_lost_on_a_light_seen_directly():
+    """A light of 0.5% of the pixels holding half the energy, dimmed by 10%: the whole image's
+    mean falls 5%, the rest's not at all."""
+    ref = np.full((20, 20, 3), 0.1)
+    ref[0, :2] = 0.1 * 398 / 2   # two pixels hold as much as the other 398
+    out = ref.copy()
+    out[0, :2] *= 0.9
+    got = mean_split(out, ref)
+    assert got["bright"] == pytest.approx(0.9) and got["rest"] == pytest.approx(1.0)
+    assert got["bright_pixels"] == pytest.approx(2 / 400) and got["bright_energy"] == pytest.approx(0.5)
+    assert mean_ratio(out, ref) == pytest.approx(0.95)
+    assert mean_split(np.ones((4, 4, 3)), np.ones((4, 4, 3)))["bright"] is None   # no light seen
