@@ -248,18 +248,18 @@ def table(rows, denoisers, scenes) -> str:
                     cells.append(f"{np.mean([g['ssim'] for g in got]):.4f} / {np.mean([g['relmse'] for g in got]):.4f}"
                                  f" / {np.mean([g.get('mean_ratio', np.nan) for g in got]):.3f}" if got else "-")
                 lines.append(f"| {sampling} | {spp} | " + " | ".join(cells) + " |")
-    split = [(n, s) for n, s in scenes.items()
+    split = [n for n in scenes
              if (n, "independent", 4, "noisy") in get and get[(n, "independent", 4, "noisy")].get("mean_split", {}).get("bright")]
     if split:  # scenes with lights seen directly: the energy kept there and elsewhere
         lines += ["", f"Where the mean goes, 4 spp: mean/ref on the bright pixels (reference above {BRIGHT_OVER_MEAN:g}x "
                       "its mean luminance) / on the rest:", "",
                   "| scene | bright pixels | their share of the energy | " + " | ".join(methods) + " |",
                   "|" + " --- |" * (3 + len(methods))]
-        for name, _ in split:
-            first = get[(name, "independent", 4, "noisy")]["mean_split"]
+        for name in split:
+            noisy = get[(name, "independent", 4, "noisy")]["mean_split"]
             cells = [f"{g['mean_split']['bright']:.3f} / {g['mean_split']['rest']:.3f}"
                      for g in (get[(name, "independent", 4, m)] for m in methods)]
-            lines.append(f"| {name} | {first['bright_pixels']:.2%} | {first['bright_energy']:.0%} | " + " | ".join(cells) + " |")
+            lines.append(f"| {name} | {noisy['bright_pixels']:.2%} | {noisy['bright_energy']:.0%} | " + " | ".join(cells) + " |")
     for onnx in [d for d in denoisers if d.startswith("onnx")] if "oidn" in denoisers else []:
         vals = [n for n in scenes if n.startswith("val")]
         gaps = {n: get[(n, "independent", 4, onnx)]["ssim"] - get[(n, "independent", 4, "oidn")]["ssim"] for n in vals}

@@ -1019,18 +1019,18 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
         if splats is not None:
             splats.add_to(frame)
 
-    def refresh(name=None):  # the renderer's own G-buffer (raster or traced), and the prepass of variant `name`
+    def refresh(name):  # the renderer's own G-buffer (raster or traced), and the prepass of variant `name`
         if r.gbuffer is not None:
             r.buffers.bind()
             r.gbuffer.run(r.camera, r.packed.bounds, jitter, r.scene_uniforms, r.camera_uniforms)
         if r.prepass is not None:   # bdpt's light subpaths, stored for the trace pass to join
-            prog, defines = prepasses.get(name, (r.prepass.program, r.prepass.defines))
-            r.buffers.bind()
-            set_uniforms(prog, uniforms)
-            r.prepass.bind()
-            splats.bind()
-            prog.run(*groups(*tile_dispatch_size(defines, (w, h), r.prepass.local_size), r.prepass.local_size))
-            ctx.memory_barrier()
+            own = r.prepass.program, r.prepass.defines
+            r.prepass.program, r.prepass.defines = prepasses.get(name, own)   # run as the renderer runs its own
+            try:
+                r.buffers.bind()
+                r.prepass.run(uniforms, splats)
+            finally:
+                r.prepass.program, r.prepass.defines = own
             splats.buffer.clear()   # light tracing's splats: the prepass's work, not the trace pass's image
 
     def raster(name):

@@ -132,6 +132,8 @@ def main(argv=None) -> int:
     ap.add_argument("--results", type=Path, action="append", default=[],
                     help="an --out file of an earlier run (repeatable): its errors tabulated with --times, nothing rendered")
     args = ap.parse_args(argv)
+    if not args.scenes and not args.results:
+        ap.error("give scenes to render, or --results to tabulate")
     configs = [c.strip() for c in args.configs.split(",") if c.strip()]
     times = frame_ms([json.loads(p.read_text()) for p in args.times])
     if args.results:

@@ -22,7 +22,7 @@ def mean_ratio(image, reference) -> float:
     return float(np.mean(image, dtype=np.float64) / max(np.mean(reference, dtype=np.float64), 1e-12))
 
 
-BRIGHT_OVER_MEAN = 8.0  # "bright": reference luminance above this many times the image's mean (emitters seen)
+BRIGHT_OVER_MEAN = 8.0  # "bright": reference luminance (the mean of R, G, B) above this many times the image's
 
 
 def mean_split(image, reference) -> dict:
