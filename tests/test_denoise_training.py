@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lift_gl.denoise.train.scenes import LIGHT_VIEW_SEEDS, TRAIN_SEEDS, VALIDATION_SEEDS, random_scene
+from lift_gl.denoise.train.scenes import TRAIN_SEEDS, VALIDATION_SEEDS, random_scene
 from lift_gl.scene.validate import validate_scene
 
 
@@ -26,38 +26,6 @@ def test_scenes_are_deterministic_and_valid():
 
 def test_validation_seeds_are_never_training_seeds():
     assert set(TRAIN_SEEDS).isdisjoint(VALIDATION_SEEDS)
-    assert set(LIGHT_VIEW_SEEDS).isdisjoint(TRAIN_SEEDS) and set(LIGHT_VIEW_SEEDS).isdisjoint(VALIDATION_SEEDS)
-
-
-def _emitters_in_view(scene) -> bool:
-    """Whether an emitter's centre (an emissive quad's or sphere's) projects inside the square
-    film of the scene's camera, in front of it."""
-    cam = scene.camera
-    eye = np.asarray(cam.position, float)
-    forward = np.asarray(cam.target, float) - eye
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, np.asarray(cam.up, float))
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    half = np.tan(np.radians(cam.fov_deg / 2))
-    centres = [m.positions.mean(axis=0) for m in scene.meshes if scene.materials[m.material].is_emissive]
-    centres += [s.center for s in scene.spheres if scene.materials[s.material].is_emissive]
-    for c in centres:
-        d = np.asarray(c, float) - eye
-        depth = d @ forward
-        if depth > 0 and abs(d @ right) < half * depth and abs(d @ up) < half * depth:
-            return True
-    return False
-
-
-def test_light_view_scenes_keep_a_light_in_view():
-    """The light-view seeds turn the camera towards an emitter (the emitter-darkening fix's
-    data: docs/denoiser.md); the ordinary ones show one in about a fifth of their views."""
-    light_view = np.mean([_emitters_in_view(random_scene(s)) for s in LIGHT_VIEW_SEEDS[:30]])
-    ordinary = np.mean([_emitters_in_view(random_scene(s)) for s in TRAIN_SEEDS[:30]])
-    assert light_view >= 0.95 and ordinary < 0.5
-    for seed in LIGHT_VIEW_SEEDS[:3]:
-        validate_scene(random_scene(seed))
 
 
 def test_scenes_cover_every_bsdf_family_and_light():

@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-from .scenes import LIGHT_VIEW_SEEDS, TRAIN_SEEDS, VALIDATION_SEEDS
+from .scenes import TRAIN_SEEDS, VALIDATION_SEEDS
 
 # today's four stages of the shipped U-Net (docs/denoiser.md): end step : peak LR : SSIM weight
 SCHEDULE = "11000:2e-3:0.2,21000:1e-3:0.2,24000:5e-4:2.0,30000:3e-4:2.0"
@@ -60,8 +60,6 @@ def arguments(argv=None) -> argparse.Namespace:
     p.add_argument("--time-budget-s", type=float, default=None,
                    help="stop before this many seconds (checkpoint saved, exit status 3); run again to continue")
     p.add_argument("--scenes", type=int, default=400, help="training scenes")
-    p.add_argument("--light-view-scenes", type=int, default=0,
-                   help="training scenes besides --scenes whose camera keeps a light in view (scenes.LIGHT_VIEW_SEEDS)")
     p.add_argument("--val-scenes", type=int, default=8, help="validation scenes (never trained on)")
     p.add_argument("--size", type=int, default=256, help="image size of each scene (square)")
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
@@ -108,8 +106,7 @@ def main(argv=None, clock=time.monotonic) -> int:
         return code
 
     # ---- data ----
-    val_seeds = list(VALIDATION_SEEDS[: a.val_scenes])
-    train_seeds = list(TRAIN_SEEDS[: a.scenes]) + list(LIGHT_VIEW_SEEDS[: a.light_view_scenes])
+    val_seeds, train_seeds = list(VALIDATION_SEEDS[: a.val_scenes]), list(TRAIN_SEEDS[: a.scenes])
     minutes_left = lambda: None if deadline is None else max(0.0, (deadline - clock()) / 60)
     size = (a.size, a.size)
     if a.temporal:
@@ -167,8 +164,7 @@ def main(argv=None, clock=time.monotonic) -> int:
     model = result["model"]
     record = {"command": status["command"], "model": a.model, "temporal": a.temporal,
               "init_from": None if a.init_from is None else a.init_from.name, "train_scenes": len(train_paths),
-              "train_seeds": [train_seeds[0], train_seeds[min(len(train_paths), a.scenes) - 1]],
-              "light_view_scenes": max(0, len(train_paths) - a.scenes),
+              "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
               "val_seeds": [val_seeds[0], val_seeds[-1]] if val_seeds else [], "size": a.size, "ref_spp": a.ref_spp,
               "spp_levels": [1, 2, 4, 8, 16, 32, 64], "schedule": a.schedule, "mean_weight": mean_weight,
               "batch": a.batch, "crop": a.crop, "seed": a.seed, "steps": result["steps"],

@@ -5,8 +5,8 @@ objects from the repo's meshes and procedural shapes, materials from every BSDF 
 (diffuse, plastic, smooth and rough conductors with GGX or Beckmann, smooth and rough glass,
 textured ones), area lights, emissive spheres, an environment (constant or the sky map) and
 a sun, and a random camera inside the room looking at something. The same seed always gives
-the same scene; training uses seeds from TRAIN_SEEDS (and LIGHT_VIEW_SEEDS: a light in view),
-validation from VALIDATION_SEEDS, and the ranges never meet.
+the same scene; training uses seeds from TRAIN_SEEDS, validation from VALIDATION_SEEDS, and
+the two ranges never meet.
 """
 from __future__ import annotations
 
@@ -26,11 +26,6 @@ SKY = "assets/env/sky.exr"
 
 TRAIN_SEEDS = range(0, 1_000_000)
 VALIDATION_SEEDS = range(1_000_000, 1_000_100)
-# Training scenes whose camera keeps a light in view (the plan's --light-view-scenes): the rooms
-# of TRAIN_SEEDS' kind, but the camera turned towards an area light or a bulb, so that the
-# network sees emitters directly, with their HDR values, far more often than the 3 scenes in 8
-# of the others. Their own range: the scenes of TRAIN_SEEDS (the shipped models') do not change.
-LIGHT_VIEW_SEEDS = range(2_000_000, 3_000_000)
 # The metals drawn from (their complex IORs from the TOML loader's table); the order matters:
 # a seed's scene, hence the shipped model's training set, depends on it.
 METALS = {name: TOML_METALS[name] for name in ("gold", "silver", "copper")}
@@ -141,23 +136,6 @@ def _place(mesh: Mesh, material: int, translate, rotate, scale) -> Mesh:
     return placed
 
 
-def _target_with_light(rng, eye, target, light, fov_deg: float):
-    """A camera target between `target` and `light` that keeps the light inside the view: the
-    first of a few points from the target's side towards the light whose direction from the
-    eye is within 0.7 of the half field of view of the light's, and not straight up (the
-    camera's up is +y). The old target where none is."""
-    to_light = (light - eye) / max(np.linalg.norm(light - eye), 1e-9)
-    limit = np.cos(np.radians(0.7 * fov_deg / 2))
-    u = rng.uniform(0.2, 0.7)  # the share of the way from the light to the old target
-    for _ in range(10):
-        d = light + u * (target - light) - eye
-        n = np.linalg.norm(d)
-        if n > 0.3 and np.dot(d / n, to_light) >= limit and abs(d[1] / n) < 0.95:
-            return eye + d
-        u *= 0.5
-    return target
-
-
 def random_scene(seed: int, max_depth: int = 8) -> Scene:
     rng = np.random.default_rng(seed)
     materials: list[Material] = []
@@ -211,7 +189,6 @@ def random_scene(seed: int, max_depth: int = 8) -> Scene:
     environment, distant = None, []
     power = rng.uniform(0.5, 3.0)
     n_area = int(rng.integers(1, 3)) if ceiling else int(rng.integers(0, 2))
-    light_centres = []
     for k in range(n_area):
         size = rng.uniform(0.3, 1.5, 2)
         emission = _colour(rng, 0.6, 1.0) * rng.uniform(3, 20) * power / (size[0] * size[1]) ** 0.5
@@ -219,13 +196,11 @@ def random_scene(seed: int, max_depth: int = 8) -> Scene:
         c = (rng.uniform(-0.3, 0.3) * w, h - 0.01 if ceiling else rng.uniform(1.5, 3.5), rng.uniform(-0.3, 0.3) * d)
         # cross(u, v) = -y: the light faces down
         meshes.append(prim.quad_centered(c, (size[0], 0, 0), (0, 0, size[1]), mat, f"light{k}"))
-        light_centres.append(np.array(c, np.float64))
     if rng.random() < 0.35 or n_area == 0:
         mat = material(Material("bulb", "diffuse", base_color=np.zeros(3),
                                 emission=_colour(rng, 0.6, 1.0) * rng.uniform(5, 40) * power))
         spheres.append(prim.sphere((rng.uniform(-0.3, 0.3) * w, rng.uniform(1.0, h - 0.3), rng.uniform(-0.3, 0.3) * d),
                                    rng.uniform(0.05, 0.25), mat))
-        light_centres.append(np.asarray(spheres[-1].center, np.float64))
     if not ceiling or rng.random() < 0.2:
         if rng.random() < 0.5:
             environment = Environment(np.full(3, rng.uniform(0.3, 2.0)), image=_sky_image(),
@@ -244,9 +219,6 @@ def random_scene(seed: int, max_depth: int = 8) -> Scene:
         target = np.array([rng.uniform(-0.5, 0.5) * w, rng.uniform(0.2, 0.8) * h, rng.uniform(-0.5, 0.5) * d])
     if np.linalg.norm(target - eye) < 0.3:
         target = eye + np.array([0.0, -0.2, -1.0])
-    fov = float(rng.uniform(30, 70))
-    if seed in LIGHT_VIEW_SEEDS:
-        target = _target_with_light(rng, eye, target, light_centres[int(rng.integers(len(light_centres)))], fov)
-    camera = Camera(eye, target, fov_deg=fov)
+    camera = Camera(eye, target, fov_deg=float(rng.uniform(30, 70)))
     return Scene(camera, materials, meshes, spheres, environment, textures, distant, max_depth=max_depth,
                  film_size=(256, 256))
