@@ -101,21 +101,3 @@ def test_mean_ratios_whole_and_per_channel():
     whole = np.array(mean_ratios(Scale(), val, level=2))
     ref_means = (val.target * val.divisor).mean(dim=(2, 3)).numpy()
     np.testing.assert_allclose(whole, (per_channel * ref_means).sum(1) / ref_means.sum(1), rtol=1e-6)
-
-
-def test_energy_weights_count_a_pixel_by_its_share_of_the_energy():
-    from lift_gl.denoise.train.loss import denoise_loss, energy_weights
-
-    target = torch.full((2, 3, 10, 10), 0.1)
-    target[:, :, 0, 0] = 0.1 * 901.0          # one pixel of 100 holds 90% of the energy
-    w = energy_weights(target, 0.5)
-    assert torch.allclose(w.mean(dim=(2, 3)), torch.ones(2, 1))   # the L1's scale is kept
-    light, other = w[0, 0, 0, 0], w[0, 0, 5, 5]
-    # r = 90.1 at the light, 0.1 elsewhere (the image mean is 1)
-    assert float(light / other) == pytest.approx((1 + 0.5 * 90.1) / (1 + 0.5 * 0.1), rel=1e-5)
-    pred = target * 0.8
-    assert float(denoise_loss(pred, target, energy_weight=0.0)) == pytest.approx(
-        float(denoise_loss(pred, target)), rel=1e-7)
-    # the same relative error everywhere: log-domain errors grow with brightness, so weighting
-    # the bright pixel up raises the loss
-    assert float(denoise_loss(pred, target, energy_weight=0.5)) > float(denoise_loss(pred, target))

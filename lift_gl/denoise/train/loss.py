@@ -58,26 +58,11 @@ def gradient_l1(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return F.l1_loss(dx(a), dx(b)) + F.l1_loss(dy(a), dy(b))
 
 
-def energy_weights(target_radiance: torch.Tensor, energy_weight: float) -> torch.Tensor:
-    """Per-pixel weights (N, 1, H, W) of mean 1 in each image: (1 + e r) / (1 + e), r a pixel's
-    luminance (the mean of R, G, B) over its image's mean. With e > 0 a pixel counts by its
-    count and, through e, by its share of the energy: a light seen on 0.5% of the pixels that
-    holds 40% of the energy weighs as 1 + 80 e of the others, not 1."""
-    lum = torch.clamp(target_radiance, min=0.0).mean(dim=1, keepdim=True)
-    r = lum / (lum.mean(dim=(2, 3), keepdim=True) + 1e-8)
-    return (1.0 + energy_weight * r) / (1.0 + energy_weight)
-
-
 def denoise_loss(pred_radiance: torch.Tensor, target_radiance: torch.Tensor, kind: str = "log",
-                 ssim_weight: float = W_SSIM, energy_weight: float = 0.0) -> torch.Tensor:
-    """L1 + W_GRADIENT x gradient L1 + ssim_weight x (1 - SSIM), on tone-mapped values; with
-    energy_weight > 0 the L1 term weighted by energy_weights."""
+                 ssim_weight: float = W_SSIM) -> torch.Tensor:
+    """L1 + W_GRADIENT x gradient L1 + ssim_weight x (1 - SSIM), on tone-mapped values."""
     p, t = tonemap(pred_radiance, kind), tonemap(target_radiance, kind)
-    if energy_weight > 0.0:
-        l1 = (energy_weights(target_radiance, energy_weight) * (p - t).abs()).mean()
-    else:
-        l1 = F.l1_loss(p, t)
-    return (l1 + W_GRADIENT * gradient_l1(p, t)
+    return (F.l1_loss(p, t) + W_GRADIENT * gradient_l1(p, t)
             + ssim_weight * (1.0 - ssim(torch.clamp(p, 0, 1), torch.clamp(t, 0, 1))))
 
 

@@ -31,14 +31,14 @@ EXPORT_RESERVE_S = 30.0  # kept from the budget for the last checkpoint, the exp
 NOT_DONE = 3  # exit status: stopped by the budget, run the same command again
 
 
-def parse_schedule(text: str, mean_weight: float, energy_weight: float = 0.0):
+def parse_schedule(text: str, mean_weight: float):
     """Stages from "END:LR:SSIM,..." (ends increasing)."""
     from .train import Stage
     stages = []
     for part in text.split(","):
         try:
             end, lr, ssim = part.split(":")
-            stages.append(Stage(int(end), float(lr), float(ssim), mean_weight, energy_weight))
+            stages.append(Stage(int(end), float(lr), float(ssim), mean_weight))
         except ValueError:
             raise SystemExit(f"--schedule: {part!r} is not END:LR:SSIM")
     if any(b.end <= a.end for a, b in zip(stages, stages[1:])) or stages[0].end <= 0:
@@ -65,9 +65,6 @@ def arguments(argv=None) -> argparse.Namespace:
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
     p.add_argument("--schedule", default=SCHEDULE, help="stages END:LR:SSIM,... (default: the shipped model's)")
     p.add_argument("--mean-weight", type=float, default=None, help="weight of the loss's mean term (default loss.W_MEAN)")
-    p.add_argument("--energy-weight", type=float, default=0.0,
-                   help="the L1 term's weighting by each pixel's share of the energy (loss.energy_weights; 0: none, "
-                        "as the shipped models)")
     p.add_argument("--colour-skip", type=int, default=0,
                    help="rt: the block of the colour skip (model.py; 0: none, as the shipped rt)")
     p.add_argument("--history-drop", type=float, default=0.25,
@@ -98,7 +95,7 @@ def main(argv=None, clock=time.monotonic) -> int:
     out.mkdir(parents=True, exist_ok=True)
     from .loss import W_MEAN
     mean_weight = W_MEAN if a.mean_weight is None else a.mean_weight
-    stages = parse_schedule(a.schedule, mean_weight, a.energy_weight)
+    stages = parse_schedule(a.schedule, mean_weight)
     status = {"command": "python -m lift_gl.denoise.train.plan " + " ".join(argv if argv is not None else sys.argv[1:]),
               "done": False, "steps": stages[-1].end}
 
@@ -170,7 +167,6 @@ def main(argv=None, clock=time.monotonic) -> int:
               "train_seeds": [train_seeds[0], train_seeds[len(train_paths) - 1]],
               "val_seeds": [val_seeds[0], val_seeds[-1]] if val_seeds else [], "size": a.size, "ref_spp": a.ref_spp,
               "spp_levels": [1, 2, 4, 8, 16, 32, 64], "schedule": a.schedule, "mean_weight": mean_weight,
-              "energy_weight": a.energy_weight,
               "batch": a.batch, "crop": a.crop, "seed": a.seed, "steps": result["steps"],
               "train_seconds": round(result["seconds"], 1), "device": result["device"], "arch": model.arch}
     if val_paths:  # mean(output) / mean(reference) at 4 spp; a temporal model's without history

@@ -26,12 +26,11 @@ WARMUP = 200
 @dataclass(frozen=True)
 class Stage:
     """Steps up to `end` (from the previous stage's end) at a peak learning rate `lr`, with
-    these loss weights (loss.py: 1 - SSIM, mean_loss's, and the L1's energy weighting)."""
+    these loss weights (loss.py: 1 - SSIM, and mean_loss's)."""
     end: int
     lr: float
     ssim_weight: float = W_SSIM
     mean_weight: float = 0.0
-    energy_weight: float = 0.0
 
 
 def stage_at(stages, step: int) -> tuple[int, int]:
@@ -106,7 +105,7 @@ def frame_loss(pred, x, div, tgt, stage: Stage, loss_tonemap: str = "log"):
     """The loss of one frame: pred is the network's demodulated output for the input x, div
     remodulates both."""
     radiance = pred.float() * div
-    loss = denoise_loss(radiance, tgt, loss_tonemap, stage.ssim_weight, stage.energy_weight)
+    loss = denoise_loss(radiance, tgt, loss_tonemap, stage.ssim_weight)
     if stage.mean_weight:
         loss = loss + stage.mean_weight * mean_loss(radiance, tgt, x[:, :3] * div)
     return loss
