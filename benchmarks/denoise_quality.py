@@ -84,6 +84,12 @@ def get_denoiser(spec: str):
 
 # ---- rendering the inputs ---------------------------------------------------------------------
 
+def guide_key(kind: str, spp: int) -> str:
+    """The npz kind of level `spp`'s own guide ("albedo" or "normal"), where a file has one:
+    kindSPP (mitsuba_denoise_inputs.py); otherwise every level uses the scene's `kind`."""
+    return f"{kind}{spp}"
+
+
 def noisy_key(spp: int, sampling: str = "independent") -> str:
     """The npz kind of a noisy input: noisySPP[_SAMPLING] (render_data.sampling_suffix)."""
     from lift_gl.denoise.train.render_data import sampling_suffix
@@ -204,9 +210,8 @@ def evaluate(args) -> None:
                 results = {"noisy": noisy}
                 for dname, d in denoisers.items():
                     t = time.perf_counter()
-                    # a level's own guides where the inputs have them (mitsuba_denoise_inputs.py)
-                    results[dname] = d.denoise(noisy, s.get(f"albedo{spp}", s["albedo"]), s.get(f"normal{spp}", s["normal"]),
-                                               depth=s.get("depth"))
+                    albedo, normal = (s.get(guide_key(k, spp), s[k]) for k in ("albedo", "normal"))
+                    results[dname] = d.denoise(noisy, albedo, normal, depth=s.get("depth"))
                     seconds[dname].append(time.perf_counter() - t)
                 for method, img in results.items():
                     rows.append({"scene": name, "sampling": sampling, "spp": spp, "method": method,

@@ -1,6 +1,6 @@
 """The denoisers on Mitsuba 3's own noisy renders: the same input for lift-gl's network and OIDN.
 
-Renders each scene of ../shared/refs/mitsuba/ (or --scenes FILE.xml ...) with Mitsuba 3's own
+Renders each scene of ../shared/refs/mitsuba/ (or of --refs, --names) with Mitsuba 3's own
 integrator at 1, 4 and 16 spp, with the first hit's albedo and shading normal of the same
 render (Mitsuba's `aov` integrator around the scene's), and writes them, with the folder's
 converged reference, in the layout of `denoise_quality.py render` (NAME/noisy1, albedo1,
@@ -15,13 +15,16 @@ alone: lift-gl's network against OIDN on the noise of another renderer.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from denoise_quality import SPP, guide_key, noisy_key  # noqa: E402  the layout it writes
+
 REPO = Path(__file__).resolve().parents[1]
 REFS = REPO.parent / "shared" / "refs" / "mitsuba"
-SPP = (1, 4, 16)  # denoise_quality.SPP
 
 
 def mitsuba_views(scene_xml: Path, spp_levels=SPP, seed: int = 1) -> dict:
@@ -45,11 +48,12 @@ def mitsuba_views(scene_xml: Path, spp_levels=SPP, seed: int = 1) -> dict:
 def scene_arrays(name: str, scene_xml: Path, reference: np.ndarray, seed: int) -> dict:
     arrays = {f"{name}/reference": reference.astype(np.float16)}
     for spp, (noisy, albedo, normal) in mitsuba_views(scene_xml, seed=seed).items():
-        arrays[f"{name}/noisy{spp}"] = noisy.astype(np.float16)
-        arrays[f"{name}/albedo{spp}"] = albedo.astype(np.float16)
-        arrays[f"{name}/normal{spp}"] = normal.astype(np.float16)
-    # the default guides (denoise_quality's NAME/albedo, NAME/normal): the 16-spp render's
-    arrays[f"{name}/albedo"], arrays[f"{name}/normal"] = arrays[f"{name}/albedo16"], arrays[f"{name}/normal16"]
+        arrays[f"{name}/{noisy_key(spp)}"] = noisy.astype(np.float16)
+        arrays[f"{name}/{guide_key('albedo', spp)}"] = albedo.astype(np.float16)
+        arrays[f"{name}/{guide_key('normal', spp)}"] = normal.astype(np.float16)
+    # the default guides (NAME/albedo, NAME/normal): the highest level's, the least aliased
+    for kind in ("albedo", "normal"):
+        arrays[f"{name}/{kind}"] = arrays[f"{name}/{guide_key(kind, SPP[-1])}"]
     return arrays
 
 
