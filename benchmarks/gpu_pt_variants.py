@@ -877,6 +877,33 @@ def trace_uniforms(renderer) -> dict:
     return uniforms
 
 
+def dispatch_invocations(defines: dict, size, local) -> int:
+    """The invocations of a trace or prepass dispatch: the work groups that cover
+    tile_dispatch_size (whole blocks over the moved image with coherent sampling), times their size."""
+    gx, gy, _ = groups(*tile_dispatch_size(defines, size, local), local)
+    return gx * gy * local[0] * local[1]
+
+
+def widen_prepass(renderer, invocations: int) -> None:
+    """The renderer's prepass storage numbered for dispatches of up to `invocations`. A variant
+    that turns coherent sampling on by its edit dispatches whole blocks over the moved image,
+    more invocations than the renderer's layout counts (prepass.py numbers a sample's entries by
+    invocation): its invocations past the count would write into other pixels' entries, racing
+    them, and read past the storage. Numbering with gaps is as good (lift_prepass_begin), so the
+    widest dispatch's count serves every variant; the buffers grow on the next run."""
+    from dataclasses import replace
+
+    layout = renderer.prepass.layout
+    if invocations <= layout.invocations:
+        return
+    wide = replace(layout, invocations=invocations)
+    if wide.buffer_bytes(renderer.prepass.samples) > layout.max_block:
+        raise SystemExit(f"the prepass storage of {invocations} invocations passes the driver's largest "
+                         "storage block: a smaller --size")
+    renderer.prepass.layout = wide
+    renderer.prepass.samples = 0   # reallocated by its next run (PrepassPass._allocate)
+
+
 def camera_source(renderer):
     """The trace program of pt with primary = "camera" (the host traces camera rays)."""
     from lift_gl import shaders
@@ -976,6 +1003,13 @@ def run_scene(ctx, path, size, max_depth, names, reps, dump_dir, base_tree=None,
                       "binary": binary_summary(blob)}
     names = [name for name in names if name in programs]   # less the skipped ones
     w, h = size
+    if r.prepass is not None:   # storage numbered for the widest dispatch, trace's or prepass's
+        widest = [dispatch_invocations(coherence[n], size, programs[n][2]) for n in names]
+        widest += [dispatch_invocations(d, size, r.prepass.local_size) for _, d in prepasses.values()]
+        widen_prepass(r, max(widest, default=0))
+        uniforms.update(r.prepass.uniforms(1))
+        for prog, unif, _ in programs.values():
+            unif.update(r.prepass.uniforms(1))
     frame = r.trace.frame
     splats = r.trace.splats
     query = ctx.query(time=True)

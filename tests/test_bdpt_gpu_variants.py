@@ -114,3 +114,26 @@ def test_coherent_bdpt_variants_compile_and_the_kept_one_is_the_parameter():
     assert v["bdpt_own_light"]["mean_rgb"] == v["coherent_tiles"]["mean_rgb"]
     for name in ("bdpt_shared", "bdpt_own_camera"):
         assert v[name]["mean_rgb"] != v["coherent_tiles"]["mean_rgb"], name
+
+
+def test_prepass_storage_is_numbered_for_a_coherent_variants_wider_dispatch():
+    """A variant that turns coherent sampling on by its edit dispatches whole blocks over the
+    moved image: more invocations than the renderer's own prepass layout counts. Left so, its
+    invocations past the count wrote into other pixels' entries (a race: the coherent variants'
+    images changed from run to run); the harness numbers the storage for the widest dispatch."""
+    from lift_gl.passes.common import COHERENT_DEFINE
+
+    r = Renderer(load_scene(CORNELL), size=(24, 16), integrator="bdpt", seed=3, params={"max_depth": 2})
+    own = r.prepass.layout.invocations
+    assert own == variants.dispatch_invocations({}, r.size, r.trace.local_size) == 24 * 16
+    lx, ly = r.trace.local_size
+    wide = variants.dispatch_invocations({COHERENT_DEFINE: 1}, r.size, (lx, ly))
+    # whole tiles over the image moved by up to one tile less a pixel
+    assert wide == -(-(24 + lx - 1) // lx) * lx * -(-(16 + ly - 1) // ly) * ly > own
+    variants.widen_prepass(r, own)   # no wider: nothing changes
+    assert r.prepass.layout.invocations == own
+    variants.widen_prepass(r, wide)
+    assert r.prepass.uniforms(1) == {"u_prepass_invocations": wide, "u_prepass_stride": wide}
+    r.render(spp=1)   # the next run allocates for the new numbering
+    assert all(b.size == r.prepass.layout.buffer_bytes(1) for b in r.prepass.buffers)
+    r.release()
