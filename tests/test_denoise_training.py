@@ -169,3 +169,35 @@ def test_training_inputs_take_each_sampling_and_are_named_by_it():
     assert abs(lag["independent"][0]) < 0.1 and abs(lag["independent"][1]) < 0.1, lag
     assert lag["coherent"][0] > 0.7, lag
     assert lag["interleave2"][1] > 0.7 and lag["interleave2"][0] < lag["interleave2"][1] - 0.4, lag
+
+
+@pytest.mark.parametrize("options", [{"input_skip": True}, {"passthrough": True},
+                                     {"input_skip": True, "passthrough": True, "full_res_convs": 2}])
+def test_a_grown_unet_starts_as_the_model_it_grew_from(tmp_path, options):
+    """plan --init-from M --grow: the new layers start as zero or the identity, so the larger
+    model computes M's function (to the passthrough's starting share, sigmoid(-8) = 3.4e-4 of
+    the input colour); it exports and runs in onnxruntime as torch computes it."""
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("onnxruntime")
+    from lift_gl.denoise.train.export import export, load_onnx_weights
+    from lift_gl.denoise.train.model import build_model
+
+    small = build_model("unet", encoder=(8, 12), bottleneck=16)
+    for p in small.parameters():  # away from the initialisation, so that a missed layer shows
+        p.data += 0.05 * torch.randn_like(p)
+    export(small, tmp_path / "small.onnx", {})
+    big = build_model("unet", encoder=(8, 12), bottleneck=16, **options)
+    load_onnx_weights(big, tmp_path / "small.onnx", grow=True)
+    x = torch.rand(1, 9, 32, 32) * 2
+    with torch.no_grad():
+        want, got = small.eval()(x), big.eval()(x)
+    share = 1 / (1 + np.exp(8.0)) if options.get("passthrough") else 0.0
+    bound = share * float((x[:, :3] - want).abs().max()) * 1.01 + 1e-5 * float(want.abs().max())
+    assert float((got - want).abs().max()) <= bound
+    assert float((got - want).abs().max()) > 0 or not share  # the passthrough did blend
+    export(big, tmp_path / "big.onnx", {})
+    import onnxruntime as ort
+    run = ort.InferenceSession(str(tmp_path / "big.onnx")).run(None, {"input": x.numpy()})[0]
+    np.testing.assert_allclose(run, got.numpy(), rtol=1e-4, atol=1e-5 * float(got.abs().max()))
+    with pytest.raises(SystemExit, match="architecture"):  # without --grow: refused, as before
+        load_onnx_weights(big, tmp_path / "small.onnx")

@@ -170,9 +170,18 @@ def _forward_node(node, env, consts, helper, numpy_helper):
             env[node.output[0]] = (out, carried + U ** 2 * 4 * out ** 2)
     elif op == "Concat":
         env[node.output[0]] = tuple(np.concatenate([env[i][j] for i in ins]) for j in (0, 1))
-    elif op == "Add":
+    elif op in ("Add", "Sub"):  # numpy broadcasts a one-channel operand as the executor does
         (a, va), (b, vb) = env[ins[0]], env[ins[1]]
-        env[node.output[0]] = (a + b, va + vb + U ** 2 / 3 * (a + b) ** 2)
+        y = a + b if op == "Add" else a - b
+        env[node.output[0]] = (y, va + vb + U ** 2 / 3 * y ** 2)
+    elif op == "Mul":
+        (a, va), (b, vb) = env[ins[0]], env[ins[1]]
+        env[node.output[0]] = (a * b, b ** 2 * va + a ** 2 * vb + U ** 2 / 3 * (a * b) ** 2)
+    elif op == "Sigmoid":  # 1 / (1 + exp(-v)) in GLSL: exp's (3 + 2 |v|) ULP, an add and a divide
+        v, var = env[ins[0]]
+        y = 1.0 / (1.0 + np.exp(-v))
+        slope = y * (1.0 - y)
+        env[node.output[0]] = (y, slope ** 2 * var + ((5 + 2 * np.abs(v)) * 2 * U * y) ** 2)
     else:
         raise AssertionError(f"the test's reference has no {op}")
 
@@ -224,6 +233,18 @@ def test_unet_add_avgpool_bilinear_leaky_matches_onnxruntime(gl_ctx, tmp_path):
     model = random_unet(encoder=(4, 8, 12), bottleneck=16, pool="AveragePool", upsample=ups,
                         activation="LeakyRelu", add_skips=True, final_kernel=1, seed=5)
     compare(gl_ctx, tmp_path, model, (29, 19), out_block=3, pixels=3)  # 3 does not divide 12 or 29
+
+
+def test_unet_input_skip_and_passthrough_match_onnxruntime(gl_ctx, tmp_path):
+    """model.py's DenoiseUNet options: the last decoder level reads the curved input too, and
+    a fourth output channel's sigmoid blends the input colour in (a one-channel weight times a
+    colour: the executor's broadcast)."""
+    model = random_unet(encoder=(8, 12, 16), bottleneck=20, colour_curve=True, input_skip=True,
+                        passthrough=True, seed=11)
+    onnx.save(model, tmp_path / "pass.onnx")
+    steps = Plan(tmp_path / "pass.onnx").steps
+    assert any(s.kind == "binary" and s.params["broadcast"] for s in steps)
+    compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=4)
 
 
 def test_rt_strided_conv_and_transposed_conv_match_onnxruntime(gl_ctx, tmp_path):
@@ -440,6 +461,27 @@ def test_unsupported_op_names_op_and_file(tmp_path):
         Plan(path)
     message = str(info.value)
     assert "Softmax" in message and "bad.onnx" in message and "attention" in message
+
+
+def test_identity_of_a_weight_is_the_weight(gl_ctx, tmp_path):
+    """torch's exporter writes a repeated weight (a layer grown as the identity) once and
+    Identity nodes for the others: the executor reads them as the weight."""
+    from onnx import helper, numpy_helper
+
+    w = np.random.default_rng(2).standard_normal((4, 4, 3, 3)).astype(np.float32)
+    b = np.zeros(4, np.float32)
+    path = _save(tmp_path, [helper.make_node("Identity", ["w"], ["w2"]),
+                            helper.make_node("Conv", ["input", "w2", "b"], ["output"], kernel_shape=[3, 3],
+                                             pads=[1, 1, 1, 1])],
+                 [numpy_helper.from_array(w, "w"), numpy_helper.from_array(b, "b")], name="alias.onnx")
+    x = np.random.default_rng(3).standard_normal((1, 4, 8, 8)).astype(np.float32)
+    net = GlslNet(gl_ctx, path)
+    try:
+        got = net.run_numpy(x)
+    finally:
+        net.release()
+    want = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"]).run(None, {"input": x})[0]
+    np.testing.assert_allclose(got, want, atol=1e-4)
 
 
 def test_unsupported_conv_attribute_is_clear(tmp_path):

@@ -130,6 +130,8 @@ class GlslNet:
             source = "pointwise.comp"
             if step.kind == "binary":
                 defines["OPERATOR"] = step.params["operator"]
+                if step.params.get("broadcast"):
+                    defines["BROADCAST_" + step.params["broadcast"].upper()] = 1
         elif step.kind == "gather":
             source = "gather.comp"
             defines["NUM_PARTS"] = len(self._inputs(step))

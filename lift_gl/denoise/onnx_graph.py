@@ -4,7 +4,8 @@ The plan covers what a U-Net denoiser uses: Conv (group 1, a square stride s wit
 padding that gives size / s, so stride 1 keeps the size), ConvTranspose (kernel = stride, no
 padding: a learned depth-to-space), MaxPool / AveragePool (kernel = stride, no padding),
 Resize / Upsample by an integer factor (nearest or linear), Concat and Slice on channels,
-Add / Sub / Mul / Div of two tensors or of a tensor and a scalar, and pointwise Relu,
+Add / Sub / Mul / Div of two tensors (one may be a single channel, broadcast) or of a tensor
+and a scalar, and pointwise Relu,
 LeakyRelu, Clip, Log, Exp, Sqrt, Sigmoid, Tanh, Cast (to float), Identity. Anything else is
 one ModelError naming the op, node and file.
 
@@ -187,6 +188,9 @@ class Plan:
                 raise self._error(node, "only a tensor `value` is supported")
             self.constants[node.output[0]] = self._numpy(attrs["value"])
             return
+        if op == "Identity" and node.input[0] in self.constants:  # the exporter's alias of a repeated weight
+            self.constants[node.output[0]] = self.constants[node.input[0]]
+            return
         if op in UNARY or op in ("LeakyRelu", "Clip", "Cast"):
             if op == "LeakyRelu":
                 alpha = _glsl_float(attrs.get("alpha", 0.01))
@@ -231,10 +235,14 @@ class Plan:
         ca, cb = self._const(node, a), self._const(node, b)
         if ca is None and cb is None:
             va, vb = self._tensor(node, a), self._tensor(node, b)
-            if (va.channels, va.scale) != (vb.channels, vb.scale):
-                raise self._error(node, "both tensors must have the same shape (no broadcasting)")
+            # one channel against many is broadcast over them (a blend weight times a colour)
+            broadcast = "a" if va.channels == 1 < vb.channels else "b" if vb.channels == 1 < va.channels else ""
+            if va.scale != vb.scale or (va.channels != vb.channels and not broadcast):
+                raise self._error(node, "both tensors must have the same shape, or one a single channel "
+                                        f"(not {va.channels} and {vb.channels} channels at scales {va.scale}, {vb.scale})")
             inputs = [self._solid(node, a), self._solid(node, b)]
-            self._emit(Step("binary", inputs, node.output[0], params={"operator": BINARY[op]}), va.channels, va.scale)
+            self._emit(Step("binary", inputs, node.output[0], params={"operator": BINARY[op], "broadcast": broadcast}),
+                       max(va.channels, vb.channels), va.scale)
             return
         constant = ca if ca is not None else cb
         if constant.size != 1:

@@ -26,12 +26,15 @@ LOG_EPS, LOG_CLAMP = 0.01, 25.0  # lift_gl/denoise/train/model.py's (that module
 def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48, 64), bottleneck: int = 80,
                 pool: str = "MaxPool", upsample=("nearest", "asymmetric"), activation: str = "Relu",
                 add_skips: bool = False, final_kernel: int = 3, seed: int = 0, opset: int = 17,
-                arch: str = "unet", colour_curve: bool = False, colour_skip: int = 0):
+                arch: str = "unet", colour_curve: bool = False, colour_skip: int = 0,
+                input_skip: bool = False, passthrough: bool = False):
     """An onnx.ModelProto; `upsample` is (mode, coordinate_transformation_mode), or a list of
     those, one per decoder level (deepest first); `arch` "unet" or "rt", `colour_curve` the
     trained models' colour transform (module docstring); `colour_skip` k (rt) the rt model's
     colour skip: the curve of the input colour's kxk block means, upsampled bilinearly, added to
-    the output's log (model.py)."""
+    the output's log (model.py); `input_skip` (unet) the last decoder level reads the
+    (transformed) input too, `passthrough` (unet) a fourth output channel blends the input
+    colour in: y (1 - sigmoid(z)) + relu(colour) sigmoid(z) (model.py's DenoiseUNet)."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -90,12 +93,15 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
     if arch not in ("unet", "rt"):
         raise ValueError(f"arch must be unet or rt, not {arch!r}")
     ups = [upsample] * len(encoder) if isinstance(upsample[0], str) else list(upsample)
+    if (input_skip or passthrough) and arch != "unet":
+        raise ValueError("input_skip and passthrough are unet options")
     h, skips, prev = "input", [], in_channels
     if colour_curve:  # colour (and a temporal input's previous colour) through the curve
         pieces = [curve(channels(0, 3)), channels(3, min(in_channels, 9))]
         if in_channels > 9:
             pieces += [curve(channels(9, 12)), channels(12, in_channels)]
         h = node("Concat", pieces, axis=1)
+    network_input = h
     if arch == "rt":  # full resolution -> 1/2, a learned space-to-depth
         h = conv(h, prev, encoder[0], k=2, stride=2)
         prev = encoder[0]
@@ -124,14 +130,15 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
             nodes.append(helper.make_node("Add", [u, skip], [s]))
             h = conv(s, ch, ch)
         else:
+            extra = [network_input] if input_skip and skip == skips[0][0] else []  # the last level
             c = name("cat")
-            nodes.append(helper.make_node("Concat", [u, skip], [c], axis=1))
-            h = conv(c, prev + ch, ch)
+            nodes.append(helper.make_node("Concat", [u, skip] + extra, [c], axis=1))
+            h = conv(c, prev + ch + in_channels * len(extra), ch)
         prev = ch
     if arch == "rt":  # 1/2 -> full resolution, a learned depth-to-space
         y = conv(h, prev, out_channels, k=2, stride=2, act=False, transpose=True)
     else:
-        y = conv(h, prev, out_channels, k=final_kernel, act=False)
+        y = conv(h, prev, out_channels + passthrough, k=final_kernel, act=False)
     if colour_skip:  # model.py's colour skip: the input pooled whole, its colour sliced, curved, upsampled
         pooled = node("AveragePool", ["input"], kernel_shape=[colour_skip, colour_skip],
                       strides=[colour_skip, colour_skip])
@@ -139,8 +146,16 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         up = node("Resize", [curve(colour), "", constant([1, 1, colour_skip, colour_skip])], mode="linear",
                   coordinate_transformation_mode="pytorch_half_pixel")
         y = node("Add", [y, node("Mul", [up, constant(np.log1p(1.0 / LOG_EPS))])])
+    if passthrough:  # the blend weight from the fourth channel, the colour from the first three
+        z = y
+        pick = lambda x, a, b: node("Slice", [x, constant_int([a]), constant_int([b]), constant_int([1]),
+                                              constant_int([1])])
+        y, share = pick(z, 0, out_channels), node("Sigmoid", [pick(z, out_channels, out_channels + 1)])
     if colour_curve:  # model.py's output: eps * exp(min(y, LOG_CLAMP))
         y = node("Mul", [node("Exp", [node("Clip", [y, "", constant(LOG_CLAMP)])]), constant(LOG_EPS)])
+    if passthrough:
+        kept = node("Mul", [node("Relu", [channels(0, out_channels)]), share])
+        y = node("Add", [node("Mul", [y, node("Sub", [constant(1.0), share])]), kept])
     nodes.append(helper.make_node("Identity", [y], ["output"]))
     graph = helper.make_graph(
         nodes, "random_unet",

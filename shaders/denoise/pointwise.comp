@@ -1,4 +1,5 @@
-// A pointwise op on one tensor (map) or two of the same shape (binary: a OPERATOR b), then
+// A pointwise op on one tensor (map) or two of the same shape (binary: a OPERATOR b; one may be a
+// single channel, BROADCAST_A or _B), then
 // the fused chain of pointwise ops that followed it. One invocation per pixel and layer.
 #include "tensor.glsl"
 
@@ -12,8 +13,14 @@ void main() {
     ivec3 at = ivec3(gl_GlobalInvocationID);
     if (at.x >= u_out_size.x || at.y >= u_out_size.y) return;
     int layer = at.z;  // the epilogue's statements may ask which channels they hold
+#ifdef BROADCAST_A  // a one-channel operand: its channel over all of the other's
+    vec4 v = imageLoad(src_a, ivec3(at.xy, 0)).xxxx;
+#else
     vec4 v = imageLoad(src_a, at);
-#ifdef OPERATOR
+#endif
+#if defined(OPERATOR) && defined(BROADCAST_B)
+    v = v OPERATOR imageLoad(src_b, ivec3(at.xy, 0)).xxxx;
+#elif defined(OPERATOR)
     v = v OPERATOR imageLoad(src_b, at);
 #endif
     EPILOGUE

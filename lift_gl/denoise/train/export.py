@@ -69,9 +69,34 @@ def export(model: nn.Module, onnx_path: Path, record: dict) -> Path:
     return json_path
 
 
-def load_onnx_weights(model: nn.Module, onnx_path: Path) -> None:
+PASSTHROUGH_BIAS = -8.0  # a grown passthrough channel starts at sigmoid(-8) = 3e-4: the old output
+
+
+def _grown(name: str, new: torch.Tensor, old) -> torch.Tensor:
+    """`new`'s shape holding the old weights where they fit: extra input or output channels
+    start at zero (a passthrough channel's bias at PASSTHROUGH_BIAS), a conv the old model
+    lacks as the identity (after a ReLU, an identity 3x3 conv changes nothing)."""
+    if old is None:
+        grown = torch.zeros_like(new)
+        if name.endswith(".weight") and new.dim() == 4 and new.shape[0] == new.shape[1]:
+            for i in range(new.shape[0]):
+                grown[i, i, new.shape[2] // 2, new.shape[3] // 2] = 1.0
+        return grown
+    old = torch.from_numpy(old.copy())
+    if old.dim() != new.dim() or any(o > n for o, n in zip(old.shape, new.shape)):
+        raise SystemExit(f"{name}: {tuple(old.shape)} does not fit in {tuple(new.shape)}")
+    grown = torch.zeros_like(new)
+    if name.endswith(".bias") and new.shape[0] > old.shape[0]:
+        grown[old.shape[0]:] = PASSTHROUGH_BIAS
+    grown[tuple(slice(0, o) for o in old.shape)] = old
+    return grown
+
+
+def load_onnx_weights(model: nn.Module, onnx_path: Path, grow: bool = False) -> None:
     """Set `model`'s parameters from an exported model's initializers (export() keeps the
-    parameter names), refusing a file of another architecture."""
+    parameter names), refusing a file of another architecture; with `grow`, a smaller model's
+    file of the same layer names (model.py's input_skip, passthrough, full_res_convs), the
+    model starting as the file's function (_grown)."""
     import onnx
     from onnx import numpy_helper
 
@@ -82,6 +107,9 @@ def load_onnx_weights(model: nn.Module, onnx_path: Path) -> None:
         raise SystemExit(f"{onnx_path}: cannot read the model to start from ({exc})")
     weights = {i.name: numpy_helper.to_array(i) for i in graph.initializer}
     state = model.state_dict()
+    if grow:
+        model.load_state_dict({k: _grown(k, v, weights.get(k)) for k, v in state.items()})
+        return
     wrong = [k for k, v in state.items() if k not in weights or tuple(weights[k].shape) != tuple(v.shape)]
     if wrong:
         raise SystemExit(f"{onnx_path}: not a model of this architecture ({model.arch}): "
