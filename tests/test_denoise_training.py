@@ -171,8 +171,8 @@ def test_training_inputs_take_each_sampling_and_are_named_by_it():
     assert lag["interleave2"][1] > 0.7 and lag["interleave2"][0] < lag["interleave2"][1] - 0.4, lag
 
 
-@pytest.mark.parametrize("options", [{"input_skip": True}, {"passthrough": True},
-                                     {"input_skip": True, "passthrough": True, "full_res_convs": 2}])
+@pytest.mark.parametrize("options", [{"passthrough": True}, {"full_res_convs": 2},
+                                     {"passthrough": True, "full_res_convs": 2}])
 def test_a_grown_unet_starts_as_the_model_it_grew_from(tmp_path, options):
     """plan --init-from M --grow: the new layers start as zero or the identity, so the larger
     model computes M's function (to the passthrough's starting share, sigmoid(-8) = 3.4e-4 of
@@ -201,3 +201,20 @@ def test_a_grown_unet_starts_as_the_model_it_grew_from(tmp_path, options):
     np.testing.assert_allclose(run, got.numpy(), rtol=1e-4, atol=1e-5 * float(got.abs().max()))
     with pytest.raises(SystemExit, match="architecture"):  # without --grow: refused, as before
         load_onnx_weights(big, tmp_path / "small.onnx")
+
+
+def test_the_shipped_sidecar_rebuilds_the_shipped_network():
+    """assets/denoiser/lift_unet.json's architecture builds the model its .onnx holds (the
+    weights load by name and shape): what plan --init-from and a resumed training rely on."""
+    pytest.importorskip("torch")
+    pytest.importorskip("onnx")
+    import json
+    from pathlib import Path
+
+    from lift_gl.denoise.train.export import load_onnx_weights
+    from lift_gl.denoise.train.model import model_from_arch
+
+    assets = Path(__file__).resolve().parent.parent / "assets" / "denoiser"
+    model = model_from_arch(json.loads((assets / "lift_unet.json").read_text())["architecture"])
+    load_onnx_weights(model, assets / "lift_unet.onnx")
+    assert model.arch["passthrough"] and model.out.out_channels == 4

@@ -235,12 +235,10 @@ def test_unet_add_avgpool_bilinear_leaky_matches_onnxruntime(gl_ctx, tmp_path):
     compare(gl_ctx, tmp_path, model, (29, 19), out_block=3, pixels=3)  # 3 does not divide 12 or 29
 
 
-def test_unet_input_skip_and_passthrough_match_onnxruntime(gl_ctx, tmp_path):
-    """model.py's DenoiseUNet options: the last decoder level reads the curved input too, and
-    a fourth output channel's sigmoid blends the input colour in (a one-channel weight times a
-    colour: the executor's broadcast)."""
-    model = random_unet(encoder=(8, 12, 16), bottleneck=20, colour_curve=True, input_skip=True,
-                        passthrough=True, seed=11)
+def test_unet_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
+    """model.py's passthrough: a fourth output channel's sigmoid blends the input colour in (a
+    one-channel weight times a colour: the executor's broadcast)."""
+    model = random_unet(encoder=(8, 12, 16), bottleneck=20, colour_curve=True, passthrough=True, seed=11)
     onnx.save(model, tmp_path / "pass.onnx")
     steps = Plan(tmp_path / "pass.onnx").steps
     assert any(s.kind == "binary" and s.params["broadcast"] for s in steps)

@@ -27,13 +27,12 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
                 pool: str = "MaxPool", upsample=("nearest", "asymmetric"), activation: str = "Relu",
                 add_skips: bool = False, final_kernel: int = 3, seed: int = 0, opset: int = 17,
                 arch: str = "unet", colour_curve: bool = False, colour_skip: int = 0,
-                input_skip: bool = False, passthrough: bool = False):
+                passthrough: bool = False):
     """An onnx.ModelProto; `upsample` is (mode, coordinate_transformation_mode), or a list of
     those, one per decoder level (deepest first); `arch` "unet" or "rt", `colour_curve` the
     trained models' colour transform (module docstring); `colour_skip` k (rt) the rt model's
     colour skip: the curve of the input colour's kxk block means, upsampled bilinearly, added to
-    the output's log (model.py); `input_skip` (unet) the last decoder level reads the
-    (transformed) input too, `passthrough` (unet) a fourth output channel blends the input
+    the output's log (model.py); `passthrough` (unet) a fourth output channel blends the input
     colour in: y (1 - sigmoid(z)) + relu(colour) sigmoid(z) (model.py's DenoiseUNet)."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
@@ -93,15 +92,14 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
     if arch not in ("unet", "rt"):
         raise ValueError(f"arch must be unet or rt, not {arch!r}")
     ups = [upsample] * len(encoder) if isinstance(upsample[0], str) else list(upsample)
-    if (input_skip or passthrough) and arch != "unet":
-        raise ValueError("input_skip and passthrough are unet options")
+    if passthrough and arch != "unet":
+        raise ValueError("passthrough is a unet option")
     h, skips, prev = "input", [], in_channels
     if colour_curve:  # colour (and a temporal input's previous colour) through the curve
         pieces = [curve(channels(0, 3)), channels(3, min(in_channels, 9))]
         if in_channels > 9:
             pieces += [curve(channels(9, 12)), channels(12, in_channels)]
         h = node("Concat", pieces, axis=1)
-    network_input = h
     if arch == "rt":  # full resolution -> 1/2, a learned space-to-depth
         h = conv(h, prev, encoder[0], k=2, stride=2)
         prev = encoder[0]
@@ -130,10 +128,9 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
             nodes.append(helper.make_node("Add", [u, skip], [s]))
             h = conv(s, ch, ch)
         else:
-            extra = [network_input] if input_skip and skip == skips[0][0] else []  # the last level
             c = name("cat")
-            nodes.append(helper.make_node("Concat", [u, skip] + extra, [c], axis=1))
-            h = conv(c, prev + ch + in_channels * len(extra), ch)
+            nodes.append(helper.make_node("Concat", [u, skip], [c], axis=1))
+            h = conv(c, prev + ch, ch)
         prev = ch
     if arch == "rt":  # 1/2 -> full resolution, a learned depth-to-space
         y = conv(h, prev, out_channels, k=2, stride=2, act=False, transpose=True)

@@ -95,7 +95,7 @@ def _grown(name: str, new: torch.Tensor, old) -> torch.Tensor:
 def load_onnx_weights(model: nn.Module, onnx_path: Path, grow: bool = False) -> None:
     """Set `model`'s parameters from an exported model's initializers (export() keeps the
     parameter names), refusing a file of another architecture; with `grow`, a smaller model's
-    file of the same layer names (model.py's input_skip, passthrough, full_res_convs), the
+    file of the same layer names (model.py's passthrough, full_res_convs), the
     model starting as the file's function (_grown)."""
     import onnx
     from onnx import numpy_helper

@@ -135,31 +135,26 @@ class _ColourTransform(nn.Module):
 
 
 class DenoiseUNet(_ColourTransform):
-    """input_skip: the full-resolution decoder conv also reads the transformed input (as OIDN's
-    last decoder level does), so the input's exact detail need not pass through the encoder's
-    ReLU features. passthrough: the output conv gives a fourth channel z, and the output is
+    """passthrough: the output conv gives a fourth channel z, and the output is
     (1 - s) * network + s * input colour with s = sigmoid(z), linear, so that where the input
     is already exact (an emitter seen directly) the network can return it unchanged."""
 
     def __init__(self, encoder=ENCODER, bottleneck=BOTTLENECK, transform=TRANSFORM, full_res_convs: int = 1,
-                 temporal: bool = False, input_skip: bool = False, passthrough: bool = False):
+                 temporal: bool = False, passthrough: bool = False):
         super().__init__(transform, temporal)
         c = list(encoder)
         self.arch = {"name": "unet", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
                      "full_res_convs": int(full_res_convs), "temporal": self.temporal,
-                     "input_skip": bool(input_skip), "passthrough": bool(passthrough)}
+                     "passthrough": bool(passthrough)}
         self.enc = nn.ModuleList([conv(self.in_channels, c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         # further convs at full resolution after the first encoder and the last decoder conv
         self.enc_extra = nn.ModuleList([conv(c[0], c[0]) for _ in range(full_res_convs - 1)])
         self._make_bottom(c, bottleneck)
-        if input_skip:  # the input's channels appended last: a grown model keeps its old slices
-            last = self.dec[-1]
-            self.dec[-1] = conv(last.in_channels + self.in_channels, last.out_channels)
         self.dec_extra = nn.ModuleList([conv(c[0], c[0]) for _ in range(full_res_convs - 1)])
         self.out = conv(c[0], 4 if passthrough else 3)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        t = h = self.transformed_input(x)
+        h = self.transformed_input(x)
         skips = []
         for i, layer in enumerate(self.enc):
             if i:
@@ -169,8 +164,6 @@ class DenoiseUNet(_ColourTransform):
                 for extra in self.enc_extra:
                     h = torch.relu(extra(h))
             skips.append(h)
-        if self.arch["input_skip"]:
-            skips[0] = torch.cat([skips[0], t], dim=1)
         h = self._decode(h, skips)
         for extra in self.dec_extra:
             h = torch.relu(extra(h))

@@ -60,8 +60,6 @@ def arguments(argv=None) -> argparse.Namespace:
     p.add_argument("--grow", action="store_true",
                    help="--init-from a smaller unet: the new layers start as the identity or zero, so that "
                         "training starts from the file's function")
-    p.add_argument("--input-skip", action="store_true",
-                   help="unet: the full-resolution decoder conv reads the input too (model.py)")
     p.add_argument("--passthrough", action="store_true",
                    help="unet: a learned share of the input colour in the output (model.py)")
     p.add_argument("--full-res-convs", type=int, default=1, help="unet: convs at full resolution each side")
@@ -89,8 +87,8 @@ def arguments(argv=None) -> argparse.Namespace:
         a.temporal = a.model == "rt"
     if a.colour_skip and a.model != "rt":
         p.error("--colour-skip is an option of --model rt")
-    if a.model != "unet" and (a.input_skip or a.passthrough or a.full_res_convs != 1):
-        p.error("--input-skip, --passthrough and --full-res-convs are options of --model unet")
+    if a.model != "unet" and (a.passthrough or a.full_res_convs != 1):
+        p.error("--passthrough and --full-res-convs are options of --model unet")
     if a.crop > a.size:
         p.error(f"--crop {a.crop} is larger than the scenes' --size {a.size}")
     return a
@@ -149,7 +147,7 @@ def main(argv=None, clock=time.monotonic) -> int:
     torch.manual_seed(a.seed)
     torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
     options = ({"colour_skip": a.colour_skip} if a.model == "rt" else
-               {"input_skip": a.input_skip, "passthrough": a.passthrough, "full_res_convs": a.full_res_convs})
+               {"passthrough": a.passthrough, "full_res_convs": a.full_res_convs})
     model = build_model(a.model, temporal=a.temporal, **options)
     if a.init_from is not None and not ckpt_path.exists():
         from .export import load_onnx_weights
