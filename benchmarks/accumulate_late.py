@@ -1,14 +1,14 @@
-"""What the accumulation pass costs with paths carried into the next frame (issue 10; docs/gpu.md
-"Tenth session"): the pass alone at 1920x1080, timed by GL timer queries, as it is (`plain`),
-with the late samples of the frame's tag added (`late`, what the option carry_paths=on runs), and,
-as the first version did, with the late image added and cleared by a store of zeros
-(`late_clear`); then the renderer's own per-pass times over 32 frames without and with parking.
+"""What the accumulation pass costs with paths carried into the next frame (docs/gpu.md, "How a
+frame runs"): the pass alone at 1920x1080, timed by GL timer queries, as it is (`plain`),
+with the late samples of the frame's tag added (`late`, what the option carry_paths=on runs), and
+with the late image added and cleared by a store of zeros (`late_clear`, the clear the tag
+replaced); then the renderer's own per-pass times over 32 frames without and with parking.
 
     python benchmarks/accumulate_late.py SCENE
 
-Needs a GPU (the queued megakernel, where paths can be carried). Measured on an H100 with the
-first version: 0.105 ms plain, 0.294 clearing, 0.111 reading the late image without clearing
-it: the store of zeros was what cost, hence the tag.
+Needs a GPU (the queued megakernel, where paths can be carried). Measured on an H100: 0.105 ms
+plain, 0.294 clearing, 0.111 reading the late image without clearing it: the store of zeros is
+what costs, hence the tag.
 """
 import sys
 from pathlib import Path

@@ -20,16 +20,16 @@ Mrays/s (benchmarks/gpu.py) divided into these counts. Needs no GPU.
 
 A tree for a distant light's shadow rays: `--light-frame` builds a second tree over the scene
 turned so that its first distant light lies along +z and runs the shadow rays towards it
-through both (the fifteenth session: the dining room's sun-frame tree made them visit more
-nodes, not fewer; docs/gpu.md).
+through both (on the dining room the sun-frame tree makes them visit more nodes, not fewer;
+what the sun's shadow rays cost: docs/gpu.md, "Measuring").
 
     python benchmarks/bvh_visits.py SCENE --light-frame [--rays 3000] [--json FILE]
 
 Where the slow rays are: `--heatmap FILE.png` traces a camera ray and a bounce ray from every
 pixel of a `--heat-size` image and writes their node visits side by side (black, red, yellow:
 0 to the larger of the two 99th percentiles), and prints which materials' leaves the bounce
-rays visit, all of them against the slowest 2% (the eleventh session found the dining room's
-slanted chrome tubes so: docs/bvh.md "Slivers across the axes").
+rays visit, all of them against the slowest 2% (on the dining room: its slanted chrome tubes,
+docs/bvh.md "Split references").
 
     python benchmarks/bvh_visits.py SCENE --rays 0 --heatmap heat.png [--heat-size 192x108]
 """

@@ -1,8 +1,9 @@
 """Does a frame's time depend on how many frames are queued before the CPU waits for the GPU?
-(issue 10, docs/gpu.md "Tenth session". The ninth session had seen bdpt's 1080p frames of the
-dining room take 171 ms with a wait every 64 frames and 466 ms with one after every frame; this
-script found the GPU time the same either way, the 466 ms being the scene's path length of 65,
-and a wait after every frame costing the wall clock the CPU's submission of the next.)
+(docs/gpu.md, "Measuring": a render waits for the GPU every 64 frames. bdpt's 1080p frames of
+the dining room measured 171 ms with a wait every 64 frames and 466 ms with one after every
+frame; this script finds the GPU time the same either way, the 466 ms being the scene's path
+length of 65, and a wait after every frame costing the wall clock the CPU's submission of the
+next.)
 
     python benchmarks/frame_waits.py SCENE [--integrator bdpt:max_depth=32] [--size 1920x1080] [--waits 1,8,64]
         [--frames 16] [--rounds 2] [--timed SECONDS] [--out FILE.json]
@@ -15,7 +16,7 @@ sampled every 2 ms on a thread through NVML (report/gpu_clock.py; None elsewhere
 image, which must not depend on k (the same seed and frames: the largest difference is
 recorded). On a CPU rasterizer timer queries miss compute work, so only the wall time means
 anything there. With --timed, render(seconds=...) is timed too, as the renderer queues frames
-between its waits and with a wait after every frame (what it did before the tenth session).
+between its waits and with a wait after every frame.
 """
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
     python benchmarks/gpu_overlap.py [--out FILE.json]
 
 A path-tracing frame ends with a tail: its last paths run on a few lanes while the rest of the
-GPU idles (docs/gpu.md, "Tenth session"). Work that does not depend on those paths (the next
+GPU idles (docs/gpu.md, "Measuring"). Work that does not depend on those paths (the next
 frame's G-buffer, this frame's predecessor's accumulation) could fill the idle lanes, if the
 driver starts a dispatch before the previous one has ended. OpenGL allows that where no memory
 barrier stands between them (the writes of one dispatch are visible to the next only after

@@ -17,18 +17,18 @@ changed the picture shows up. `main` is the trace program of another checkout
 (--base-tree: its shaders/ and plugins/), as it ran there, so a change is measured against
 the code it replaces in the same process. `tree` is the plugin of that checkout (its plugins/NAME
 and shaders/) built as this renderer builds its own (work-group shape, stack placement, the
-manifest's defines): an A/B of a plugin's code on today's host, e.g. bdpt against a commit:
+manifest's defines): an A/B of a plugin's code on this host, e.g. bdpt against a commit:
     python benchmarks/gpu_pt_variants.py SCENE --integrator bdpt --variants base,tree --base-tree ../base
 For bdpt the two images differ by their random numbers (mean_rgb tells whether they agree).
 `--tree NAME=CHECKOUT` (repeatable) adds more checkouts' plugins as variants named NAME.
 
-bdpt diagnostics (issue 10; docs/bdpt.md "On the GPU"): bdpt_no_lt, bdpt_no_connect,
-bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one part of its work
-(bdpt's prepass, the light pass, runs untimed before each dispatch, its splats dropped: it is timed
-as its own pass by lift-gl bench and benchmarks/gpu.py); the counting variants'
-images are per-pixel counts (count_rays: closest-hit and shadow rays, and for bdpt light-tracing
-joins; bdpt_count_paths: light vertices, camera vertices, s >= 2 joins, with the loop
-iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
+bdpt diagnostics (where bdpt's GPU time goes; docs/integrators.md "bdpt"): bdpt_no_lt,
+bdpt_no_connect, bdpt_light_only, bdpt_camera_only, bdpt_splat_plain, rr1 remove or change one
+part of its work (bdpt's prepass, the light pass, runs untimed before each dispatch, its splats
+dropped: it is timed as its own pass by lift-gl bench and benchmarks/gpu.py); the counting
+variants' images are per-pixel counts (count_rays: closest-hit and shadow rays, and for bdpt
+light-tracing joins; bdpt_count_paths: light vertices, camera vertices, s >= 2 joins, with the
+loop iterations a warp of 8x4 runs against those its lanes need, `warp` in the JSON).
 
 The G-buffer pass is timed too: rasterized with fragment-shader variants (`gbuffer` the real
 one, `gbuffer_flat` writing constants, `gbuffer_nodepthwrite` without gl_FragDepth:
@@ -37,28 +37,27 @@ ray a pixel) and `traced_visibility` (its program for frames, writing only the v
 Variant `camera`: pt with camera rays traced in the trace pass instead of a G-buffer
 (primary = "camera", one sample a frame).
 
-Shared memory (docs/gpu.md "A stack of node groups"): pad2k ... pad32k give each work group
-that much more shared memory (a diagnostic of what occupancy and the L1 cache it displaces
+Shared memory (docs/gpu.md, "How a frame runs": the stack): pad2k ... pad32k give each work
+group that much more shared memory (a diagnostic of what occupancy and the L1 cache it displaces
 cost), groups8/16/24 trace with node-group stack entries (LIFT_BVH_GROUP_STACK) that many deep
 (exact where the tree has no more levels), the _s8x8 / _s16x4 ones in 64-invocation groups.
 
-Twelfth session (docs/gpu.md): occ_NAME is variant NAME with the occupancy probe of
-benchmarks/gpu_occupancy.py (NVIDIA only; the JSON's `occupancy`: the warps an SM held; the
-probe's atomics make its time meaningless); maxreg64/96 add NVIDIA's register pragma (ignored);
-with --option carry_paths=on the base has the carry code and nocarry,
-carry_nostores, carry_nopark take it or its parts out; queue_order_long_first,
-_short_first and _identity hand out the pixel queue's tiles in an order computed from the
-G-buffer's albedo (tile_orders).
+Occupancy, carried paths, queue order (docs/gpu.md): occ_NAME is variant NAME with the occupancy
+probe of benchmarks/gpu_occupancy.py (NVIDIA only; the JSON's `occupancy`: the warps an SM held;
+the probe's atomics make its time meaningless); maxreg64/96 add NVIDIA's register pragma
+(ignored); with --option carry_paths=on the base has the carry code and nocarry, carry_nostores,
+carry_nopark take it or its parts out; queue_order_long_first, _short_first and _identity hand
+out the pixel queue's tiles in an order computed from the G-buffer's albedo (tile_orders).
 
-Thirteenth session (docs/gpu.md): coherent_tiles is pt's `coherent_sampling` on (a work group's
-tile of pixels drawing the same random numbers, the tiles' grid moving from frame to frame),
-coherent_fixed the same with the grid fixed, coherent_interleave2/4 with interleaved tiles;
-coherent_rr shares only the roulette's number by tile; coherent_light, coherent_bounce (and
-their _rr forms) share only the light sample's, the BSDF sample's numbers (and the roulette's)
-(fourteenth session); for bdpt, bdpt_own_light (its coherent sampling: the light subpath
-drawn from the pixel's own numbers), bdpt_shared (both subpaths shared by the tile) and
-bdpt_own_camera (the camera subpath the pixel's own, the light subpath shared). All change the image on purpose (not
-exact), each pixel's expectation unchanged.
+Coherent sampling (docs/gpu.md, "Coherent sampling"): coherent_tiles is pt's `coherent_sampling`
+on (a work group's tile of pixels drawing the same random numbers, the tiles' grid moving from
+frame to frame), coherent_fixed the same with the grid fixed, coherent_interleave2/4 with
+interleaved tiles; coherent_rr shares only the roulette's number by tile; coherent_light,
+coherent_bounce (and their _rr forms) share only the light sample's, the BSDF sample's numbers
+(and the roulette's); for bdpt, bdpt_own_light (its coherent sampling: the light subpath drawn
+from the pixel's own numbers), bdpt_shared (both subpaths shared by the tile) and
+bdpt_own_camera (the camera subpath the pixel's own, the light subpath shared). All change the
+image on purpose (not exact), each pixel's expectation unchanged.
 
 --dump-binaries writes each variant's glGetProgramBinary blob (NVIDIA's holds its assembly
 text, from which local-memory arrays and register use can be read).
@@ -110,8 +109,8 @@ def shape(x: int, y: int, shared: bool = True):
 
 def no_shadow_rays(text: str) -> str:
     """Diagnostic: every shadow ray unblocked (what tracing them costs), traced alone or in one
-    loop with the next ray (trace_shadow_and_next, LIFT_TRACE_PAIRED: before session 9 this edit
-    missed that loop, so on trees that pair the two rays it changed nothing)."""
+    loop with the next ray (trace_shadow_and_next, LIFT_TRACE_PAIRED): both are edited, as trees
+    that pair the two rays trace their shadow rays in that loop only."""
     text = _sub(text, "bool trace_occluded(Ray ray) {", "bool trace_occluded(Ray ray) { return false; }\nbool unused_occluded(Ray ray) {")
     head = "bool trace_shadow_and_next(bool shadow_wanted, Ray shadow, bool next_wanted, Ray next, out Hit hit) {"
     return _sub(text, head, head + "\n    shadow_wanted = false;")
@@ -251,7 +250,7 @@ def pad_shared(n_bytes: int):
     return edit
 
 
-# ---- bdpt diagnostics (issue 10: where bdpt's GPU time goes) ----
+# ---- bdpt diagnostics (where bdpt's GPU time goes) ----
 # Each removes or replaces one part of bdpt's work; none keeps the image. Anchors are bdpt's source as of this script; an edit whose anchor is gone raises.
 
 def bdpt_no_light_tracing(text: str) -> str:
@@ -416,7 +415,7 @@ def _group_invocations(text: str) -> int:
 def regen_primary(text: str) -> str:
     """The queued megakernel without its pixel's camera ray and G-buffer hit kept for the
     pixel's next sample: a later sample computes both again (a G-buffer read), so they are not
-    live across every traversal (registers; issue 10, tenth session). The same image."""
+    live across every traversal (fewer registers). The same image."""
     return _sub(text, "            rng = lift_sample_rng(pixel, s);\n            path = path_start(primary_ray, primary_hit);\n            continue;",
                 "            rng = lift_sample_rng(pixel, s);\n            Ray again = camera_ray(vec2(pixel) + u_jitter);\n"
                 "            path = path_start(again, gbuffer_hit(pixel, again));\n            continue;")
@@ -435,7 +434,7 @@ def pending_shared(text: str) -> str:
 
 
 def drop_at_end(text: str) -> str:
-    """Diagnostic of the frame's tail (docs/gpu.md "Ninth session": the last lanes running the
+    """Diagnostic of the frame's tail (docs/gpu.md, "Measuring": the last lanes running the
     longest paths alone): a lane whose path is still under way when the pixel queue has run out
     drops it and ends. The image loses those paths' samples (not exact); the time is what a
     frame would take if such paths went on in the next frame's dispatch instead (less the cost
@@ -446,12 +445,12 @@ def drop_at_end(text: str) -> str:
                 "                break;\n            }\n")
 
 
-# Coherent sampling (thirteenth session): `coherent_tiles` is pt's parameter `coherent_sampling` on
+# Coherent sampling (docs/gpu.md): `coherent_tiles` is pt's parameter `coherent_sampling` on
 # (shaders/lift/host_tiles.glsl: a tile's pixels draw the same random numbers);
 # coherent_parts shares only some of a vertex's numbers.
 def fixed_tiles(text: str) -> str:
-    """Coherent sampling's tiles in the image's grid in every frame (its first version: the
-    noise's blocks then stay in place) instead of a grid offset from frame to frame."""
+    """Coherent sampling's tiles in the image's grid in every frame (the noise's blocks then
+    stay in place) instead of a grid offset from frame to frame."""
     return _sub(text, "ivec2 lift_tile_offset(uvec2 tile) {  // this frame's offset of the grid of blocks (k x k tiles)",
                 "ivec2 lift_tile_offset(uvec2 tile) {\n    return ivec2(0);")
 
@@ -503,7 +502,7 @@ def coherent_parts(light: bool = False, bounce: bool = False, roulette: bool = F
 def bdpt_coherent(light_shared: bool, camera_own: bool = False):
     """bdpt with coherent sampling (which draws each pixel's light subpath from the host's
     lift_own_rng, the pixel's own numbers) and instead its light subpath shared by the tile
-    (`light_shared`: its first version, whose light tracing splatted one path per tile), or with
+    (`light_shared`: not kept, its light tracing splats one path per tile), or with
     that and the camera subpath drawn from the pixel's own numbers (`camera_own`)."""
     def edit(text):
         text = define("LIFT_COHERENT_SAMPLING")(text)
@@ -618,8 +617,9 @@ def carry_no_park(text: str) -> str:
     return text[:start] + text[end:]
 
 
-# The pixel queue's tiles in another order (docs/gpu.md "Twelfth session"): item k's tile is
-# lift_tile_order[k / group], an order the harness computes from the G-buffer (tile_orders).
+# The pixel queue's tiles in another order (docs/gpu.md, "Alternatives measured and not
+# kept"): item k's tile is lift_tile_order[k / group], an order the harness computes from the
+# G-buffer (tile_orders).
 TILE_ORDER_BINDING = 21
 
 
@@ -663,11 +663,11 @@ def compose(*edits):
 
 # name -> (source edit or None, uniform overrides, exact: same image as the base). The base
 # is lift-gl's own trace program for this GL (on a GPU: 8x4, stack in shared memory);
-# `main` (with --base-tree) is another checkout's. The variants of the first device run
-# (stack placement and traversal loops on main's bvh.glsl) are this script at 242c491.
+# `main` (with --base-tree) is another checkout's. Variants of stack placement and traversal
+# loops on main's bvh.glsl are in this script at commit 242c491.
 VARIANTS = {
     "base": (None, {}, True),
-    "s8x4": (shape(8, 4), {}, True),   # the stack in shared memory (pt's queued megakernel before session 8)
+    "s8x4": (shape(8, 4), {}, True),   # the stack in shared memory (the queued megakernel keeps it local)
     "s8x8": (shape(8, 8), {}, True),
     "s16x4": (shape(16, 4), {}, True),
     "s4x8": (shape(4, 8), {}, True),
@@ -726,7 +726,7 @@ VARIANTS = {
     "carry_nostores": (carry_no_extra_stores, {}, True),
     "carry_nopark": (carry_no_park, {}, True),
     "paired": (define("LIFT_TRACE_PAIRED"), {}, True),
-    # NVIDIA's compiler options (session 8: none changed pt's trace but inline none, 0.09-0.16x)
+    # NVIDIA's compiler options (on pt's trace only inline none changes its time: 0.09-0.16x)
     "nounroll": (pragma("unroll none"), {}, True),
     "noifcvt": (pragma("ifcvt none"), {}, True),
     "noinline": (pragma("inline none"), {}, True),
@@ -866,8 +866,8 @@ def trace_uniforms(renderer) -> dict:
     from lift_gl.passes.pixel_filter import filter_uniforms
     from lift_gl.passes.trace import param_uniforms
 
-    # The pixel filter's uniforms too: without them (this script before issue 10's bdpt work)
-    # bdpt's splats covered no pixel, so its light tracing added nothing and no atomics ran.
+    # The pixel filter's uniforms too: without them bdpt's splats cover no pixel, so its light
+    # tracing adds nothing and no atomics run.
     uniforms = dict(renderer.scene_uniforms, **renderer.camera_uniforms, **param_uniforms(renderer.plugin, renderer.params),
                     u_frame=7, u_seed=renderer.seed & 0xFFFFFFFF, u_samples=1, u_sample_base=7, u_stream=0,
                     u_jitter=frame_jitter(7, renderer.seed),

@@ -9,8 +9,8 @@ through lift/bvh.glsl's 4-wide traversal), cast two ways over the same primary h
   persistent while-while with dynamic fetch), so lanes do not wait for each other.
 
 The answers are the same ray for ray (checked each dispatch). The ratio bounds what a path
-tracer's megakernel could gain by not waiting for its warp's busiest traversal (docs/gpu.md
-"Eighth session": the dining room's rays run at a SIMD efficiency of 0.29). The megakernel cannot
+tracer's megakernel could gain by not waiting for its warp's busiest traversal (docs/gpu.md,
+"Measuring"; the dining room's rays run at a SIMD efficiency of 0.29). The megakernel cannot
 take it as is: its next ray needs the shading of the last hit, which this loop does not do.
 
     python benchmarks/gpu_ray_queue.py SCENE... [--size 1920x1080] [--reps 9] [--json FILE]

@@ -4,8 +4,8 @@ frames each, without and with the pixel queue (the option pixel_queue), images c
     python benchmarks/gpu_repeatable.py SCENE... [--size 1920x1080] [--frames 3]
 
 A pass whose writes the next one reads before they are done (a missing memory barrier) shows
-up here as pixels that differ from run to run in frames after the first
-(benchmarks/results/gpu_h100/session7/determinism.md).
+up here as pixels that differ from run to run in frames after the first (docs/gpu.md, "How a
+frame runs": every compute pass ends with a memory barrier).
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Mitsuba 3's error against render time on an exported scene (run with a Python that has
 `mitsuba`; lift_gl on PYTHONPATH for the metrics). The baseline for benchmarks/
-cornell_convergence.py, measured in the same session so that the two share the machine's load.
+cornell_convergence.py, measured alongside it so that the two share the machine's load.
 
     DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so PYTHONPATH=. \\
         MITSUBA_PYTHON benchmarks/mitsuba_convergence.py OUTDIR/scene.xml REF.exr [--spp 1024]

@@ -1,6 +1,6 @@
 """Where Russian roulette should start: each setting's error per sample, and with its GPU frame
-time, the time it needs to reach an error (issue 10: Lift's path tracer plays roulette from the
-first bounce, pt from the fourth; docs/gpu.md "Ninth session").
+time, the time it needs to reach an error (Lift's path tracer plays roulette from the first
+bounce, pt from the fourth; docs/integrators.md, "Russian roulette").
 
     python benchmarks/roulette_efficiency.py SCENE... [--configs pt,pt:rr_depth=1:rr_min_survival=0,...]
         [--size 960x540] [--spp 256] [--seeds 3] [--ref-spp 8192] [--times MEASURE.json] [--out FILE.json]
