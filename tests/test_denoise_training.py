@@ -218,3 +218,17 @@ def test_the_shipped_sidecar_rebuilds_the_shipped_network():
     model = model_from_arch(json.loads((assets / "lift_unet.json").read_text())["architecture"])
     load_onnx_weights(model, assets / "lift_unet.onnx")
     assert model.arch["passthrough"] and model.out.out_channels == 4
+
+
+def test_the_unet_options_are_refused_for_rt_and_grow_needs_a_model(tmp_path, capsys):
+    """plan's unet options (--passthrough, --full-res-convs) on rt, and --grow with no model
+    to grow, are one argument error each, before anything is rendered (no torch needed)."""
+    from lift_gl.denoise.train import plan
+
+    out = ["--out", str(tmp_path / "run")]
+    for wrong in (["--model", "rt", "--passthrough"], ["--model", "rt", "--full-res-convs", "2"], ["--grow"]):
+        with pytest.raises(SystemExit):
+            plan.arguments(out + wrong)
+    assert "--grow" in capsys.readouterr().err
+    a = plan.arguments(out + ["--model", "unet", "--passthrough", "--grow", "--init-from", "m.onnx"])
+    assert a.passthrough and a.grow and a.full_res_convs == 1

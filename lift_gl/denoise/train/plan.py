@@ -89,6 +89,8 @@ def arguments(argv=None) -> argparse.Namespace:
         p.error("--colour-skip is an option of --model rt")
     if a.model != "unet" and (a.passthrough or a.full_res_convs != 1):
         p.error("--passthrough and --full-res-convs are options of --model unet")
+    if a.grow and a.init_from is None:
+        p.error("--grow grows the model of --init-from: give it")
     if a.crop > a.size:
         p.error(f"--crop {a.crop} is larger than the scenes' --size {a.size}")
     return a
