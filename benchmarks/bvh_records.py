@@ -1,4 +1,4 @@
-"""An experiment of issue 10, kept for `benchmarks/gpu.py ab`: the builder's binary BVH
+"""An experimental BVH layout, kept for `benchmarks/gpu.py ab`: the builder's binary BVH
 (lift_gl/accel/bvh.py: one row per node, box in the node) turned into one record per
 *interior* node that holds both children's boxes, for a GLSL traversal that fetches one
 64-byte record per step and tests leaf children from their parent (branch gpu-speed, commit

@@ -7,7 +7,7 @@ Renders progressively and, at doubling sample counts, records render time (wall,
 finished), relMSE against the reference box-downsampled to the render size, and SSIM of the
 tone-mapped images. The time to reach --target relMSE is interpolated on the log-log curve.
 Mitsuba 3.9.1 (llvm_ad_rgb, this machine's 2 cores) reaches relMSE 0.00105 at 128x128 in
-about 20-26 s (issue 2): that is the default target.
+about 20-26 s: that is the default target.
 """
 from __future__ import annotations
 

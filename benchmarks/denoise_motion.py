@@ -1,4 +1,4 @@
-"""Denoisers under motion (issue 9 item 7): does denoising the temporally accumulated image
+"""Denoisers under motion: does denoising the temporally accumulated image
 flicker less than denoising a fresh image every frame? Results in docs/denoiser.md, "Under
 motion".
 

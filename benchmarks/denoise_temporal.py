@@ -1,5 +1,5 @@
-"""Temporal error of the denoisers along moving-camera sequences, run as the viewer runs them
-(issue 33): Renderer(..., temporal="reproject", denoise="every"), --spp samples a frame,
+"""Temporal error of the denoisers along moving-camera sequences, run as the viewer runs them:
+Renderer(..., temporal="reproject", denoise="every"), --spp samples a frame,
 render(final=False) each frame, so a denoiser that keeps state between frames (a temporal
 network) is measured as it runs. --final renders each frame as a script's render() does instead
 (the denoiser run again on guides through the pixel centres), to tell the two apart.

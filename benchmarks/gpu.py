@@ -1,4 +1,4 @@
-"""GPU frame times per pass and ray throughput by ray kind, for the GPU machine (issue 10).
+"""GPU frame times per pass and ray throughput by ray kind, for the GPU machine.
 
     python benchmarks/gpu.py measure SCENE... [--sizes 1280x720,1920x1080] [--integrators pt,bdpt,pt:rr_depth=1]
                                      [--max-depth 32] [--frames 16] [--out FILE.json] [--label NAME]
@@ -49,7 +49,7 @@ import numpy as np
 sys.path.insert(0, os.environ.get("LIFT_GL_TREE") or str(Path(__file__).resolve().parent.parent))
 
 # Lift (Soares et al. 2020), RTX 2070 with hardware ray tracing, 1920x1080, 1 spp, path
-# length 32 (the issue quotes them): frame ms by integrator and scene.
+# length 32 (the paper's figures): frame ms by integrator and scene.
 LIFT_PAPER_MS = {
     "pt": {"cornell-box": 4.8, "dining-room": 6.3, "classroom": 20.2},
     "bdpt": {"cornell-box": 20.8, "dining-room": 18.6, "classroom": 52.4},

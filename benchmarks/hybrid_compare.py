@@ -1,5 +1,5 @@
 """`lift-gl compare` of `hybrid` (indirect light at 1/2 and 1/4 resolution) against `pt` on
-two scenes, for docs/teaching.md (issue 11's "hybrid mode's compare report"):
+two scenes, for docs/teaching.md (hybrid mode's compare report):
 
     python benchmarks/hybrid_compare.py [--shared ../shared] [--out docs/teaching] [--time 16] [--seeds 2]
 

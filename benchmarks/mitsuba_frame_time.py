@@ -1,4 +1,4 @@
-"""Mitsuba 3 frame time at 1 spp, the side-by-side baseline of benchmarks/gpu.py (issue 10).
+"""Mitsuba 3 frame time at 1 spp, the side-by-side baseline of benchmarks/gpu.py.
 
     python benchmarks/mitsuba_frame_time.py SCENE.xml [--variant cuda_ad_rgb] [--size 1920x1080]
                                             [--max-depth 32] [--frames 20] [--out FILE.json]

@@ -1,4 +1,4 @@
-"""Renders of the imported scenes against their references (issue 4's "must show").
+"""Renders of the imported scenes against their references, for docs/scenes.
 
     python benchmarks/scene_figures.py render [JOB ...] [--out out/figures]
     python benchmarks/scene_figures.py compare [JOB ...] [--out out/figures]

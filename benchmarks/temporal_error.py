@@ -1,4 +1,4 @@
-"""Temporal error of an image sequence against its converged reference sequence (issue 33).
+"""Temporal error of an image sequence against its converged reference sequence.
 
 The change of a sequence at frame f (f >= 1) is the mean absolute difference between frames f
 and f-1, over pixels and channels, in linear radiance. Under camera motion the content itself

@@ -1,5 +1,5 @@
 """Temporal reprojection against accumulation reset, on a scripted camera pan over
-scenes/cornell.toml (issue 6; results in docs/temporal.md).
+scenes/cornell.toml (results in docs/temporal.md).
 
     python benchmarks/temporal_pan.py [--size 64] [--frames 16] [--step 0.025] [--ref-spp 384]
                                       [--cache DIR] [--out FILE.json] [--figure FILE.png]

@@ -1,5 +1,5 @@
 """Which of veach-bidir's two emitters, at what strength, makes Tungsten's reference
-(issue 34: Tungsten's image is 2.4x brighter than lift-gl's render of the Mitsuba 0.5 file).
+(Tungsten's image is 2.4x brighter than lift-gl's render of the Mitsuba 0.5 file).
 
     python benchmarks/veach_bidir_emitters.py render [--size 128] [--spp 512] [--integrator pt]
         [--emitters spot,floor_lamp] [--depths file,deep] [--out out/veach_bidir]
