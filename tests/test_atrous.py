@@ -131,3 +131,22 @@ def test_denoiser_inputs_are_checked():
         get_denoiser("atrous").denoise(good, np.ones((h, w + 1, 3)), good)
     with pytest.raises(ValueError, match="iterations"):
         AtrousSettings(iterations=0)
+
+
+def test_normals_shorter_than_one_give_the_unit_normals_image():
+    """Another renderer's normal AOV (Mitsuba's, averaged over a pixel's samples) is shorter
+    than 1 at edges: (0.7^2)^128 underflowed every tap's weight to 0, and 0 / 0 made the
+    whole image NaN in five iterations. The filter takes the guides' directions."""
+    rng = np.random.default_rng(5)
+    h, w = 32, 32
+    albedo = np.full((h, w, 3), 0.5, np.float32)
+    color = (albedo * rng.gamma(2.0, 0.5, (h, w, 1))).astype(np.float32)
+    normal, depth = flat_guides(h, w)
+    normal[:, w // 2:] = [1.0, 0.0, 0.0]
+    normal[0, 0] = 0.0  # no surface: stays none
+    short = normal * np.float32(0.7)
+    denoiser = atrous()
+    want = denoiser.denoise(color, albedo, normal, depth)
+    got = denoiser.denoise(color, albedo, short, depth)
+    assert np.isfinite(got).all() and np.abs(want - color).max() > 0.05  # it did filter
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)

@@ -39,6 +39,7 @@ class AtrousDenoiser:
     def denoise(self, color, albedo, normal, depth=None, variance=None) -> np.ndarray:
         color = _image(color, "color")
         albedo, normal = _image(albedo, "albedo", color.shape), _image(normal, "normal", color.shape)
+        normal = unit_normals(normal)
         h, w = color.shape[:2]
         irradiance = demodulate(color, albedo, EPS)
         if variance is None:
@@ -67,6 +68,14 @@ class AtrousDenoiser:
             for t in self._inputs:
                 t.release()
         self._filter = self._inputs = None
+
+
+def unit_normals(normal: np.ndarray) -> np.ndarray:
+    """Normals scaled to length 1 (0 stays 0: no surface). Another renderer's normal AOV is
+    averaged over a pixel's samples, shorter than 1 at edges, and the normal stop's
+    (n_p . n_q)^128 of two normals of length 0.7 underflows to 0 even at the centre tap."""
+    length = np.linalg.norm(np.nan_to_num(normal), axis=-1, keepdims=True)
+    return np.where(length > 1e-6, np.nan_to_num(normal) / np.maximum(length, 1e-6), 0.0).astype(np.float32)
 
 
 def _image(array, name: str, shape=None) -> np.ndarray:

@@ -84,6 +84,7 @@ void main() {
             weight += w;
         }
     }
-    // The centre tap always has weight h(0) > 0 (n_p . n_p = 1), so weight > 0.
-    imageStore(u_out, p, vec4(sum / weight, variance / (weight * weight)));
+    // The centre tap has weight h(0) > 0 for unit normals (n_p . n_p = 1); a guide that is not
+    // (every tap's weight underflowed) leaves the pixel as it was rather than 0 / 0.
+    imageStore(u_out, p, weight > 0.0 ? vec4(sum / weight, variance / (weight * weight)) : c);
 }
