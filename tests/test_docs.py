@@ -40,12 +40,6 @@ HISTORY = [
 # Pages for users cite no issue numbers either ("issue 10 asks ...").
 PAGE_HISTORY = HISTORY + [re.compile(r"\bissues? \d+", re.I)]
 
-# Benchmark scripts whose docstrings still narrate and which only their owners edit; each must
-# still need it (the list may only shrink).
-NARRATING_SCRIPTS = {
-    "accumulate_late.py", "bvh_visits.py", "frame_waits.py", "gpu_overlap.py", "gpu_pt_variants.py",
-    "gpu_ray_queue.py", "gpu_repeatable.py", "roulette_efficiency.py",
-}
 
 
 def _pages() -> list[Path]:
@@ -87,17 +81,9 @@ def test_no_page_narrates_the_history_of_the_work():
 
 
 def test_no_benchmark_file_narrates_the_history_of_the_work():
-    found, still_narrating = [], set()
-    for path in sorted(p for p in BENCHMARKS.rglob("*") if p.is_file() and p.suffix in TEXT_SUFFIXES):
-        hits = _history(path, HISTORY)
-        if path.parent == BENCHMARKS and path.name in NARRATING_SCRIPTS:
-            if hits:
-                still_narrating.add(path.name)
-            continue
-        found += hits
+    found = [hit for path in sorted(p for p in BENCHMARKS.rglob("*") if p.is_file() and p.suffix in TEXT_SUFFIXES)
+             for hit in _history(path, HISTORY)]
     assert not found, "history under benchmarks/:\n" + "\n".join(found)
-    fixed = NARRATING_SCRIPTS - still_narrating
-    assert not fixed, f"{sorted(fixed)} no longer narrate (or are gone): take them off NARRATING_SCRIPTS"
 
 
 def test_benchmarks_hold_no_patches_and_no_per_run_result_folders():
