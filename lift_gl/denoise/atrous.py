@@ -74,8 +74,9 @@ def unit_normals(normal: np.ndarray) -> np.ndarray:
     """Normals scaled to length 1 (0 stays 0: no surface). Another renderer's normal AOV is
     averaged over a pixel's samples, shorter than 1 at edges, and the normal stop's
     (n_p . n_q)^128 of two normals of length 0.7 underflows to 0 even at the centre tap."""
-    length = np.linalg.norm(np.nan_to_num(normal), axis=-1, keepdims=True)
-    return np.where(length > 1e-6, np.nan_to_num(normal) / np.maximum(length, 1e-6), 0.0).astype(np.float32)
+    normal = np.nan_to_num(normal)
+    length = np.linalg.norm(normal, axis=-1, keepdims=True)
+    return np.where(length > 1e-6, normal / np.maximum(length, 1e-6), 0.0).astype(np.float32)
 
 
 def _image(array, name: str, shape=None) -> np.ndarray:

@@ -80,8 +80,8 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         y = node("Add", [node("Mul", [node("Relu", [x]), constant(1.0 / LOG_EPS)]), constant(1.0)])
         return node("Mul", [node("Log", [y]), constant(1.0 / np.log1p(1.0 / LOG_EPS))])
 
-    def channels(first, end):
-        return node("Slice", ["input", constant_int([first]), constant_int([end]), constant_int([1]),
+    def channels(first, end, source="input"):
+        return node("Slice", [source, constant_int([first]), constant_int([end]), constant_int([1]),
                               constant_int([1])])
 
     def constant_int(value):
@@ -144,10 +144,7 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
                   coordinate_transformation_mode="pytorch_half_pixel")
         y = node("Add", [y, node("Mul", [up, constant(np.log1p(1.0 / LOG_EPS))])])
     if passthrough:  # the blend weight from the fourth channel, the colour from the first three
-        z = y
-        pick = lambda x, a, b: node("Slice", [x, constant_int([a]), constant_int([b]), constant_int([1]),
-                                              constant_int([1])])
-        y, share = pick(z, 0, out_channels), node("Sigmoid", [pick(z, out_channels, out_channels + 1)])
+        y, share = channels(0, out_channels, y), node("Sigmoid", [channels(out_channels, out_channels + 1, y)])
     if colour_curve:  # model.py's output: eps * exp(min(y, LOG_CLAMP))
         y = node("Mul", [node("Exp", [node("Clip", [y, "", constant(LOG_CLAMP)])]), constant(LOG_EPS)])
     if passthrough:

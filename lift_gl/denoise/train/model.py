@@ -120,14 +120,21 @@ class _ColourTransform(nn.Module):
             h = torch.relu(layer(torch.cat([h, skip], dim=1)))
         return h
 
-    def _output(self, layer: nn.Module, h: torch.Tensor, offset: torch.Tensor | None = None) -> torch.Tensor:
+    def _output(self, layer: nn.Module, h: torch.Tensor, offset: torch.Tensor | None = None,
+                passthrough: torch.Tensor | None = None) -> torch.Tensor:
+        """The output layer's colour; `passthrough` (the input colour): blended in by the share
+        sigmoid(the layer's fourth channel) (DenoiseUNet's passthrough)."""
         # the output layer in float32 even under autocast: a bfloat16 y would quantise the
         # radiance in steps of ~2% (y is a log)
         with torch.autocast(device_type=h.device.type, enabled=False):
             y = layer(h.float())
+            if passthrough is not None:
+                share, y = torch.sigmoid(y[:, 3:4]), y[:, :3]
             if offset is not None:
                 y = y + offset.float()
-        return self._color_out(y)
+        if passthrough is None:
+            return self._color_out(y)
+        return self._color_out(y) * (1.0 - share) + torch.relu(passthrough.float()) * share
 
     def _log_colour(self, t_colour: torch.Tensor) -> torch.Tensor:
         """The transformed colour as the output's y: what _color_out maps back to (about) it."""
@@ -167,12 +174,7 @@ class DenoiseUNet(_ColourTransform):
         h = self._decode(h, skips)
         for extra in self.dec_extra:
             h = torch.relu(extra(h))
-        if not self.arch["passthrough"]:
-            return self._output(self.out, h)
-        with torch.autocast(device_type=h.device.type, enabled=False):
-            y = self.out(h.float())
-            share = torch.sigmoid(y[:, 3:4])
-            return self._color_out(y[:, :3]) * (1.0 - share) + torch.relu(x[:, :3].float()) * share
+        return self._output(self.out, h, passthrough=x[:, :3] if self.arch["passthrough"] else None)
 
 
 class RealTimeUNet(_ColourTransform):

@@ -29,6 +29,8 @@ from .scenes import TRAIN_SEEDS, VALIDATION_SEEDS
 SCHEDULE = "11000:2e-3:0.2,21000:1e-3:0.2,24000:5e-4:2.0,30000:3e-4:2.0"
 EXPORT_RESERVE_S = 30.0  # kept from the budget for the last checkpoint, the export and the record
 NOT_DONE = 3  # exit status: stopped by the budget, run the same command again
+# a checkpoint's recorded options where it predates them (the models' own defaults)
+PLAN_DEFAULTS = {"colour_skip": 0, "passthrough": False, "full_res_convs": 1}
 
 
 def parse_schedule(text: str, mean_weight: float):
@@ -138,18 +140,18 @@ def main(argv=None, clock=time.monotonic) -> int:
     from .train import Examples, fit
     device = "cuda" if torch.cuda.is_available() else "cpu"
     ckpt_path = out / "checkpoint.pt"
-    if ckpt_path.exists():
-        saved = torch.load(ckpt_path, map_location="cpu").get("plan", {})
-        # the skip has no weights: a checkpoint of another --colour-skip would load without an error
-        if saved and (saved.get("model"), saved.get("temporal"), saved.get("colour_skip", 0)) != \
-                (a.model, a.temporal, a.colour_skip):
-            raise SystemExit(f"{ckpt_path} trains --model {saved.get('model')} (temporal {saved.get('temporal')}, "
-                             f"colour skip {saved.get('colour_skip', 0)}), not {a.model} (temporal {a.temporal}, "
-                             f"colour skip {a.colour_skip}): use another --out")
-    torch.manual_seed(a.seed)
-    torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
     options = ({"colour_skip": a.colour_skip} if a.model == "rt" else
                {"passthrough": a.passthrough, "full_res_convs": a.full_res_convs})
+    chosen = {"model": a.model, "temporal": a.temporal, **options}  # what the checkpoint records
+    if ckpt_path.exists():
+        saved = torch.load(ckpt_path, map_location="cpu").get("plan", {})
+        # the colour skip has no weights: a checkpoint of another --colour-skip would load without an error
+        was = {k: saved.get(k, PLAN_DEFAULTS.get(k)) for k in chosen}
+        if saved and was != chosen:
+            show = lambda d: ", ".join(f"{k} {v}" for k, v in d.items())
+            raise SystemExit(f"{ckpt_path} trains {show(was)}, not {show(chosen)}: use another --out")
+    torch.manual_seed(a.seed)
+    torch.backends.cudnn.benchmark = True  # fixed crop size: let cuDNN pick its fastest kernels
     model = build_model(a.model, temporal=a.temporal, **options)
     if a.init_from is not None and not ckpt_path.exists():
         from .export import load_onnx_weights
@@ -162,7 +164,7 @@ def main(argv=None, clock=time.monotonic) -> int:
         Data = Examples
     result = fit(model, Data(train_paths, device), Data(val_paths, device) if val_paths else None, stages, ckpt_path,
                  a.batch, a.crop, a.seed, deadline, a.stop_at, log,
-                 checkpoint_extra={"plan": {"model": a.model, "temporal": a.temporal, "colour_skip": a.colour_skip}},
+                 checkpoint_extra={"plan": chosen},
                  checkpoint_every=a.checkpoint_every, history_drop=a.history_drop, clock=clock)
     status.update(step=result["steps"], device=result["device"], train_seconds=round(result["seconds"], 1),
                   checkpoint_bytes=ckpt_path.stat().st_size)
