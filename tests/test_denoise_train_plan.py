@@ -98,6 +98,10 @@ def test_a_checkpoint_of_another_model_is_refused(rendered, tmp_path):
     assert plan.main(_args(out, "--stop-at", "1")) == plan.NOT_DONE
     with pytest.raises(SystemExit, match="use another --out"):
         plan.main(_args(out, "--no-temporal"))
+    for other in (["--passthrough"], ["--encoder", "16,24,32"], ["--bottleneck", "40"]):
+        with pytest.raises(SystemExit, match="use another --out"):
+            plan.main(_args(out, *other))
+    assert plan.main(_args(out, "--encoder", "24,32,48", "--stop-at", "2")) == plan.NOT_DONE  # the default, named
 
 
 def test_schedule_parsing():

@@ -220,13 +220,15 @@ def test_the_shipped_sidecar_rebuilds_the_shipped_network():
     assert model.arch["passthrough"] and model.out.out_channels == 4
 
 
-def test_the_unet_options_are_refused_for_rt_and_grow_needs_a_model(tmp_path, capsys):
-    """plan's unet options (--passthrough, --full-res-convs) on rt, and --grow with no model
-    to grow, are one argument error each, before anything is rendered (no torch needed)."""
+def test_full_res_convs_is_refused_for_rt_and_grow_needs_a_model(tmp_path, capsys):
+    """plan's unet option --full-res-convs on rt, and --grow with no model to grow, are one
+    argument error each, before anything is rendered (no torch needed); --passthrough is both
+    models'."""
     from lift_gl.denoise.train import plan
 
     out = ["--out", str(tmp_path / "run")]
-    for wrong in (["--model", "rt", "--passthrough"], ["--model", "rt", "--full-res-convs", "2"], ["--grow"]):
+    assert plan.arguments(out + ["--model", "rt", "--passthrough"]).passthrough
+    for wrong in (["--model", "rt", "--full-res-convs", "2"], ["--grow"]):
         with pytest.raises(SystemExit):
             plan.arguments(out + wrong)
     assert "--grow" in capsys.readouterr().err

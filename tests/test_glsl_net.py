@@ -245,6 +245,13 @@ def test_unet_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=4)
 
 
+def test_rt_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
+    """The rt model's passthrough: the transposed conv's fourth channel is the blend's share."""
+    model = random_unet(in_channels=13, encoder=(8, 12, 16), bottleneck=20, arch="rt", colour_curve=True,
+                        passthrough=True, seed=12)
+    compare(gl_ctx, tmp_path, model, (40, 32), out_block=2, pixels=4)
+
+
 def test_rt_strided_conv_and_transposed_conv_match_onnxruntime(gl_ctx, tmp_path):
     """The rt shape: a 2x2 stride-2 conv in, a 2x2 stride-2 ConvTranspose out."""
     model = random_unet(encoder=(8, 12, 16), bottleneck=20, arch="rt", seed=7)

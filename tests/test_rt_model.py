@@ -90,12 +90,15 @@ def test_temporal_colour_goes_through_the_colour_transform():
     torch.testing.assert_close(t[:, :3], model._color_in(x[:, :3]))
 
 
-@pytest.mark.parametrize("name,temporal", [("rt", False), ("rt", True)])
-def test_export_matches_torch_and_names_the_inputs(name, temporal, tmp_path):
+@pytest.mark.parametrize("name,temporal,passthrough", [("rt", False, False), ("rt", True, False), ("rt", True, True)])
+def test_export_matches_torch_and_names_the_inputs(name, temporal, passthrough, tmp_path):
     ort = pytest.importorskip("onnxruntime")
     from lift_gl.denoise.train.export import export
     torch.manual_seed(1)
-    model = build_model(name, temporal).eval()
+    model = build_model(name, temporal, passthrough=passthrough).eval()
+    if passthrough:  # a share of about a half, so that both sides of the blend count
+        with torch.no_grad():
+            model.up.bias[3] = 0.0
     side = json.loads(export(model, tmp_path / "m.onnx", {"steps": 0}).read_text())
     assert side["input"]["shape"][1] == model.in_channels
     assert side["input"]["channels"] == list(input_channels(temporal))
@@ -133,3 +136,16 @@ def test_the_default_rt_is_the_shipped_one_without_a_colour_skip():
 def test_an_rt_arch_without_a_colour_skip_is_the_first_rt_model():
     first = {"name": "rt", "encoder": [24, 32, 48], "bottleneck": 48, "transform": "log", "temporal": True}
     assert model_from_arch(first).arch["colour_skip"] == 0
+    assert not model_from_arch(first).arch["passthrough"]
+
+
+def test_rt_passthrough_returns_the_input_where_its_share_is_one():
+    """With the share's channel driven to 1 the output is the input colour (relu'd), exactly
+    what DenoiseUNet's passthrough gives back where the input is already exact."""
+    model = build_model("rt", temporal=True, passthrough=True).eval()
+    assert model.up.out_channels == 4
+    with torch.no_grad():
+        model.up.bias[3] = 60.0  # sigmoid(60) is 1 in float32
+        x = torch.rand(1, 13, 32, 48) * 3 - 0.5
+        y = model(x)
+    torch.testing.assert_close(y, torch.relu(x[:, :3]))

@@ -32,8 +32,8 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
     those, one per decoder level (deepest first); `arch` "unet" or "rt", `colour_curve` the
     trained models' colour transform (module docstring); `colour_skip` k (rt) the rt model's
     colour skip: the curve of the input colour's kxk block means, upsampled bilinearly, added to
-    the output's log (model.py); `passthrough` (unet) a fourth output channel blends the input
-    colour in: y (1 - sigmoid(z)) + relu(colour) sigmoid(z) (model.py's DenoiseUNet)."""
+    the output's log (model.py); `passthrough` a fourth output channel blends the input
+    colour in: y (1 - sigmoid(z)) + relu(colour) sigmoid(z) (model.py)."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -92,8 +92,6 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
     if arch not in ("unet", "rt"):
         raise ValueError(f"arch must be unet or rt, not {arch!r}")
     ups = [upsample] * len(encoder) if isinstance(upsample[0], str) else list(upsample)
-    if passthrough and arch != "unet":
-        raise ValueError("passthrough is a unet option")
     h, skips, prev = "input", [], in_channels
     if colour_curve:  # colour (and a temporal input's previous colour) through the curve
         pieces = [curve(channels(0, 3)), channels(3, min(in_channels, 9))]
@@ -133,9 +131,11 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
             h = conv(c, prev + ch, ch)
         prev = ch
     if arch == "rt":  # 1/2 -> full resolution, a learned depth-to-space
-        y = conv(h, prev, out_channels, k=2, stride=2, act=False, transpose=True)
+        y = conv(h, prev, out_channels + passthrough, k=2, stride=2, act=False, transpose=True)
     else:
         y = conv(h, prev, out_channels + passthrough, k=final_kernel, act=False)
+    if passthrough:  # the blend weight from the fourth channel, the colour from the first three
+        y, share = channels(0, out_channels, y), node("Sigmoid", [channels(out_channels, out_channels + 1, y)])
     if colour_skip:  # model.py's colour skip: the input pooled whole, its colour sliced, curved, upsampled
         pooled = node("AveragePool", ["input"], kernel_shape=[colour_skip, colour_skip],
                       strides=[colour_skip, colour_skip])
@@ -143,8 +143,6 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         up = node("Resize", [curve(colour), "", constant([1, 1, colour_skip, colour_skip])], mode="linear",
                   coordinate_transformation_mode="pytorch_half_pixel")
         y = node("Add", [y, node("Mul", [up, constant(np.log1p(1.0 / LOG_EPS))])])
-    if passthrough:  # the blend weight from the fourth channel, the colour from the first three
-        y, share = channels(0, out_channels, y), node("Sigmoid", [channels(out_channels, out_channels + 1, y)])
     if colour_curve:  # model.py's output: eps * exp(min(y, LOG_CLAMP))
         y = node("Mul", [node("Exp", [node("Clip", [y, "", constant(LOG_CLAMP)])]), constant(LOG_EPS)])
     if passthrough:

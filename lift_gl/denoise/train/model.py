@@ -182,15 +182,16 @@ class RealTimeUNet(_ColourTransform):
     the 2x2 stride-2 transposed conv out."""
 
     def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False,
-                 colour_skip: int = RT_COLOUR_SKIP):
+                 colour_skip: int = RT_COLOUR_SKIP, passthrough: bool = False):
         super().__init__(transform, temporal)
         c = list(encoder)
         self.arch = {"name": "rt", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
-                     "temporal": self.temporal, "colour_skip": int(colour_skip)}
+                     "temporal": self.temporal, "colour_skip": int(colour_skip), "passthrough": bool(passthrough)}
         self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
         self.enc = nn.ModuleList([conv(c[0], c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         self._make_bottom(c, bottleneck)
-        self.up = nn.ConvTranspose2d(c[0], 3, 2, stride=2)  # 1/2 -> full, the output's log colour
+        # 1/2 -> full: the output's log colour (and the passthrough's share, as DenoiseUNet's)
+        self.up = nn.ConvTranspose2d(c[0], 4 if passthrough else 3, 2, stride=2)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         h = torch.relu(self.down(self.transformed_input(x)))
@@ -205,7 +206,8 @@ class RealTimeUNet(_ColourTransform):
         if k:  # the curve of the block means (a log of the mean, not a mean of logs: noise would darken it)
             means = self._color_in(F.avg_pool2d(x, k)[:, :3])  # pooled whole: the input stays one read
             base = self._log_colour(F.interpolate(means, scale_factor=float(k), mode="bilinear", align_corners=False))
-        return self._output(self.up, self._decode(h, skips), base)
+        return self._output(self.up, self._decode(h, skips), base,
+                            passthrough=x[:, :3] if self.arch["passthrough"] else None)
 
 
 def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Module:
@@ -227,6 +229,7 @@ def model_from_arch(arch: dict) -> nn.Module:
     arch = {k: v for k, v in arch.items() if k not in DERIVED_ARCH_KEYS}
     if arch.get("name") == "rt":
         arch.setdefault("colour_skip", 0)  # an rt model saved before the colour skip
+        arch.setdefault("passthrough", False)
     return build_model(arch.pop("name", "unet"), **arch)
 
 

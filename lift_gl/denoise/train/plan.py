@@ -63,8 +63,11 @@ def arguments(argv=None) -> argparse.Namespace:
                    help="--init-from a smaller unet: the new layers start as the identity or zero, so that "
                         "training starts from the file's function")
     p.add_argument("--passthrough", action="store_true",
-                   help="unet: a learned share of the input colour in the output (model.py)")
+                   help="a learned share of the input colour in the output (model.py)")
     p.add_argument("--full-res-convs", type=int, default=1, help="unet: convs at full resolution each side")
+    p.add_argument("--encoder", type=lambda t: [int(c) for c in t.split(",")], default=None,
+                   help="the encoder's channels a level, e.g. 24,32,48 (default: the model's, model.py)")
+    p.add_argument("--bottleneck", type=int, default=None, help="the bottleneck's channels (default: the model's)")
     p.add_argument("--time-budget-s", type=float, default=None,
                    help="stop before this many seconds (checkpoint saved, exit status 3); run again to continue")
     p.add_argument("--scenes", type=int, default=400, help="training scenes")
@@ -89,8 +92,8 @@ def arguments(argv=None) -> argparse.Namespace:
         a.temporal = a.model == "rt"
     if a.colour_skip and a.model != "rt":
         p.error("--colour-skip is an option of --model rt")
-    if a.model != "unet" and (a.passthrough or a.full_res_convs != 1):
-        p.error("--passthrough and --full-res-convs are options of --model unet")
+    if a.model != "unet" and a.full_res_convs != 1:
+        p.error("--full-res-convs is an option of --model unet")
     if a.grow and a.init_from is None:
         p.error("--grow grows the model of --init-from: give it")
     if a.crop > a.size:
@@ -136,17 +139,21 @@ def main(argv=None, clock=time.monotonic) -> int:
 
     # ---- training ----
     import torch
-    from .model import build_model
+    from .model import BOTTLENECK, ENCODER, RT_BOTTLENECK, RT_ENCODER, build_model
     from .train import Examples, fit
     device = "cuda" if torch.cuda.is_available() else "cpu"
     ckpt_path = out / "checkpoint.pt"
-    options = ({"colour_skip": a.colour_skip} if a.model == "rt" else
-               {"passthrough": a.passthrough, "full_res_convs": a.full_res_convs})
+    options = ({"colour_skip": a.colour_skip} if a.model == "rt" else {"full_res_convs": a.full_res_convs})
+    rt = a.model == "rt"
+    options.update(passthrough=a.passthrough, encoder=list(a.encoder or (RT_ENCODER if rt else ENCODER)),
+                   bottleneck=a.bottleneck or (RT_BOTTLENECK if rt else BOTTLENECK))
     chosen = {"model": a.model, "temporal": a.temporal, **options}  # what the checkpoint records
     if ckpt_path.exists():
         saved = torch.load(ckpt_path, map_location="cpu").get("plan", {})
         # the colour skip has no weights: a checkpoint of another --colour-skip would load without an error
-        was = {k: saved.get(k, PLAN_DEFAULTS.get(k)) for k in chosen}
+        defaults = {**PLAN_DEFAULTS, "encoder": list(RT_ENCODER if rt else ENCODER),
+                    "bottleneck": RT_BOTTLENECK if rt else BOTTLENECK}
+        was = {k: saved.get(k, defaults.get(k)) for k in chosen}
         if saved and was != chosen:
             show = lambda d: ", ".join(f"{k} {v}" for k, v in d.items())
             raise SystemExit(f"{ckpt_path} trains {show(was)}, not {show(chosen)}: use another --out")
