@@ -242,6 +242,9 @@ def test_unet_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
     onnx.save(model, tmp_path / "pass.onnx")
     steps = Plan(tmp_path / "pass.onnx").steps
     assert any(s.kind == "binary" and s.params["broadcast"] for s in steps)
+    # the colour the passthrough reads is the slice the curve maps: the curve stays fused
+    assert [s.kind for s in steps].count("map") == 4  # the passthrough's: relu, sigmoid, exp, 1 - share
+    assert any(s.kind == "conv" and s.prologue for s in steps)
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=4)
 
 
@@ -249,6 +252,9 @@ def test_rt_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
     """The rt model's passthrough: the transposed conv's fourth channel is the blend's share."""
     model = random_unet(in_channels=13, encoder=(8, 12, 16), bottleneck=20, arch="rt", colour_curve=True,
                         passthrough=True, seed=12)
+    onnx.save(model, tmp_path / "pass.onnx")
+    steps = Plan(tmp_path / "pass.onnx").steps
+    assert next(s for s in steps if s.kind == "conv").prologue  # the curve fused into the strided conv
     compare(gl_ctx, tmp_path, model, (40, 32), out_block=2, pixels=4)
 
 

@@ -139,6 +139,22 @@ def test_an_rt_arch_without_a_colour_skip_is_the_first_rt_model():
     assert not model_from_arch(first).arch["passthrough"]
 
 
+@pytest.mark.parametrize("name", ["unet", "rt"])
+def test_a_new_passthrough_starts_as_the_network_alone(name):
+    """A passthrough model from random weights starts at a share of sigmoid(-8) everywhere
+    (started at 1/2, training handed the whole input back and stayed there)."""
+    torch.manual_seed(2)
+    model = build_model(name, passthrough=True).eval()
+    plain = build_model(name).eval()
+    plain.load_state_dict({k: v[:3] if v.shape[0] == 4 else (v[:, :3] if v.dim() == 4 and v.shape[1] == 4 else v)
+                           for k, v in model.state_dict().items()})
+    x = torch.rand(1, model.in_channels, 32, 48) * 2
+    with torch.no_grad():
+        got, net = model(x), plain(x)
+    share = 1 / (1 + np.exp(8.0))
+    torch.testing.assert_close(got, net * (1 - share) + torch.relu(x[:, :3]) * share, rtol=1e-5, atol=1e-6)
+
+
 def test_rt_passthrough_returns_the_input_where_its_share_is_one():
     """With the share's channel driven to 1 the output is the input colour (relu'd), exactly
     what DenoiseUNet's passthrough gives back where the input is already exact."""

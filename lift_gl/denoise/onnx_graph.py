@@ -391,17 +391,15 @@ class Plan:
 
     def _channel_range(self, name: str):
         """(source, first, end, statements) when `name` is a slice of channels first..end - 1
-        (step 1) of a stored tensor, possibly through a map, each step read only once."""
+        (step 1) of a stored tensor, possibly through a map; `name` read only here, the slice
+        under a map possibly elsewhere too (the passthrough reads the colour the curve maps)."""
         if self.consumers.get(name, 0) != 1 or name == self.output_name:
             return None
         step = self._producer.get(name)
         statements = []
         if step is not None and step.kind == "map":
             statements = step.epilogue
-            inner = step.inputs[0]
-            if self.consumers.get(inner, 0) != 1:
-                return None
-            step = self._producer.get(inner)
+            step = self._producer.get(step.inputs[0])
         if step is None or step.kind != "gather" or step.params["step"] != 1 or step.epilogue:
             return None
         source = step.inputs[0]
@@ -421,8 +419,11 @@ class Plan:
             return False
         if not any(r[3] for r in ranges):
             return False  # a plain copy: the Concat's parts cost nothing as they are
-        for name in parts:  # drop the slices and maps the one map replaces
+        for name in parts:  # drop the slices and maps the one map replaces (a slice read elsewhere stays)
             while name in self._producer and name != source:
+                if self.consumers.get(name, 0) > 1:
+                    self.consumers[name] -= 1
+                    break
                 step = self._producer.pop(name)
                 self.steps.remove(step)
                 del self.values[name]

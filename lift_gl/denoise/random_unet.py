@@ -93,8 +93,10 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         raise ValueError(f"arch must be unet or rt, not {arch!r}")
     ups = [upsample] * len(encoder) if isinstance(upsample[0], str) else list(upsample)
     h, skips, prev = "input", [], in_channels
+    # one slice of the colour for the curve and the passthrough, as torch exports it
+    colour = channels(0, out_channels) if colour_curve or passthrough else None
     if colour_curve:  # colour (and a temporal input's previous colour) through the curve
-        pieces = [curve(channels(0, 3)), channels(3, min(in_channels, 9))]
+        pieces = [curve(colour), channels(3, min(in_channels, 9))]
         if in_channels > 9:
             pieces += [curve(channels(9, 12)), channels(12, in_channels)]
         h = node("Concat", pieces, axis=1)
@@ -139,14 +141,15 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
     if colour_skip:  # model.py's colour skip: the input pooled whole, its colour sliced, curved, upsampled
         pooled = node("AveragePool", ["input"], kernel_shape=[colour_skip, colour_skip],
                       strides=[colour_skip, colour_skip])
-        colour = node("Slice", [pooled, constant_int([0]), constant_int([3]), constant_int([1]), constant_int([1])])
-        up = node("Resize", [curve(colour), "", constant([1, 1, colour_skip, colour_skip])], mode="linear",
+        pooled_colour = node("Slice", [pooled, constant_int([0]), constant_int([3]), constant_int([1]),
+                                       constant_int([1])])
+        up = node("Resize", [curve(pooled_colour), "", constant([1, 1, colour_skip, colour_skip])], mode="linear",
                   coordinate_transformation_mode="pytorch_half_pixel")
         y = node("Add", [y, node("Mul", [up, constant(np.log1p(1.0 / LOG_EPS))])])
     if colour_curve:  # model.py's output: eps * exp(min(y, LOG_CLAMP))
         y = node("Mul", [node("Exp", [node("Clip", [y, "", constant(LOG_CLAMP)])]), constant(LOG_EPS)])
     if passthrough:
-        kept = node("Mul", [node("Relu", [channels(0, out_channels)]), share])
+        kept = node("Mul", [node("Relu", [colour]), share])
         y = node("Add", [node("Mul", [y, node("Sub", [constant(1.0), share])]), kept])
     nodes.append(helper.make_node("Identity", [y], ["output"]))
     graph = helper.make_graph(

@@ -8,7 +8,7 @@ import torch
 from torch import nn
 
 from .. import model_io
-from .model import LOG_EPS, MULTIPLE, RECEPTIVE_RADIUS, input_channels, macs_per_pixel
+from .model import LOG_EPS, MULTIPLE, PASSTHROUGH_BIAS, RECEPTIVE_RADIUS, input_channels, macs_per_pixel
 
 OPSET = 17
 
@@ -69,7 +69,6 @@ def export(model: nn.Module, onnx_path: Path, record: dict) -> Path:
     return json_path
 
 
-PASSTHROUGH_BIAS = -8.0  # a grown passthrough channel starts at sigmoid(-8) = 3e-4: the old output
 
 
 def _grown(name: str, new: torch.Tensor, old) -> torch.Tensor:
