@@ -91,6 +91,18 @@ def time_per_dispatch(ctx, net, repeat: int) -> list[float]:
     return [float(v) for v in np.median(np.array(runs), axis=0)]
 
 
+def warm_up(ctx, nets, seconds: float) -> None:
+    """Run `nets` for `seconds` of wall clock (glFinish after each) before they are timed: a GPU
+    that idled while the model was read and compiled may start it at a lower clock (an idle
+    H200 reports 345 MHz, 1,980 under load; two rt networks of one graph once timed 8.3 and
+    11.7 ms in one process, a ratio their weights cannot explain)."""
+    end = time.perf_counter() + seconds
+    while time.perf_counter() < end:
+        for net in nets:
+            net.run()
+        ctx.finish()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--models", default="shipped,random-unet,random-rt,random-rt-temporal")
@@ -98,6 +110,8 @@ def main() -> None:
     parser.add_argument("--variants", default=None, help="conv variants BxP to compare, e.g. 1x8,2x4 "
                                                          "(default: the context's)")
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--warm-up-s", type=float, default=1.0,
+                        help="run the networks this long before timing each model and size")
     parser.add_argument("--per-dispatch", action="store_true", help="time each dispatch and fit the cost model")
     parser.add_argument("--calibrate", default="shipped", help="the model the cost model is fitted to "
                                                                 "(random-unet where the shipped one is absent)")
@@ -141,6 +155,7 @@ def main() -> None:
                 t = time.perf_counter()
                 outputs[c] = net.run_numpy(x)
                 row.setdefault("first_run_s", {})[label[c]] = round(time.perf_counter() - t, 2)
+            warm_up(ctx, list(nets.values()), args.warm_up_s)
             times = {c: [] for c in configs}
             ort_times = []
             for _ in range(args.repeat):  # interleaved: the load of this shared machine hits all alike

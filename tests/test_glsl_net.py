@@ -312,23 +312,30 @@ def test_weight_packing_order():
 SHIPPED = Path(__file__).resolve().parent.parent / "assets" / "denoiser" / "lift_unet.onnx"
 
 
-def test_shipped_denoiser_matches_onnxruntime(gl_ctx):
-    """The trained model (Slice, Log, Exp, Clip around the U-Net) within its rounding bound."""
-    if not SHIPPED.is_file():
-        pytest.skip(f"{SHIPPED} is absent (trained by lift_gl/denoise/train)")
-    model = onnx.load(str(SHIPPED))
+@pytest.mark.parametrize("shipped", [SHIPPED, SHIPPED.with_name("lift_rt.onnx")], ids=["unet", "rt"])
+def test_shipped_denoiser_matches_onnxruntime(gl_ctx, shipped):
+    """The trained models (Slice, Log, Exp, Clip around the U-Net; the passthrough's blend)
+    within their rounding bound; rt's temporal input with a previous frame half valid."""
+    if not shipped.is_file():
+        pytest.skip(f"{shipped} is absent (trained by lift_gl/denoise/train)")
+    model = onnx.load(str(shipped))
+    channels = model.graph.input[0].type.tensor_type.shape.dim[1].dim_value
     rng = np.random.default_rng(2)
     h, w = 29, 37
-    x = rng.random((1, 9, h, w)).astype(np.float32)
+    x = rng.random((1, channels, h, w)).astype(np.float32)
     x[:, :3] *= 4.0  # exposed colour, albedo in [0, 1], normals in [-1, 1]
-    x[:, 6:] = 2 * x[:, 6:] - 1
-    net = GlslNet(gl_ctx, SHIPPED)
+    x[:, 6:9] = 2 * x[:, 6:9] - 1
+    if channels == 13:  # the previous output (exposed colour) and its validity
+        x[:, 9:12] *= 4.0
+        x[:, 12] = x[:, 12] > 0.5
+        x[:, 9:12] *= x[:, 12:13]
+    net = GlslNet(gl_ctx, shipped)
     try:
         got = net.run_numpy(x)
     finally:
         net.release()
     padded = pad_edge(x, net.multiple)
-    session = ort.InferenceSession(str(SHIPPED), providers=["CPUExecutionProvider"])
+    session = ort.InferenceSession(str(shipped), providers=["CPUExecutionProvider"])
     want = session.run(None, {session.get_inputs()[0].name: padded})[0][:, :, :h, :w]
     exact, variance = forward_float64(model, padded)
     bound = 6 * np.sqrt(2 * variance[:, :, :h, :w])
