@@ -241,11 +241,40 @@ def test_unet_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
     model = random_unet(encoder=(8, 12, 16), bottleneck=20, colour_curve=True, passthrough=True, seed=11)
     onnx.save(model, tmp_path / "pass.onnx")
     steps = Plan(tmp_path / "pass.onnx").steps
-    assert any(s.kind == "binary" and s.params["broadcast"] for s in steps)
-    # the colour the passthrough reads is the slice the curve maps: the curve stays fused
-    assert [s.kind for s in steps].count("map") == 4  # the passthrough's: relu, sigmoid, exp, 1 - share
-    assert any(s.kind == "conv" and s.prologue for s in steps)
+    # the colour the passthrough reads is the slice the curve maps: the curve stays fused; the
+    # blend (slices, sigmoid, exp, products, sum) is one dispatch after the output conv
+    assert steps[0].kind == "conv" and steps[0].prologue
+    assert [s.kind for s in steps[-2:]] == ["conv", "fused"] and "fused" not in [s.kind for s in steps[:-1]]
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=4)
+
+
+def test_a_broadcast_product_of_many_channels_matches_onnxruntime(gl_ctx, tmp_path):
+    """A one-channel weight times 8 channels: too wide to fuse (a fused value holds one layer),
+    so the binary step broadcasts; the sigmoid of the slice before it is a fused region."""
+    from onnx import TensorProto, helper, numpy_helper
+
+    rng = np.random.default_rng(4)
+    w = numpy_helper.from_array(rng.standard_normal((8, 9, 3, 3)).astype(np.float32) * 0.3, "w")
+    index = [numpy_helper.from_array(np.array([v], np.int64), n) for v, n in ((0, "start"), (1, "end"), (1, "axis"))]
+    nodes = [helper.make_node("Conv", ["input", "w"], ["y"], kernel_shape=[3, 3], pads=[1, 1, 1, 1]),
+             helper.make_node("Slice", ["input", "start", "end", "axis"], ["first"]),
+             helper.make_node("Sigmoid", ["first"], ["share"]),
+             helper.make_node("Mul", ["y", "share"], ["output"])]
+    graph = helper.make_graph(nodes, "broadcast", [helper.make_tensor_value_info("input", TensorProto.FLOAT, [1, 9, "h", "w"])],
+                              [helper.make_tensor_value_info("output", TensorProto.FLOAT, [1, 8, "h", "w"])], [w] + index)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = min(model.ir_version, 8)
+    onnx.save(model, tmp_path / "b.onnx")
+    steps = Plan(tmp_path / "b.onnx").steps
+    assert [s.kind for s in steps] == ["conv", "fused", "binary"] and steps[-1].params["broadcast"] == "b"
+    x = rng.standard_normal((1, 9, 13, 11)).astype(np.float32)
+    net = GlslNet(gl_ctx, tmp_path / "b.onnx")
+    try:
+        got = net.run_numpy(x)
+    finally:
+        net.release()
+    want = onnxruntime_run(model, x)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * float(np.abs(want).max()))
 
 
 def test_rt_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
@@ -254,7 +283,8 @@ def test_rt_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
                         passthrough=True, seed=12)
     onnx.save(model, tmp_path / "pass.onnx")
     steps = Plan(tmp_path / "pass.onnx").steps
-    assert next(s for s in steps if s.kind == "conv").prologue  # the curve fused into the strided conv
+    assert steps[0].kind == "conv" and steps[0].prologue  # the curve fused into the strided conv
+    assert [s.kind for s in steps[-2:]] == ["conv_transpose", "fused"]
     compare(gl_ctx, tmp_path, model, (40, 32), out_block=2, pixels=4)
 
 

@@ -135,6 +135,9 @@ class GlslNet:
         elif step.kind == "gather":
             source = "gather.comp"
             defines["NUM_PARTS"] = len(self._inputs(step))
+        elif step.kind == "fused":
+            source = "fused.comp"
+            defines.update(BODY=step.params["body"], NUM_INPUTS=len(step.inputs))
         elif step.kind == "pool":
             source = "pool.comp"
             defines.update(POOL_SIZE=step.params["size"], POOL_MAX=step.params["max"])

@@ -14,7 +14,9 @@ Fusions, each saving a dispatch and a round trip of a tensor through memory:
 - Concat costs nothing when only convolutions read it: a Conv reads its input in parts;
 - the input transform (channel slices of the input, some through pointwise ops, concatenated
   back in order: the colour curve of lift_gl/denoise/train/model.py) becomes one map, and a
-  map read only by a Conv becomes that Conv's prologue, applied to each texel it loads.
+  map read only by a Conv becomes that Conv's prologue, applied to each texel it loads;
+- a region of pointwise steps of one layer each (the passthrough's blend after the output
+  conv) becomes one `fused` step, its values in registers.
 """
 from __future__ import annotations
 
@@ -46,7 +48,8 @@ class Value:
 
 @dataclass
 class Step:
-    """One compute dispatch: `kind` is conv, conv_transpose, map, binary, gather, pool or resize.
+    """One compute dispatch: `kind` is conv, conv_transpose, map, binary, gather, pool, resize or
+    fused (a region of pointwise steps, `params["body"]` its GLSL).
 
     GLSL statements act on `v` (a vec4 of channels 4 layer .. 4 layer + 3, `layer` in scope):
     the epilogue on each value stored, a conv's prologue on each input texel it loads."""
@@ -122,6 +125,7 @@ class Plan:
             self._add(node)
         if self.output_name not in self.values:
             raise ModelError(f"output {self.output_name!r} is not computed from the input", self.path)
+        self._fuse_pointwise_tails()
         out = self.values[self.output_name]
         if out.parts is not None or self.output_name == self.input_name:
             self._emit(Step("gather", [self.output_name], self.output_name + "#copy",
@@ -179,6 +183,88 @@ class Plan:
         source = self._solid(node, source)
         value = self.values[source]
         self._emit(Step("map", [source], out, epilogue=[statement]), value.channels, value.scale)
+
+    # ---- pointwise regions: one dispatch ----
+    def _fusable(self, step: Step) -> bool:
+        """A step the fused shader can compute per pixel from values of at most one layer:
+        a map, a binary, or a slice of channels within one layer of a stored tensor."""
+        value = self.values[step.output]
+        if value.channels > 4 or step.kind not in ("map", "binary", "gather"):
+            return False
+        if step.kind == "gather":
+            start, source = step.params["start"], self.values[step.inputs[0]]
+            return step.params["step"] == 1 and source.parts is None and start % 4 + value.channels <= 4
+        return all(self.values[name].channels <= 4 and self.values[name].parts is None for name in step.inputs)
+
+    def _fuse_pointwise_tails(self) -> None:
+        """Each region of pointwise steps (maps, binaries, one-layer slices: `_fusable`) at one
+        scale whose values nothing outside reads becomes one `fused` step: its values live in
+        registers, not in textures (the passthrough's blend: 10 dispatches, then 1)."""
+        readers: dict[str, list[Step]] = {}
+        for step in self.steps:
+            for name in step.inputs:
+                readers.setdefault(name, []).append(step)
+        for root in reversed(list(self.steps)):
+            if root not in self.steps or not self._fusable(root):
+                continue
+            scale, region, frontier = self.values[root.output].scale, [root], list(root.inputs)
+            while frontier:
+                name = frontier.pop()
+                step = self._producer.get(name)
+                if (step is None or step in region or step not in self.steps or not self._fusable(step)
+                        or self.values[name].scale != scale or name == self.output_name
+                        or any(r not in region for r in readers.get(name, []))):
+                    continue
+                region.append(step)
+                frontier += step.inputs
+            if len(region) < 2:
+                continue
+            region.sort(key=self.steps.index)
+            self._emit_fused(region, readers)
+
+    def _emit_fused(self, region: list[Step], readers: dict) -> None:
+        """One `fused` step computing `region` (in order) per pixel: external tensors loaded
+        once a layer, each value a vec4 masked to its channels as a stored one would be."""
+        inside = {step.output: f"t{i}" for i, step in enumerate(region)}
+        sources: list[str] = []
+        loads: dict[tuple[str, int], str] = {}
+        body: list[str] = []
+
+        def texel(name: str, layer: int = 0) -> str:
+            if name in inside:
+                return inside[name]
+            if (name, layer) not in loads:
+                if name not in sources:
+                    sources.append(name)
+                loads[(name, layer)] = f"x{len(loads)}"
+                body.append(f"vec4 x{len(loads) - 1} = imageLoad(src{sources.index(name)}, ivec3(at.xy, {layer}));")
+            return loads[(name, layer)]
+
+        for step in region:
+            channels = self.values[step.output].channels
+            if step.kind == "gather":
+                start = step.params["start"]
+                source = texel(step.inputs[0], start // 4)
+                lanes = ", ".join([f"{source}[{start % 4 + k}]" for k in range(channels)] + ["0.0"] * (4 - channels))
+                value = f"vec4({lanes})"
+            elif step.kind == "map":
+                value = texel(step.inputs[0])
+            else:
+                a, b = (texel(name) for name in step.inputs)
+                broadcast = step.params.get("broadcast")
+                a, b = (a + ".xxxx" if broadcast == "a" else a), (b + ".xxxx" if broadcast == "b" else b)
+                value = f"{a} {step.params['operator']} {b}"
+            body.append(f"v = {value}; {' '.join(step.epilogue)} vec4 {inside[step.output]} = mask_to(v, 0, {channels});")
+        last = region[-1]
+        body.append(f"v = {inside[last.output]};")
+        fused = Step("fused", sources, last.output, params={"body": " ".join(body)})
+        self.steps[self.steps.index(last)] = fused  # where the region ended: its readers come after
+        self._producer[last.output] = fused
+        for step in region[:-1]:
+            self.steps.remove(step)
+            del self._producer[step.output], self.values[step.output]
+        for name in sources:
+            readers.setdefault(name, []).append(fused)
 
     # ---- one node ----
     def _add(self, node) -> None:
