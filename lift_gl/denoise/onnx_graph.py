@@ -254,7 +254,8 @@ class Plan:
                 broadcast = step.params.get("broadcast")
                 a, b = (a + ".xxxx" if broadcast == "a" else a), (b + ".xxxx" if broadcast == "b" else b)
                 value = f"{a} {step.params['operator']} {b}"
-            body.append(f"v = {value}; {' '.join(step.epilogue)} vec4 {inside[step.output]} = mask_to(v, 0, {channels});")
+            # each step's statements in a block of their own: two maps may declare the same names
+            body.append(f"v = {value}; {{ {' '.join(step.epilogue)} }} vec4 {inside[step.output]} = mask_to(v, 0, {channels});")
         last = region[-1]
         body.append(f"v = {inside[last.output]};")
         fused = Step("fused", sources, last.output, params={"body": " ".join(body)})
