@@ -6,7 +6,7 @@ The film's filter is a box over each pixel, unless --scene-filter writes the sce
 pixel filter (pbrt's triangle as Mitsuba's tent, a gaussian as Mitsuba's gaussian), which is
 right at the scene's own film size.
 
-Covers what the baseline scenes use: diffuse materials, area emitters on triangle meshes
+Covers what the baseline scenes use: diffuse materials, smooth glass, area emitters on triangle meshes
 and spheres, a constant environment, the perspective camera, path integrator depth. Mitsuba's
 max_depth counts path vertices from the camera: a lift-gl max_depth of N bounces is N + 1.
 """
@@ -50,6 +50,11 @@ def export(scene, out: Path, size, scene_filter: bool = False) -> Path:
              f'      {_rfilter(scene, scene_filter)}<string name="pixel_format" value="rgb"/></film>',
              '  </sensor>']
     for i, m in enumerate(scene.materials):
+        if m.type == "dielectric" and m.alpha == 0:  # smooth glass, `base_color` tinting transmission
+            lines.append(f'  <bsdf type="dielectric" id="mat{i}"><float name="int_ior" value="{m.ior:.9g}"/>'
+                         f'<float name="ext_ior" value="1"/>'
+                         f'<rgb name="specular_transmittance" value="{_rgb(m.base_color)}"/></bsdf>')
+            continue
         if m.type != "diffuse":
             raise SystemExit(f"export_mitsuba: material {m.name!r} ({m.type}) is not exported")
         # lift-gl (like pbrt) shades opaque surfaces from both sides; Mitsuba needs twosided.

@@ -40,6 +40,7 @@ SCENES = {
     "glossy_mis": (SHARED / "refs/mitsuba/glossy_mis/scene.xml", SHARED / "refs/mitsuba/glossy_mis/scene.xml",
                    SHARED / "refs/mitsuba/glossy_mis/reference.npy"),
     "many_lights": (REPO / "scenes/many_lights.toml", None, None),
+    "glass_caustic": (REPO / "scenes/glass_caustic.toml", None, None),
 }
 SELECTIONS = ("power", "tree")
 REL_EPS = 1e-2
