@@ -73,6 +73,7 @@ UNARY = {
     "Identity": "",
 }
 BINARY = {"Add": "+", "Sub": "-", "Mul": "*", "Div": "/"}
+MAX_FUSED_INPUTS = 4  # the images a fused step reads (shaders/denoise/fused.comp)
 
 
 def _glsl_float(x: float) -> str:
@@ -217,7 +218,9 @@ class Plan:
                     continue
                 region.append(step)
                 frontier += step.inputs
-            if len(region) < 2:
+            made = {step.output for step in region}
+            sources = {name for step in region for name in step.inputs if name not in made}
+            if len(region) < 2 or len(sources) > MAX_FUSED_INPUTS:
                 continue
             region.sort(key=self.steps.index)
             self._emit_fused(region, readers)
