@@ -108,7 +108,17 @@ bool path_step(inout PathState path, inout Rng rng) {
         path.p_prev = s.p;
         // ---- Russian roulette: end dim paths, reweight the survivors ----
         if (depth + 1 >= rr_depth) {
-            float survive = clamp(max(path.throughput.r, max(path.throughput.g, path.throughput.b)), rr_min_survival, 1.0);
+            // A refraction into glass scales radiance by 1 / etap^2, a factor the way out
+            // undoes: judged without it (pbrt's etaScale, for the step in), a path entering
+            // the glass is not ended for it.
+            vec3 judged = path.throughput;
+#ifdef HAS_DIELECTRIC
+            if (bsdf_type(m) == MAT_DIELECTRIC && bs.wi.z * wo.z < 0.0) {
+                float etap = dielectric_etap(m, wo);
+                judged *= max(etap * etap, 1.0);
+            }
+#endif
+            float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);
             if (rng_next(rng) >= survive) goes_on = false;
             else path.throughput /= survive;
         }
