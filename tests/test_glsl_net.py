@@ -248,10 +248,33 @@ def test_unet_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=4)
 
 
+def _hand_model(tmp_path, name, nodes, inits, out_channels):
+    """A graph of `nodes` from a 9-channel input to `out_channels`, saved as NAME.onnx."""
+    from onnx import TensorProto, helper
+
+    graph = helper.make_graph(nodes, name, [helper.make_tensor_value_info("input", TensorProto.FLOAT, [1, 9, "h", "w"])],
+                              [helper.make_tensor_value_info("output", TensorProto.FLOAT, [1, out_channels, "h", "w"])],
+                              inits)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = min(model.ir_version, 8)
+    onnx.save(model, tmp_path / f"{name}.onnx")
+    return model, tmp_path / f"{name}.onnx"
+
+
+def _assert_glsl_matches_onnxruntime(gl_ctx, model, path, x):
+    net = GlslNet(gl_ctx, path)
+    try:
+        got = net.run_numpy(x)
+    finally:
+        net.release()
+    want = onnxruntime_run(model, x)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * float(np.abs(want).max()))
+
+
 def test_a_pointwise_region_of_five_inputs_is_fused_in_part_and_matches_onnxruntime(gl_ctx, tmp_path):
     """A sum of five convs' outputs would need five images in one fused step (it reads four):
     the first three sums are fused, the last stays a binary step."""
-    from onnx import TensorProto, helper, numpy_helper
+    from onnx import helper, numpy_helper
 
     rng = np.random.default_rng(5)
     inits, nodes = [], []
@@ -262,27 +285,16 @@ def test_a_pointwise_region_of_five_inputs_is_fused_in_part_and_matches_onnxrunt
     for i in range(1, 5):
         nodes.append(helper.make_node("Add", [total, f"c{i}"], [f"s{i}" if i < 4 else "output"]))
         total = f"s{i}"
-    graph = helper.make_graph(nodes, "sum5", [helper.make_tensor_value_info("input", TensorProto.FLOAT, [1, 9, "h", "w"])],
-                              [helper.make_tensor_value_info("output", TensorProto.FLOAT, [1, 3, "h", "w"])], inits)
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
-    model.ir_version = min(model.ir_version, 8)
-    onnx.save(model, tmp_path / "sum5.onnx")
-    steps = Plan(tmp_path / "sum5.onnx").steps
+    model, path = _hand_model(tmp_path, "sum5", nodes, inits, 3)
+    steps = Plan(path).steps
     assert [s.kind for s in steps] == ["conv"] * 5 + ["fused", "binary"] and len(steps[5].inputs) == 4
-    x = rng.standard_normal((1, 9, 7, 9)).astype(np.float32)
-    net = GlslNet(gl_ctx, tmp_path / "sum5.onnx")
-    try:
-        got = net.run_numpy(x)
-    finally:
-        net.release()
-    want = onnxruntime_run(model, x)
-    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * float(np.abs(want).max()))
+    _assert_glsl_matches_onnxruntime(gl_ctx, model, path, rng.standard_normal((1, 9, 7, 9)).astype(np.float32))
 
 
 def test_a_broadcast_product_of_many_channels_matches_onnxruntime(gl_ctx, tmp_path):
     """A one-channel weight times 8 channels: too wide to fuse (a fused value holds one layer),
     so the binary step broadcasts; the sigmoid of the slice before it is a fused region."""
-    from onnx import TensorProto, helper, numpy_helper
+    from onnx import helper, numpy_helper
 
     rng = np.random.default_rng(4)
     w = numpy_helper.from_array(rng.standard_normal((8, 9, 3, 3)).astype(np.float32) * 0.3, "w")
@@ -291,21 +303,10 @@ def test_a_broadcast_product_of_many_channels_matches_onnxruntime(gl_ctx, tmp_pa
              helper.make_node("Slice", ["input", "start", "end", "axis"], ["first"]),
              helper.make_node("Sigmoid", ["first"], ["share"]),
              helper.make_node("Mul", ["y", "share"], ["output"])]
-    graph = helper.make_graph(nodes, "broadcast", [helper.make_tensor_value_info("input", TensorProto.FLOAT, [1, 9, "h", "w"])],
-                              [helper.make_tensor_value_info("output", TensorProto.FLOAT, [1, 8, "h", "w"])], [w] + index)
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
-    model.ir_version = min(model.ir_version, 8)
-    onnx.save(model, tmp_path / "b.onnx")
-    steps = Plan(tmp_path / "b.onnx").steps
+    model, path = _hand_model(tmp_path, "broadcast", nodes, [w] + index, 8)
+    steps = Plan(path).steps
     assert [s.kind for s in steps] == ["conv", "fused", "binary"] and steps[-1].params["broadcast"] == "b"
-    x = rng.standard_normal((1, 9, 13, 11)).astype(np.float32)
-    net = GlslNet(gl_ctx, tmp_path / "b.onnx")
-    try:
-        got = net.run_numpy(x)
-    finally:
-        net.release()
-    want = onnxruntime_run(model, x)
-    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5 * float(np.abs(want).max()))
+    _assert_glsl_matches_onnxruntime(gl_ctx, model, path, rng.standard_normal((1, 9, 13, 11)).astype(np.float32))
 
 
 def test_rt_passthrough_matches_onnxruntime(gl_ctx, tmp_path):
