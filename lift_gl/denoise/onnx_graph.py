@@ -218,18 +218,19 @@ class Plan:
                     continue
                 region.append(step)
                 frontier += step.inputs
+            region.sort(key=self.steps.index)
             made = {step.output for step in region}
-            sources = {name for step in region for name in step.inputs if name not in made}
+            # the tensors the region reads from outside, in the order it first reads them
+            sources = list(dict.fromkeys(name for step in region for name in step.inputs if name not in made))
             if len(region) < 2 or len(sources) > MAX_FUSED_INPUTS:
                 continue
-            region.sort(key=self.steps.index)
-            self._emit_fused(region, readers)
+            self._emit_fused(region, sources, readers)
 
-    def _emit_fused(self, region: list[Step], readers: dict) -> None:
-        """One `fused` step computing `region` (in order) per pixel: external tensors loaded
-        once a layer, each value a vec4 masked to its channels as a stored one would be."""
+    def _emit_fused(self, region: list[Step], sources: list[str], readers: dict) -> None:
+        """One `fused` step computing `region` (in order) per pixel from `sources` (image i:
+        src i): external tensors loaded once a layer, each value a vec4 masked to its channels
+        as a stored one would be."""
         inside = {step.output: f"t{i}" for i, step in enumerate(region)}
-        sources: list[str] = []
         loads: dict[tuple[str, int], str] = {}
         body: list[str] = []
 
@@ -237,8 +238,6 @@ class Plan:
             if name in inside:
                 return inside[name]
             if (name, layer) not in loads:
-                if name not in sources:
-                    sources.append(name)
                 loads[(name, layer)] = f"x{len(loads)}"
                 body.append(f"vec4 x{len(loads) - 1} = imageLoad(src{sources.index(name)}, ivec3(at.xy, {layer}));")
             return loads[(name, layer)]

@@ -69,8 +69,6 @@ def export(model: nn.Module, onnx_path: Path, record: dict) -> Path:
     return json_path
 
 
-
-
 def _grown(name: str, new: torch.Tensor, old) -> torch.Tensor:
     """`new`'s shape holding the old weights where they fit: extra input or output channels
     start at zero (a passthrough channel's bias at PASSTHROUGH_BIAS), a conv the old model

@@ -143,17 +143,16 @@ def main(argv=None, clock=time.monotonic) -> int:
     from .train import Examples, fit
     device = "cuda" if torch.cuda.is_available() else "cpu"
     ckpt_path = out / "checkpoint.pt"
-    options = ({"colour_skip": a.colour_skip} if a.model == "rt" else {"full_res_convs": a.full_res_convs})
     rt = a.model == "rt"
-    options.update(passthrough=a.passthrough, encoder=list(a.encoder or (RT_ENCODER if rt else ENCODER)),
-                   bottleneck=a.bottleneck or (RT_BOTTLENECK if rt else BOTTLENECK))
+    sizes = {"encoder": list(RT_ENCODER if rt else ENCODER), "bottleneck": RT_BOTTLENECK if rt else BOTTLENECK}
+    options = {"colour_skip": a.colour_skip} if rt else {"full_res_convs": a.full_res_convs}
+    options.update(passthrough=a.passthrough, encoder=a.encoder or sizes["encoder"],
+                   bottleneck=a.bottleneck or sizes["bottleneck"])
     chosen = {"model": a.model, "temporal": a.temporal, **options}  # what the checkpoint records
     if ckpt_path.exists():
         saved = torch.load(ckpt_path, map_location="cpu").get("plan", {})
         # the colour skip has no weights: a checkpoint of another --colour-skip would load without an error
-        defaults = {**PLAN_DEFAULTS, "encoder": list(RT_ENCODER if rt else ENCODER),
-                    "bottleneck": RT_BOTTLENECK if rt else BOTTLENECK}
-        was = {k: saved.get(k, defaults.get(k)) for k in chosen}
+        was = {k: saved.get(k, {**PLAN_DEFAULTS, **sizes}.get(k)) for k in chosen}
         if saved and was != chosen:
             show = lambda d: ", ".join(f"{k} {v}" for k, v in d.items())
             raise SystemExit(f"{ckpt_path} trains {show(was)}, not {show(chosen)}: use another --out")
