@@ -84,9 +84,9 @@ class Options:
                                        minimum=1, maximum=8)
     realtime_model: str = _option("unet", ("unet", "rt"),
                                   "the network the glsl denoiser runs every frame (denoise every): the quality U-Net "
-                                  "of final images (10.9 ms at 1080p on an H200), or the real-time rt (2.1 ms, a "
-                                  "seventh of its work, with the previous frame as an input; its colours are not yet "
-                                  "faithful: docs/denoiser.md)")
+                                  "of final images (10.9 ms at 1080p on an H200), or the real-time rt (about 2.6 ms, a "
+                                  "seventh of its work, with the previous frame as an input; above a-trous, below the "
+                                  "unet in quality: docs/denoiser.md)")
     max_buffer_bytes: object = _option(AUTO, help="the largest scene storage buffer, in bytes: a scene that needs "
                                                   "more is split into several (auto: the GL's limit, "
                                                   "GL_MAX_SHADER_STORAGE_BLOCK_SIZE)",

@@ -140,9 +140,10 @@ def test_init_from_loads_an_exported_model_and_refuses_another_architecture(tmp_
         load_onnx_weights(again, tmp_path / "missing.onnx")
 
 
-def test_the_colour_skip_is_refused_for_the_unet(tmp_path, capsys):
+@pytest.mark.parametrize("option", [["--colour-skip", "4"], ["--chroma-block", "8"]])
+def test_the_rt_options_are_refused_for_the_unet(tmp_path, capsys, option):
     from lift_gl.denoise.train import plan
     with pytest.raises(SystemExit):
-        plan.arguments(["--out", str(tmp_path / "run"), "--model", "unet", "--colour-skip", "4"])
-    assert "--colour-skip is an option of --model rt" in capsys.readouterr().err
+        plan.arguments(["--out", str(tmp_path / "run"), "--model", "unet", *option])
+    assert "--colour-skip and --chroma-block are options of --model rt" in capsys.readouterr().err
     assert plan.arguments(["--out", str(tmp_path / "run"), "--colour-skip", "4"]).colour_skip == 4

@@ -90,7 +90,7 @@ def _forward_node(node, env, consts, helper, numpy_helper):
         env[node.output[0]] = (v[start:end:step], var[start:end:step])
     elif op == "Conv":
         (v, var), w = env[ins[0]], consts[ins[1]]
-        b = consts[ins[2]]
+        b = consts[ins[2]] if len(ins) > 2 and ins[2] else np.zeros(w.shape[0])
         k, s = w.shape[2], attrs.get("strides", [1, 1])[0]
         top, left, bottom, right = attrs.get("pads", [k // 2] * 4)
         c, h, wd = v.shape
@@ -177,6 +177,10 @@ def _forward_node(node, env, consts, helper, numpy_helper):
     elif op == "Mul":
         (a, va), (b, vb) = env[ins[0]], env[ins[1]]
         env[node.output[0]] = (a * b, b ** 2 * va + a ** 2 * vb + U ** 2 / 3 * (a * b) ** 2)
+    elif op == "Div":  # GLSL's division: 2.5 ULP
+        (a, va), (b, vb) = env[ins[0]], env[ins[1]]
+        y = a / b
+        env[node.output[0]] = (y, va / b ** 2 + y ** 2 * vb / b ** 2 + (2.5 * 2 * U * y) ** 2)
     elif op == "Sigmoid":  # 1 / (1 + exp(-v)) in GLSL: exp's (3 + 2 |v|) ULP, an add and a divide
         v, var = env[ins[0]]
         y = 1.0 / (1.0 + np.exp(-v))

@@ -117,7 +117,7 @@ def test_export_matches_torch_and_names_the_inputs(name, temporal, passthrough, 
 def test_rt_colour_skip_carries_the_colour_when_the_network_adds_nothing():
     """With the last layer zeroed the output is the skip alone: for a flat colour c the curve's
     inverse gives c + eps back (eps * exp(log(1 + c/eps))), whatever the other inputs hold."""
-    model = build_model("rt", temporal=True, colour_skip=4).eval()
+    model = build_model("rt", temporal=True, colour_skip=4, chroma_block=0).eval()
     with torch.no_grad():
         model.up.weight.zero_()
         model.up.bias.zero_()
@@ -144,8 +144,9 @@ def test_a_new_passthrough_starts_as_the_network_alone(name):
     """A passthrough model from random weights starts at a share of sigmoid(-8) everywhere
     (started at 1/2, training handed the whole input back and stayed there)."""
     torch.manual_seed(2)
-    model = build_model(name, passthrough=True).eval()
-    plain = build_model(name).eval()
+    plain_output = {"chroma_block": 0} if name == "rt" else {}  # the blend is the last step
+    model = build_model(name, passthrough=True, **plain_output).eval()
+    plain = build_model(name, **plain_output).eval()
     plain.load_state_dict({k: v[:3] if v.shape[0] == 4 else (v[:, :3] if v.dim() == 4 and v.shape[1] == 4 else v)
                            for k, v in model.state_dict().items()})
     x = torch.rand(1, model.in_channels, 32, 48) * 2
@@ -165,3 +166,37 @@ def test_rt_passthrough_returns_the_input_where_its_share_is_one():
         x = torch.rand(1, 13, 32, 48) * 3 - 0.5
         y = model(x)
     torch.testing.assert_close(y, torch.relu(x[:, :3]))
+
+
+def test_rt_chroma_correction_gives_the_output_the_inputs_colour_balance():
+    """An output of one colour a over a pattern f, an input of colour b over another pattern:
+    every block's ratio is then (b / mean b) / (a / mean a), so the result is f * mean(a) *
+    b / mean(b): the network's brightness pattern (channel mean kept) in the input's colour."""
+    model = build_model("rt", temporal=True).eval()
+    assert model.arch["chroma_block"] == 8
+    rng = np.random.default_rng(3)
+    f = torch.from_numpy(rng.uniform(0.2, 1.0, (1, 1, 32, 48)).astype(np.float32))
+    g = torch.from_numpy(rng.uniform(0.1, 3.0, (1, 1, 32, 48)).astype(np.float32))
+    a, b = torch.tensor([0.8, 0.6, 0.7]), torch.tensor([0.5, 0.9, 0.6])  # ratios within CHROMA_RANGE
+    out = f * a[None, :, None, None]
+    colour = g * b[None, :, None, None]
+    got = model._keep_chroma(out, colour, 8)
+    want = f * a.mean() * (b / b.mean())[None, :, None, None]
+    torch.testing.assert_close(got, want, rtol=2e-3, atol=0)  # CHROMA_EPS against values of 0.1 and more
+    torch.testing.assert_close(model._keep_chroma(out, out, 8), out)  # an input of the output's balance: unchanged
+
+
+def test_rt_chroma_correction_is_bounded():
+    """A block whose input is one saturated firefly scales a channel by at most CHROMA_RANGE."""
+    from lift_gl.denoise.train.model import CHROMA_RANGE
+    model = build_model("rt").eval()
+    out = torch.full((1, 3, 16, 16), 0.5)
+    colour = torch.zeros(1, 3, 16, 16)
+    colour[0, 0, 3, 3] = 500.0  # a red firefly
+    got = model._keep_chroma(out, colour, 8)
+    assert float(got.max()) <= 0.5 * CHROMA_RANGE * (1 + 1e-6) and float(got.min()) >= 0.5 / CHROMA_RANGE * (1 - 1e-6)
+
+
+def test_an_rt_arch_without_a_chroma_block_has_none():
+    first = {"name": "rt", "encoder": [24, 32, 48], "bottleneck": 48, "transform": "log", "temporal": True}
+    assert model_from_arch(first).arch["chroma_block"] == 0  # a sidecar written before the correction

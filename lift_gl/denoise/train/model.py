@@ -13,6 +13,8 @@
   upsampled bilinearly, so that the network predicts a correction of a blurred input
   and need not carry the colour through its features (without it the first rt model's colours
   drifted towards grey: a channel of a dim, saturated scene 1.8x off). k = 0: the first rt.
+  With `chroma_block` k (the shipped rt: CHROMA_BLOCK) the output's colour balance over kxk
+  blocks is set to the input's (_keep_chroma): no weights, so it applies to a trained model.
 
 Input channels (`input_channels`): colour (3), albedo (3), normal (3), and with
 `temporal=True` the previous frame's denoised output (3: linear, demodulated and exposed as
@@ -49,6 +51,9 @@ ENCODER = (32, 48, 64, 80)  # channels at 1, 1/2, 1/4, 1/8 resolution (the first
 BOTTLENECK = 80  # at 1/16
 RT_ENCODER = (24, 32, 48)  # the rt model's channels at 1/2, 1/4, 1/8
 RT_BOTTLENECK = 48  # at 1/16
+CHROMA_BLOCK = 8  # the block of the rt model's chroma correction (_keep_chroma; 0: none)
+CHROMA_EPS = 1e-4  # of the exposed radiance: a black block keeps the output's chroma
+CHROMA_RANGE = 3.0  # a block's channel scaled by at most 3x or 1/3: a coloured firefly tints, not paints
 RT_COLOUR_SKIP = 0  # the block of the rt model's colour skip (module docstring; 0: none, as the shipped rt:
 # at 19,000 steps the skip measured lower SSIM, docs/denoiser.md)
 TRANSFORM = "log"
@@ -195,11 +200,14 @@ class RealTimeUNet(_ColourTransform):
     the 2x2 stride-2 transposed conv out."""
 
     def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False,
-                 colour_skip: int = RT_COLOUR_SKIP, passthrough: bool = False):
+                 colour_skip: int = RT_COLOUR_SKIP, passthrough: bool = False, chroma_block: int = CHROMA_BLOCK):
         super().__init__(transform, temporal)
         c = list(encoder)
         self.arch = {"name": "rt", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
-                     "temporal": self.temporal, "colour_skip": int(colour_skip), "passthrough": bool(passthrough)}
+                     "temporal": self.temporal, "colour_skip": int(colour_skip), "passthrough": bool(passthrough),
+                     "chroma_block": int(chroma_block)}
+        # the channels' mean as a 1x1 conv: an op the GLSL executor runs (it has no ReduceMean)
+        self.register_buffer("channel_mean", torch.full((1, 3, 1, 1), 1.0 / 3.0), persistent=False)
         self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
         self.enc = nn.ModuleList([conv(c[0], c[0])] + [conv(c[i - 1], c[i]) for i in range(1, len(c))])
         self._make_bottom(c, bottleneck)
@@ -221,8 +229,21 @@ class RealTimeUNet(_ColourTransform):
         if k:  # the curve of the block means (a log of the mean, not a mean of logs: noise would darken it)
             means = self._color_in(F.avg_pool2d(x, k)[:, :3])  # pooled whole: the input stays one read
             base = self._log_colour(F.interpolate(means, scale_factor=float(k), mode="bilinear", align_corners=False))
-        return self._output(self.up, self._decode(h, skips), base,
-                            passthrough=x[:, :3] if self.arch["passthrough"] else None)
+        out = self._output(self.up, self._decode(h, skips), base,
+                           passthrough=x[:, :3] if self.arch["passthrough"] else None)
+        return self._keep_chroma(out, x[:, :3], self.arch["chroma_block"]) if self.arch["chroma_block"] else out
+
+    def _keep_chroma(self, out: torch.Tensor, colour: torch.Tensor, k: int) -> torch.Tensor:
+        """`out` with each kxk block's colour balance (channel means over their mean) the
+        input's, the ratio upsampled bilinearly; the blocks' brightness stays the network's.
+        Why: the rt drifts in colour (Lift's cornell-box lavender) where its luminance is right;
+        the mean of 64 samples holds the colour better at 1 spp (docs/denoiser.md)."""
+        with torch.autocast(device_type=out.device.type, enabled=False):
+            mean_in, mean_out = F.avg_pool2d(torch.relu(colour.float()), k), F.avg_pool2d(out.float(), k)
+            grey_in, grey_out = F.conv2d(mean_in, self.channel_mean), F.conv2d(mean_out, self.channel_mean)
+            ratio = ((mean_in + CHROMA_EPS) * (grey_out + CHROMA_EPS)) / ((grey_in + CHROMA_EPS) * (mean_out + CHROMA_EPS))
+            ratio = torch.clamp(ratio, 1.0 / CHROMA_RANGE, CHROMA_RANGE)
+            return out * F.interpolate(ratio, scale_factor=float(k), mode="bilinear", align_corners=False)
 
 
 def build_model(name: str = "unet", temporal: bool = False, **options) -> nn.Module:
@@ -245,6 +266,7 @@ def model_from_arch(arch: dict) -> nn.Module:
     if arch.get("name") == "rt":
         arch.setdefault("colour_skip", 0)  # an rt model saved before the colour skip
         arch.setdefault("passthrough", False)
+        arch.setdefault("chroma_block", 0)  # an rt model saved before the chroma correction
     return build_model(arch.pop("name", "unet"), **arch)
 
 
