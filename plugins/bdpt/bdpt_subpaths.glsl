@@ -76,8 +76,11 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
 
         // ---- Russian roulette: end dim subpaths, reweight the survivors ----
         if (i >= rr_depth) {
-            float survive = clamp(max(roulette_weight.r, max(roulette_weight.g, roulette_weight.b)),
-                                  rr_min_survival, 1.0);
+            // As pt's: a camera subpath refracting into glass is judged without the step's
+            // 1 / etap^2, which the way out undoes (a light subpath's weight carries none).
+            vec3 judged = importance ? roulette_weight
+                                     : roulette_weight * max(adjoint_refraction(m, wo_local, bs.wi), 1.0);
+            float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);
             if (rng_next(rng) >= survive) return i + 1;
             beta /= survive;
             roulette_weight /= survive;
