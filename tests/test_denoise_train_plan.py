@@ -98,7 +98,7 @@ def test_a_checkpoint_of_another_model_is_refused(rendered, tmp_path):
     assert plan.main(_args(out, "--stop-at", "1")) == plan.NOT_DONE
     with pytest.raises(SystemExit, match="use another --out"):
         plan.main(_args(out, "--no-temporal"))
-    for other in (["--passthrough"], ["--encoder", "16,24,32"], ["--bottleneck", "40"]):
+    for other in (["--passthrough"], ["--encoder", "16,24,32"], ["--bottleneck", "40"], ["--chroma-block", "0"]):
         with pytest.raises(SystemExit, match="use another --out"):
             plan.main(_args(out, *other))
     assert plan.main(_args(out, "--encoder", "24,32,48", "--stop-at", "2")) == plan.NOT_DONE  # the default, named
@@ -140,10 +140,9 @@ def test_init_from_loads_an_exported_model_and_refuses_another_architecture(tmp_
         load_onnx_weights(again, tmp_path / "missing.onnx")
 
 
-@pytest.mark.parametrize("option", [["--colour-skip", "4"], ["--chroma-block", "8"]])
-def test_the_rt_options_are_refused_for_the_unet(tmp_path, capsys, option):
+def test_the_chroma_block_is_refused_for_the_unet(tmp_path, capsys):
     from lift_gl.denoise.train import plan
     with pytest.raises(SystemExit):
-        plan.arguments(["--out", str(tmp_path / "run"), "--model", "unet", *option])
-    assert "--colour-skip and --chroma-block are options of --model rt" in capsys.readouterr().err
-    assert plan.arguments(["--out", str(tmp_path / "run"), "--colour-skip", "4"]).colour_skip == 4
+        plan.arguments(["--out", str(tmp_path / "run"), "--model", "unet", "--chroma-block", "8"])
+    assert "--chroma-block is an option of --model rt" in capsys.readouterr().err
+    assert plan.arguments(["--out", str(tmp_path / "run"), "--chroma-block", "4"]).chroma_block == 4

@@ -330,16 +330,16 @@ def test_rt_strided_conv_and_transposed_conv_match_onnxruntime(gl_ctx, tmp_path)
     compare(gl_ctx, tmp_path, model, (37, 29), out_block=2, pixels=3)  # 3 pixels: a strided row of odd length
 
 
-def test_rt_colour_skip_matches_onnxruntime_and_keeps_the_curve_fused(gl_ctx, tmp_path):
-    """The rt model's colour skip (the input pooled, its colour through the curve, upsampled
-    bilinearly, added to the output's log) runs, and the first conv still reads the input
-    through its own fused curve: the skip's pool reads the input whole."""
+def test_rt_chroma_correction_matches_onnxruntime_and_keeps_the_curve_fused(gl_ctx, tmp_path):
+    """The rt model's chroma correction (block means of input and output, their ratio over the
+    channel means, clipped, upsampled bilinearly, times the output) runs, and the first conv
+    still reads the input through its own fused curve though the correction reads the colour too."""
     model = random_unet(in_channels=13, encoder=(8, 12, 16), bottleneck=20, arch="rt",
-                        colour_curve=True, colour_skip=4, seed=9)
-    onnx.save(model, tmp_path / "skip.onnx")
-    steps = Plan(tmp_path / "skip.onnx").steps
+                        colour_curve=True, passthrough=True, chroma_block=8, seed=9)
+    onnx.save(model, tmp_path / "chroma.onnx")
+    steps = Plan(tmp_path / "chroma.onnx").steps
     assert steps[0].kind == "conv" and steps[0].prologue
-    assert [s.kind for s in steps].count("resize") == 4  # three decoder levels and the skip
+    assert [s.kind for s in steps].count("resize") == 4  # three decoder levels and the ratio
     compare(gl_ctx, tmp_path, model, (40, 32), out_block=2, pixels=4)
 
 

@@ -3,15 +3,17 @@ and the quality "unet", plain and temporal; their cost, reach, export and sideca
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 torch = pytest.importorskip("torch")
 
-from lift_gl.denoise.train.model import (LOG_EPS, MULTIPLE, RECEPTIVE_RADIUS, build_model, input_channels,  # noqa: E402
+from lift_gl.denoise.train.model import (MULTIPLE, RECEPTIVE_RADIUS, build_model, input_channels,  # noqa: E402
                                          macs_per_pixel, model_from_arch)
 
+REPO = Path(__file__).resolve().parents[1]
 CASES = [(name, temporal) for name in ("unet", "rt") for temporal in (False, True)]
 
 
@@ -114,29 +116,18 @@ def test_export_matches_torch_and_names_the_inputs(name, temporal, passthrough, 
     np.testing.assert_allclose(y, expect, rtol=1e-4, atol=1e-4 * float(np.abs(expect).max()))
 
 
-def test_rt_colour_skip_carries_the_colour_when_the_network_adds_nothing():
-    """With the last layer zeroed the output is the skip alone: for a flat colour c the curve's
-    inverse gives c + eps back (eps * exp(log(1 + c/eps))), whatever the other inputs hold."""
-    model = build_model("rt", temporal=True, colour_skip=4, chroma_block=0).eval()
-    with torch.no_grad():
-        model.up.weight.zero_()
-        model.up.bias.zero_()
-        x = torch.rand(1, 13, 32, 48)
-        colour = torch.tensor([0.7, 0.05, 2.5])
-        x[:, :3] = colour[None, :, None, None]
-        y = model(x)
-    want = (colour + LOG_EPS)[None, :, None, None].expand_as(y)
-    assert torch.allclose(y, want, rtol=1e-5)
+def test_the_default_rt_is_the_shipped_one_with_its_chroma_correction():
+    from lift_gl.denoise.train.model import CHROMA_BLOCK
+    shipped = json.loads((REPO / "assets" / "denoiser" / "lift_rt.json").read_text())["architecture"]
+    assert build_model("rt").arch["chroma_block"] == CHROMA_BLOCK == shipped["chroma_block"]
 
 
-def test_the_default_rt_is_the_shipped_one_without_a_colour_skip():
-    assert build_model("rt").arch["colour_skip"] == 0  # the documented training command rebuilds it
-
-
-def test_an_rt_arch_without_a_colour_skip_is_the_first_rt_model():
+def test_an_rt_arch_of_the_first_rt_model_rebuilds_it():
     first = {"name": "rt", "encoder": [24, 32, 48], "bottleneck": 48, "transform": "log", "temporal": True}
-    assert model_from_arch(first).arch["colour_skip"] == 0
-    assert not model_from_arch(first).arch["passthrough"]
+    model = model_from_arch({**first, "colour_skip": 0})
+    assert not model.arch["passthrough"] and model.arch["chroma_block"] == 0 and "colour_skip" not in model.arch
+    with pytest.raises(ValueError, match="colour skip"):
+        model_from_arch({**first, "colour_skip": 4})
 
 
 @pytest.mark.parametrize("name", ["unet", "rt"])
@@ -196,7 +187,3 @@ def test_rt_chroma_correction_is_bounded():
     got = model._keep_chroma(out, colour, 8)
     assert float(got.max()) <= 0.5 * CHROMA_RANGE * (1 + 1e-6) and float(got.min()) >= 0.5 / CHROMA_RANGE * (1 - 1e-6)
 
-
-def test_an_rt_arch_without_a_chroma_block_has_none():
-    first = {"name": "rt", "encoder": [24, 32, 48], "bottleneck": 48, "transform": "log", "temporal": True}
-    assert model_from_arch(first).arch["chroma_block"] == 0  # a sidecar written before the correction

@@ -26,13 +26,13 @@ LOG_EPS, LOG_CLAMP = 0.01, 25.0  # lift_gl/denoise/train/model.py's (that module
 def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48, 64), bottleneck: int = 80,
                 pool: str = "MaxPool", upsample=("nearest", "asymmetric"), activation: str = "Relu",
                 add_skips: bool = False, final_kernel: int = 3, seed: int = 0, opset: int = 17,
-                arch: str = "unet", colour_curve: bool = False, colour_skip: int = 0,
+                arch: str = "unet", colour_curve: bool = False, chroma_block: int = 0,
                 passthrough: bool = False):
     """An onnx.ModelProto; `upsample` is (mode, coordinate_transformation_mode), or a list of
     those, one per decoder level (deepest first); `arch` "unet" or "rt", `colour_curve` the
-    trained models' colour transform (module docstring); `colour_skip` k (rt) the rt model's
-    colour skip: the curve of the input colour's kxk block means, upsampled bilinearly, added to
-    the output's log (model.py); `passthrough` a fourth output channel blends the input
+    trained models' colour transform (module docstring); `chroma_block` k the rt model's chroma
+    correction: the output times the clipped ratio of the input's and the output's kxk block
+    means over their channel means, upsampled bilinearly (model.py); `passthrough` a fourth output channel blends the input
     colour in: y (1 - sigmoid(z)) + relu(colour) sigmoid(z) (model.py)."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
@@ -94,7 +94,7 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
     ups = [upsample] * len(encoder) if isinstance(upsample[0], str) else list(upsample)
     h, skips, prev = "input", [], in_channels
     # one slice of the colour for the curve and the passthrough, as torch exports it
-    colour = channels(0, out_channels) if colour_curve or passthrough else None
+    colour = channels(0, out_channels) if colour_curve or passthrough or chroma_block else None
     if colour_curve:  # colour (and a temporal input's previous colour) through the curve
         pieces = [curve(colour), channels(3, min(in_channels, 9))]
         if in_channels > 9:
@@ -138,19 +138,25 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         y = conv(h, prev, out_channels + passthrough, k=final_kernel, act=False)
     if passthrough:  # the blend weight from the fourth channel, the colour from the first three
         y, share = channels(0, out_channels, y), node("Sigmoid", [channels(out_channels, out_channels + 1, y)])
-    if colour_skip:  # model.py's colour skip: the input pooled whole, its colour sliced, curved, upsampled
-        pooled = node("AveragePool", ["input"], kernel_shape=[colour_skip, colour_skip],
-                      strides=[colour_skip, colour_skip])
-        pooled_colour = node("Slice", [pooled, constant_int([0]), constant_int([3]), constant_int([1]),
-                                       constant_int([1])])
-        up = node("Resize", [curve(pooled_colour), "", constant([1, 1, colour_skip, colour_skip])], mode="linear",
-                  coordinate_transformation_mode="pytorch_half_pixel")
-        y = node("Add", [y, node("Mul", [up, constant(np.log1p(1.0 / LOG_EPS))])])
     if colour_curve:  # model.py's output: eps * exp(min(y, LOG_CLAMP))
         y = node("Mul", [node("Exp", [node("Clip", [y, "", constant(LOG_CLAMP)])]), constant(LOG_EPS)])
+    relu_colour = node("Relu", [colour]) if passthrough or chroma_block else None  # one node for both, as torch's
     if passthrough:
-        kept = node("Mul", [node("Relu", [colour]), share])
+        kept = node("Mul", [relu_colour, share])
         y = node("Add", [node("Mul", [y, node("Sub", [constant(1.0), share])]), kept])
+    if chroma_block:  # model.py's _keep_chroma, as torch exports it
+        from .train.model import CHROMA_EPS, CHROMA_RANGE
+        k = chroma_block
+        pool = lambda x: node("AveragePool", [x], kernel_shape=[k, k], strides=[k, k])
+        grey = lambda x: node("Conv", [x, constant(np.full((1, 3, 1, 1), 1 / 3))], kernel_shape=[1, 1])
+        eps = lambda x: node("Add", [x, constant(CHROMA_EPS)])
+        mean_in, mean_out = pool(relu_colour), pool(y)
+        ratio = node("Div", [node("Mul", [eps(mean_in), eps(grey(mean_out))]),
+                             node("Mul", [eps(grey(mean_in)), eps(mean_out)])])
+        ratio = node("Clip", [ratio, constant(1 / CHROMA_RANGE), constant(CHROMA_RANGE)])
+        up = node("Resize", [ratio, "", constant([1, 1, k, k])], mode="linear",
+                  coordinate_transformation_mode="pytorch_half_pixel")
+        y = node("Mul", [y, up])
     nodes.append(helper.make_node("Identity", [y], ["output"]))
     graph = helper.make_graph(
         nodes, "random_unet",

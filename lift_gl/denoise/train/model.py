@@ -9,11 +9,7 @@
   features), an encoder at 1/2, 1/4, 1/8, a bottleneck at 1/16, a decoder with skips back to
   1/2, and a stride-2 2x2 transposed conv back to full resolution (a learned depth-to-space).
   Nothing runs at full resolution but those two: about 8k multiply-adds a pixel. With
-  `colour_skip` k (plan's --colour-skip; 0, the shipped rt, by default) the output adds the colour curve of the input's kxk block means,
-  upsampled bilinearly, so that the network predicts a correction of a blurred input
-  and need not carry the colour through its features (without it the first rt model's colours
-  drifted towards grey: a channel of a dim, saturated scene 1.8x off). k = 0: the first rt.
-  With `chroma_block` k (the shipped rt: CHROMA_BLOCK) the output's colour balance over kxk
+  `chroma_block` k (the shipped rt: CHROMA_BLOCK) the output's colour balance over kxk
   blocks is set to the input's (_keep_chroma): no weights, so it applies to a trained model.
 
 Input channels (`input_channels`): colour (3), albedo (3), normal (3), and with
@@ -54,8 +50,6 @@ RT_BOTTLENECK = 48  # at 1/16
 CHROMA_BLOCK = 8  # the block of the rt model's chroma correction (_keep_chroma; 0: none)
 CHROMA_EPS = 1e-4  # of the exposed radiance: a black block keeps the output's chroma
 CHROMA_RANGE = 3.0  # a block's channel scaled by at most 3x or 1/3: a coloured firefly tints, not paints
-RT_COLOUR_SKIP = 0  # the block of the rt model's colour skip (module docstring; 0: none, as the shipped rt:
-# at 19,000 steps the skip measured lower SSIM, docs/denoiser.md)
 TRANSFORM = "log"
 TRANSFORMS = ("log", "log1p")
 MODELS = ("unet", "rt")
@@ -126,8 +120,7 @@ class _ColourTransform(nn.Module):
             h = torch.relu(layer(torch.cat([h, skip], dim=1)))
         return h
 
-    def _output(self, layer: nn.Module, h: torch.Tensor, offset: torch.Tensor | None = None,
-                passthrough: torch.Tensor | None = None) -> torch.Tensor:
+    def _output(self, layer: nn.Module, h: torch.Tensor, passthrough: torch.Tensor | None = None) -> torch.Tensor:
         """The output layer's colour; `passthrough` (the input colour): blended in by the share
         sigmoid(the layer's fourth channel) (DenoiseUNet's passthrough)."""
         # the output layer in float32 even under autocast: a bfloat16 y would quantise the
@@ -136,8 +129,6 @@ class _ColourTransform(nn.Module):
             y = layer(h.float())
             if passthrough is not None:
                 share, y = torch.sigmoid(y[:, 3:4]), y[:, :3]
-            if offset is not None:
-                y = y + offset.float()
         if passthrough is None:
             return self._color_out(y)
         return self._color_out(y) * (1.0 - share) + torch.relu(passthrough.float()) * share
@@ -151,10 +142,6 @@ class _ColourTransform(nn.Module):
             weight = layer.weight if isinstance(layer, nn.Conv2d) else layer.weight.transpose(0, 1)
             weight[3:].zero_()  # output channels on axis 0 (Conv2d), 1 (ConvTranspose2d)
             layer.bias[3:] = PASSTHROUGH_BIAS
-
-    def _log_colour(self, t_colour: torch.Tensor) -> torch.Tensor:
-        """The transformed colour as the output's y: what _color_out maps back to (about) it."""
-        return t_colour * math.log1p(1.0 / LOG_EPS) if self.transform == "log" else t_colour
 
 
 class DenoiseUNet(_ColourTransform):
@@ -200,12 +187,11 @@ class RealTimeUNet(_ColourTransform):
     the 2x2 stride-2 transposed conv out."""
 
     def __init__(self, encoder=RT_ENCODER, bottleneck=RT_BOTTLENECK, transform=TRANSFORM, temporal: bool = False,
-                 colour_skip: int = RT_COLOUR_SKIP, passthrough: bool = False, chroma_block: int = CHROMA_BLOCK):
+                 passthrough: bool = False, chroma_block: int = CHROMA_BLOCK):
         super().__init__(transform, temporal)
         c = list(encoder)
         self.arch = {"name": "rt", "encoder": c, "bottleneck": int(bottleneck), "transform": transform,
-                     "temporal": self.temporal, "colour_skip": int(colour_skip), "passthrough": bool(passthrough),
-                     "chroma_block": int(chroma_block)}
+                     "temporal": self.temporal, "passthrough": bool(passthrough), "chroma_block": int(chroma_block)}
         # the channels' mean as a 1x1 conv: an op the GLSL executor runs (it has no ReduceMean)
         self.register_buffer("channel_mean", torch.full((1, 3, 1, 1), 1.0 / 3.0), persistent=False)
         self.down = nn.Conv2d(self.in_channels, c[0], 2, stride=2)  # full -> 1/2
@@ -224,13 +210,7 @@ class RealTimeUNet(_ColourTransform):
                 h = F.max_pool2d(h, 2)
             h = torch.relu(layer(h))
             skips.append(h)
-        k = self.arch["colour_skip"]
-        base = None
-        if k:  # the curve of the block means (a log of the mean, not a mean of logs: noise would darken it)
-            means = self._color_in(F.avg_pool2d(x, k)[:, :3])  # pooled whole: the input stays one read
-            base = self._log_colour(F.interpolate(means, scale_factor=float(k), mode="bilinear", align_corners=False))
-        out = self._output(self.up, self._decode(h, skips), base,
-                           passthrough=x[:, :3] if self.arch["passthrough"] else None)
+        out = self._output(self.up, self._decode(h, skips), passthrough=x[:, :3] if self.arch["passthrough"] else None)
         return self._keep_chroma(out, x[:, :3], self.arch["chroma_block"]) if self.arch["chroma_block"] else out
 
     def _keep_chroma(self, out: torch.Tensor, colour: torch.Tensor, k: int) -> torch.Tensor:
@@ -264,7 +244,8 @@ def model_from_arch(arch: dict) -> nn.Module:
     without a name is a unet's)."""
     arch = {k: v for k, v in arch.items() if k not in DERIVED_ARCH_KEYS}
     if arch.get("name") == "rt":
-        arch.setdefault("colour_skip", 0)  # an rt model saved before the colour skip
+        if arch.pop("colour_skip", 0):  # an option that lost (docs/denoiser.md), no longer built
+            raise ValueError("an rt model with a colour skip: this version builds none (colour_skip 0)")
         arch.setdefault("passthrough", False)
         arch.setdefault("chroma_block", 0)  # an rt model saved before the chroma correction
     return build_model(arch.pop("name", "unet"), **arch)

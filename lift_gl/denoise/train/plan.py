@@ -30,7 +30,7 @@ SCHEDULE = "11000:2e-3:0.2,21000:1e-3:0.2,24000:5e-4:2.0,30000:3e-4:2.0"
 EXPORT_RESERVE_S = 30.0  # kept from the budget for the last checkpoint, the export and the record
 NOT_DONE = 3  # exit status: stopped by the budget, run the same command again
 # a checkpoint's recorded options where it predates them (the models' own defaults)
-PLAN_DEFAULTS = {"colour_skip": 0, "passthrough": False, "full_res_convs": 1, "chroma_block": 0}
+PLAN_DEFAULTS = {"passthrough": False, "full_res_convs": 1, "chroma_block": 0}
 
 
 def parse_schedule(text: str, mean_weight: float):
@@ -76,8 +76,6 @@ def arguments(argv=None) -> argparse.Namespace:
     p.add_argument("--ref-spp", type=int, default=1024, help="samples per pixel of the targets")
     p.add_argument("--schedule", default=SCHEDULE, help="stages END:LR:SSIM,... (default: the shipped model's)")
     p.add_argument("--mean-weight", type=float, default=None, help="weight of the loss's mean term (default loss.W_MEAN)")
-    p.add_argument("--colour-skip", type=int, default=0,
-                   help="rt: the block of the colour skip (model.py; 0: none, as the shipped rt)")
     p.add_argument("--chroma-block", type=int, default=None,
                    help="rt: the block of the chroma correction (model.py; default the model's, 0: none)")
     p.add_argument("--history-drop", type=float, default=0.25,
@@ -92,8 +90,8 @@ def arguments(argv=None) -> argparse.Namespace:
     a = p.parse_args(argv)
     if a.temporal is None:
         a.temporal = a.model == "rt"
-    if (a.colour_skip or a.chroma_block is not None) and a.model != "rt":
-        p.error("--colour-skip and --chroma-block are options of --model rt")
+    if a.chroma_block is not None and a.model != "rt":
+        p.error("--chroma-block is an option of --model rt")
     if a.model != "unet" and a.full_res_convs != 1:
         p.error("--full-res-convs is an option of --model unet")
     if a.grow and a.init_from is None:
@@ -147,14 +145,14 @@ def main(argv=None, clock=time.monotonic) -> int:
     ckpt_path = out / "checkpoint.pt"
     rt = a.model == "rt"
     sizes = {"encoder": list(RT_ENCODER if rt else ENCODER), "bottleneck": RT_BOTTLENECK if rt else BOTTLENECK}
-    options = ({"colour_skip": a.colour_skip, "chroma_block": CHROMA_BLOCK if a.chroma_block is None else a.chroma_block}
+    options = ({"chroma_block": CHROMA_BLOCK if a.chroma_block is None else a.chroma_block}
                if rt else {"full_res_convs": a.full_res_convs})
     options.update(passthrough=a.passthrough, encoder=a.encoder or sizes["encoder"],
                    bottleneck=a.bottleneck or sizes["bottleneck"])
     chosen = {"model": a.model, "temporal": a.temporal, **options}  # what the checkpoint records
     if ckpt_path.exists():
         saved = torch.load(ckpt_path, map_location="cpu").get("plan", {})
-        # the colour skip and the chroma correction have no weights: a checkpoint of another would load without an error
+        # the chroma correction has no weights: a checkpoint of another would load without an error
         was = {k: saved.get(k, {**PLAN_DEFAULTS, **sizes}.get(k)) for k in chosen}
         if saved and was != chosen:
             show = lambda d: ", ".join(f"{k} {v}" for k, v in d.items())
