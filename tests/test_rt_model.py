@@ -187,3 +187,10 @@ def test_rt_chroma_correction_is_bounded():
     got = model._keep_chroma(out, colour, 8)
     assert float(got.max()) <= 0.5 * CHROMA_RANGE * (1 + 1e-6) and float(got.min()) >= 0.5 / CHROMA_RANGE * (1 - 1e-6)
 
+
+
+def test_the_graph_builder_of_the_glsl_tests_has_the_models_constants():
+    from lift_gl.denoise import random_unet
+    from lift_gl.denoise.train import model
+    for name in ("LOG_EPS", "LOG_CLAMP", "CHROMA_EPS", "CHROMA_RANGE"):
+        assert getattr(random_unet, name) == getattr(model, name), name

@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-LOG_EPS, LOG_CLAMP = 0.01, 25.0  # lift_gl/denoise/train/model.py's (that module needs torch)
+# lift_gl/denoise/train/model.py's (that module needs torch; tests/test_rt_model.py holds them equal)
+LOG_EPS, LOG_CLAMP = 0.01, 25.0
+CHROMA_EPS, CHROMA_RANGE = 1e-4, 3.0
 
 
 def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48, 64), bottleneck: int = 80,
@@ -145,7 +147,6 @@ def random_unet(in_channels: int = 9, out_channels: int = 3, encoder=(16, 32, 48
         kept = node("Mul", [relu_colour, share])
         y = node("Add", [node("Mul", [y, node("Sub", [constant(1.0), share])]), kept])
     if chroma_block:  # model.py's _keep_chroma, as torch exports it
-        from .train.model import CHROMA_EPS, CHROMA_RANGE
         k = chroma_block
         pool = lambda x: node("AveragePool", [x], kernel_shape=[k, k], strides=[k, k])
         grey = lambda x: node("Conv", [x, constant(np.full((1, 3, 1, 1), 1 / 3))], kernel_shape=[1, 1])
