@@ -2,7 +2,8 @@
 the camera subpaths to them) against bdpt in one pass, as it was before the split: the same
 estimator with the same random numbers, so the same image. The one-pass plugin is this
 repository's own bdpt at the commit before the split (git), an implementation that shares no
-storage code with today's. Camera-side estimates must agree bit for bit; light tracing's
+storage code with today's, given today's Russian roulette (_with_todays_roulette: the split
+changed no estimator, the roulette changed later). Camera-side estimates must agree bit for bit; light tracing's
 splats are float atomics summed in the threads' order, so full images agree to float rounding.
 Also: the prepass's storage layout (split over buffers at the driver's block limit) and the
 [prepass] manifest checks."""
@@ -40,8 +41,33 @@ def one_pass_dir(tmp_path_factory):
         text = shown.stdout
         if name == "plugin.toml":
             text = text.replace('name = "bdpt"', 'name = "bdpt_one_pass"', 1)
+        if name == "bdpt_subpaths.glsl":
+            text = _with_todays_roulette(text)
         (folder / name).write_text(text)
     return folder.parent
+
+
+# the one-pass file's lines, and today's (plugins/bdpt/bdpt_subpaths.glsl): the roulette judges a
+# camera subpath's throughput without its refractions' 1 / etap^2
+ROULETTE_THEN_NOW = [
+    ("    vec3 roulette_weight = vec3(1.0);  // throughput relative to the subpath's start\n",
+     "    vec3 roulette_weight = vec3(1.0);  // throughput relative to the subpath's start\n"
+     "    float eta_scale = 1.0;\n"),
+    ("        roulette_weight *= weight;\n",
+     "        roulette_weight *= weight;\n"
+     "        if (!importance) eta_scale *= adjoint_refraction(m, wo_local, bs.wi);\n"),
+    ("            float survive = clamp(max(roulette_weight.r, max(roulette_weight.g, roulette_weight.b)),\n"
+     "                                  rr_min_survival, 1.0);\n",
+     "            vec3 judged = roulette_weight * eta_scale;\n"
+     "            float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);\n"),
+]
+
+
+def _with_todays_roulette(text: str) -> str:
+    for then, now in ROULETTE_THEN_NOW:
+        assert text.count(then) == 1, f"the one-pass bdpt_subpaths.glsl has no single {then.strip()!r}"
+        text = text.replace(then, now)
+    return text
 
 
 def _render(scene, integrator, plugin_dirs, splats, size=(32, 24), spp=3, samples_per_frame=None, **params):

@@ -15,6 +15,7 @@
 int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float pdf_dir, float first_pdf_pos,
                    float mis_sum, bool importance, int light_vertices, inout vec3 L, inout Rng rng) {
     vec3 roulette_weight = vec3(1.0);  // throughput relative to the subpath's start
+    float eta_scale = 1.0;  // a camera subpath's refractions' radiance scales so far (pt's)
     for (int i = 1; i < end; ++i) {
         // ---- Escaped: an environment vertex (camera subpaths only) ----
         if (hit.prim == NO_HIT) {
@@ -73,13 +74,13 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
         mis_sum = next_mis_sum(mis_sum, bs.is_delta, vertex_delta(prev), prev_pdf_rev, prev.pdf_fwd);
         beta *= weight;
         roulette_weight *= weight;
+        if (!importance) eta_scale *= adjoint_refraction(m, wo_local, bs.wi);  // etap^2 where it refracts
 
         // ---- Russian roulette: end dim subpaths, reweight the survivors ----
         if (i >= rr_depth) {
-            // As pt's: a camera subpath refracting into glass is judged without the step's
-            // 1 / etap^2, which the way out undoes (a light subpath's weight carries none).
-            vec3 judged = importance ? roulette_weight
-                                     : roulette_weight * max(adjoint_refraction(m, wo_local, bs.wi), 1.0);
+            // As pt's: judged without the refractions' 1 / etap^2, which the way out undoes
+            // (a light subpath's weight carries none: adjoint_refraction takes it out).
+            vec3 judged = roulette_weight * eta_scale;
             float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);
             if (rng_next(rng) >= survive) return i + 1;
             beta /= survive;

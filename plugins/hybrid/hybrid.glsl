@@ -17,6 +17,7 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
     float bsdf_pdf_prev = 0.0;
     bool specular_prev = true;
     vec3 p_prev = ray.origin;
+    float eta_scale = 1.0;  // the refractions' radiance scales so far, undone for the roulette (pt's)
     for (int depth = 0; ; ++depth) {
         bool counted = depth >= first_bounce;
         // ---- Escaped: the environment ----
@@ -62,12 +63,19 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
         vec3 wi_world = to_world(frame, bs.wi);
         if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
         throughput *= bs.weight;
+#ifdef HAS_DIELECTRIC
+        if (bsdf_type(m) == MAT_DIELECTRIC && bs.wi.z * wo.z < 0.0) {
+            float etap = dielectric_etap(m, wo);
+            eta_scale *= etap * etap;
+        }
+#endif
         bsdf_pdf_prev = bs.pdf;
         specular_prev = bs.is_delta;
         p_prev = s.p;
         // ---- Russian roulette ----
         if (depth + 1 >= rr_depth) {
-            float survive = clamp(max(throughput.r, max(throughput.g, throughput.b)), rr_min_survival, 1.0);
+            vec3 judged = throughput * eta_scale;
+            float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);
             if (rng_next(rng) >= survive) break;
             throughput /= survive;
         }

@@ -33,10 +33,11 @@ struct PathState {
     bool specular_prev;    // camera rays and delta lobes: no MIS for what they hit
     vec3 p_prev;
     int depth;
+    float eta_scale;       // the refractions' radiance scales so far, undone for the roulette
 };
 
 PathState path_start(Ray ray, Hit hit) {
-    return PathState(ray, hit, vec3(0.0), vec3(1.0), 0.0, true, ray.origin, 0);
+    return PathState(ray, hit, vec3(0.0), vec3(1.0), 0.0, true, ray.origin, 0, 1.0);
 }
 
 // One vertex of the path: what it adds to L, then the next ray, traced. False: the path ended.
@@ -103,21 +104,21 @@ bool path_step(inout PathState path, inout Rng rng) {
     if (goes_on && is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) goes_on = false;
     if (goes_on) {
         path.throughput *= bs.weight;
+#ifdef HAS_DIELECTRIC
+        // A refraction scales radiance by 1 / etap^2 (into glass 1 / 1.5^2), a factor the way
+        // out undoes: the roulette judges the throughput without it (pbrt's etaScale), so a
+        // path is not ended for having entered glass, nor kept for having left it.
+        if (bsdf_type(m) == MAT_DIELECTRIC && bs.wi.z * wo.z < 0.0) {
+            float etap = dielectric_etap(m, wo);
+            path.eta_scale *= etap * etap;
+        }
+#endif
         path.bsdf_pdf_prev = bs.pdf;
         path.specular_prev = bs.is_delta;
         path.p_prev = s.p;
         // ---- Russian roulette: end dim paths, reweight the survivors ----
         if (depth + 1 >= rr_depth) {
-            // A refraction into glass scales radiance by 1 / etap^2, a factor the way out
-            // undoes: judged without it (pbrt's etaScale, for the step in), a path entering
-            // the glass is not ended for it.
-            vec3 judged = path.throughput;
-#ifdef HAS_DIELECTRIC
-            if (bsdf_type(m) == MAT_DIELECTRIC && bs.wi.z * wo.z < 0.0) {
-                float etap = dielectric_etap(m, wo);
-                judged *= max(etap * etap, 1.0);
-            }
-#endif
+            vec3 judged = path.throughput * path.eta_scale;
             float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);
             if (rng_next(rng) >= survive) goes_on = false;
             else path.throughput /= survive;
