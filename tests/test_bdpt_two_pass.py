@@ -55,7 +55,7 @@ ROULETTE_THEN_NOW = [
      "    float eta_scale = 1.0;\n"),
     ("        roulette_weight *= weight;\n",
      "        roulette_weight *= weight;\n"
-     "        if (!importance) eta_scale *= adjoint_refraction(m, wo_local, bs.wi);\n"),
+     "        if (!importance) eta_scale *= refraction_eta2(m, wo_local, bs.wi);\n"),
     ("            float survive = clamp(max(roulette_weight.r, max(roulette_weight.g, roulette_weight.b)),\n"
      "                                  rr_min_survival, 1.0);\n",
      "            vec3 judged = roulette_weight * eta_scale;\n"

@@ -66,7 +66,7 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
         if (!goes_on) return i + 1;
 
         vec3 weight = bs.weight;
-        if (importance) weight *= adjoint_refraction(m, wo_local, bs.wi) * adjoint_shading_normal(v, wo, wi);
+        if (importance) weight *= refraction_eta2(m, wo_local, bs.wi) * adjoint_shading_normal(v, wo, wi);
         // A delta lobe has no density to compare: MIS skips the strategies that would need to
         // join here, and the zero densities cancel out of the ratios.
         float prev_pdf_rev = bs.is_delta ? 0.0 : area_density(bsdf_pdf(m, bs.wi, wo_local), s.p, prev);
@@ -74,12 +74,12 @@ int extend_subpath(PathVertex prev, int end, Ray ray, Hit hit, vec3 beta, float 
         mis_sum = next_mis_sum(mis_sum, bs.is_delta, vertex_delta(prev), prev_pdf_rev, prev.pdf_fwd);
         beta *= weight;
         roulette_weight *= weight;
-        if (!importance) eta_scale *= adjoint_refraction(m, wo_local, bs.wi);  // etap^2 where it refracts
+        if (!importance) eta_scale *= refraction_eta2(m, wo_local, bs.wi);
 
         // ---- Russian roulette: end dim subpaths, reweight the survivors ----
         if (i >= rr_depth) {
             // As pt's: judged without the refractions' 1 / etap^2, which the way out undoes
-            // (a light subpath's weight carries none: adjoint_refraction takes it out).
+            // (a light subpath's weight carries none: refraction_eta2 took it out).
             vec3 judged = roulette_weight * eta_scale;
             float survive = clamp(max(judged.r, max(judged.g, judged.b)), rr_min_survival, 1.0);
             if (rng_next(rng) >= survive) return i + 1;

@@ -155,12 +155,7 @@ bool vertex_blocks(Material m, PathVertex v, vec3 wo, vec3 wi) {
 
 // Light subpaths carry importance, whose BSDF is the adjoint of radiance's. Two differences:
 // refraction compresses radiance by eta^2 but not importance (bsdf.glsl divides transmission
-// by etap^2 = (n_wi / n_wo)^2: undo it), ...
-float adjoint_refraction(Material m, vec3 wo_local, vec3 wi_local) {
-    if (bsdf_type(m) != MAT_DIELECTRIC || wo_local.z * wi_local.z >= 0.0) return 1.0;
-    float etap = wo_local.z > 0.0 ? m.eta_ior.w : 1.0 / m.eta_ior.w;
-    return etap * etap;
-}
+// by etap^2 = (n_wi / n_wo)^2: times refraction_eta2 undoes it), ...
 
 // ... and shading normals make the BSDF non-symmetric: importance is carried with the factor
 // |wo.ns| |wi.ng| / (|wo.ng| |wi.ns|) (Veach 1997, sec. 5.3). 1 where ns = ng.
@@ -185,7 +180,7 @@ VertexScatter vertex_scatter(PathVertex v, vec3 wi, bool importance) {
     Frame frame = frame_from_normal(v.ns);
     vec3 wo_local = to_local(frame, v.wo), wi_local = to_local(frame, wi);
     vs.f = bsdf_eval_pdf(m, wo_local, wi_local, vs.pdf_out);
-    if (importance) vs.f *= adjoint_refraction(m, wo_local, wi_local) * adjoint_shading_normal(v, v.wo, wi);
+    if (importance) vs.f *= refraction_eta2(m, wo_local, wi_local) * adjoint_shading_normal(v, v.wo, wi);
     vs.pdf_back = bsdf_pdf(m, wi_local, wo_local);
     return vs;
 }

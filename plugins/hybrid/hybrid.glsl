@@ -63,12 +63,7 @@ vec3 path_radiance(Ray ray, Hit hit, inout Rng rng, int first_bounce, int last_b
         vec3 wi_world = to_world(frame, bs.wi);
         if (is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) break;
         throughput *= bs.weight;
-#ifdef HAS_DIELECTRIC
-        if (bsdf_type(m) == MAT_DIELECTRIC && bs.wi.z * wo.z < 0.0) {
-            float etap = dielectric_etap(m, wo);
-            eta_scale *= etap * etap;
-        }
-#endif
+        eta_scale *= refraction_eta2(m, wo, bs.wi);
         bsdf_pdf_prev = bs.pdf;
         specular_prev = bs.is_delta;
         p_prev = s.p;

@@ -104,15 +104,10 @@ bool path_step(inout PathState path, inout Rng rng) {
     if (goes_on && is_opaque(m) && !same_side_of_surface(s, wo_world, wi_world)) goes_on = false;
     if (goes_on) {
         path.throughput *= bs.weight;
-#ifdef HAS_DIELECTRIC
         // A refraction scales radiance by 1 / etap^2 (into glass 1 / 1.5^2), a factor the way
         // out undoes: the roulette judges the throughput without it (pbrt's etaScale), so a
         // path is not ended for having entered glass, nor kept for having left it.
-        if (bsdf_type(m) == MAT_DIELECTRIC && bs.wi.z * wo.z < 0.0) {
-            float etap = dielectric_etap(m, wo);
-            path.eta_scale *= etap * etap;
-        }
-#endif
+        path.eta_scale *= refraction_eta2(m, wo, bs.wi);
         path.bsdf_pdf_prev = bs.pdf;
         path.specular_prev = bs.is_delta;
         path.p_prev = s.p;

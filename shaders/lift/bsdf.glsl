@@ -603,6 +603,20 @@ bool bsdf_sample(Material m, vec3 wo, vec3 u, out BsdfSample s) {
     return ok;
 }
 
+// etap^2 where wi refracts from wo through a dielectric (smooth or rough), else 1: the inverse
+// of the radiance scale 1 / etap^2 that a transmission's weight and f carry. Russian roulette
+// judges a path by its throughput times the product of these (the way out undoes the way in:
+// pbrt's etaScale); importance, which refraction does not compress, is multiplied by it.
+float refraction_eta2(Material m, vec3 wo, vec3 wi) {
+#ifdef HAS_DIELECTRIC
+    if (bsdf_type(m) == MAT_DIELECTRIC && wo.z * wi.z < 0.0) {
+        float etap = dielectric_etap(m, wo);
+        return etap * etap;
+    }
+#endif
+    return 1.0;
+}
+
 // A colour for the G-buffer's albedo channel (the denoiser's guide): what the surface
 // reflects at normal incidence.
 vec3 bsdf_albedo(Material m) {
